@@ -1,0 +1,1 @@
+//! TODO: acquisition stage (being written).

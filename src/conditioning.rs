@@ -1,0 +1,1 @@
+//! TODO: conditioning stage (being written).

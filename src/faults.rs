@@ -1,0 +1,159 @@
+//! The normalized fault vector `k` and its physical meaning: the one place the mapping lives.
+//!
+//! Same vector, same order and same mapping as the paper (`shared/seed/`, §VI), used by the monitor
+//! model, the reference model and the health report:
+//!
+//! | i | name | healthy | physical parameter | mapping |
+//! |---|------|---------|--------------------|---------|
+//! | k1 | dry friction | 0 | `FSJ, FDJ` | `FSJ = FSJ_0·(1 + 2 k1)`, same for `FDJ` (1× to 3× nominal, paper) |
+//! | k2 | backlash | 0 | total free play `BL` at the surface | `BL = BL_0·(1 + 99 k2)` (1× to 100× nominal, paper; 0.05 to 5 mrad) |
+//! | k3, k4, k5 | partial short circuit, phases A, B, C | 0 | shorted fraction of turns `s_j` | `s_j = 0.5·k_j` (up to 50 % of the turns) |
+//! | k6 | rotor static eccentricity, magnitude | 0 | `ζ = e_0/g_0` | `ζ = 0.5·k6` (0.5: rub beyond) |
+//! | k7 | eccentricity phase (not a severity) | 0.5 | angle of the minimum air gap `φ` | `φ = 2π·k7 − π` (paper), periodic |
+//! | k8 | proportional gain drift | 0.5 | `Kp` | `Kp = Kp_0·(0.5 + k8)` (50 % to 150 % of nominal, paper) |
+//!
+//! Effect of a short circuit on phase j (physics.md §3.6): `R_j = R_0·(1−s_j)`, `L_j = L_0·(1−s_j)²`,
+//! `k_j = k_0·(1−s_j)`. Eccentricity (first-order, per-phase form, physics.md §3.6):
+//! `k_j(θ_m) = k_0·(1−s_j)·[1 + ζ·cos(θ_m − φ − j·2π/3)]`.
+
+use crate::params::EmaParams;
+
+/// Number of fault parameters in the vector.
+pub const FAULT_COUNT: usize = 8;
+
+/// Short names of the fault parameters, in vector order (used in reports, CSV and JSON).
+pub const FAULT_NAMES: [&str; FAULT_COUNT] =
+    ["friction", "backlash", "short_a", "short_b", "short_c", "eccentricity", "ecc_phase", "gain"];
+
+/// Largest shorted fraction of a phase's turns (`k_j = 1`).
+pub const MAX_SHORTED_FRACTION: f32 = 0.5;
+/// Largest normalized eccentricity `ζ` (`k6 = 1`).
+pub const MAX_ECCENTRICITY: f32 = 0.5;
+/// Friction multiplier span: `1 + FRICTION_SPAN·k1`.
+pub const FRICTION_SPAN: f32 = 2.0;
+/// Backlash multiplier span: `1 + BACKLASH_SPAN·k2`.
+pub const BACKLASH_SPAN: f32 = 99.0;
+
+/// Normalized fault vector `k ∈ [0, 1]^8` (paper §VI).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FaultVector(pub [f32; FAULT_COUNT]);
+
+impl FaultVector {
+    /// The healthy actuator: no fault, eccentricity phase and gain at their nominal 0.5.
+    pub const HEALTHY: Self = Self([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+
+    /// `true` when every element is finite and inside `[0, 1]`.
+    pub fn is_valid(&self) -> bool {
+        self.0.iter().all(|k| k.is_finite() && (0.0..=1.0).contains(k))
+    }
+
+    /// The physical parameters this vector stands for, on top of `nominal`.
+    pub fn physical(&self, nominal: &EmaParams) -> FaultPhysics {
+        let k = &self.0;
+        let friction_scale = 1.0 + FRICTION_SPAN * k[0];
+        FaultPhysics {
+            static_friction_n_m: nominal.static_friction_n_m * friction_scale,
+            dynamic_friction_n_m: nominal.dynamic_friction_n_m * friction_scale,
+            backlash_rad: nominal.nominal_backlash_rad * (1.0 + BACKLASH_SPAN * k[1]),
+            shorted_fraction: [MAX_SHORTED_FRACTION * k[2], MAX_SHORTED_FRACTION * k[3], MAX_SHORTED_FRACTION * k[4]],
+            eccentricity: MAX_ECCENTRICITY * k[5],
+            eccentricity_phase_rad: 2.0 * core::f32::consts::PI * k[6] - core::f32::consts::PI,
+            kp_a_per_rad: nominal.kp_a_per_rad * (0.5 + k[7]),
+        }
+    }
+
+    /// The paper's identification error (§VII), in percent, of `self` (estimate) against `truth`:
+    /// `Err% = 100·sqrt( Σ_{i=1..6}(k_i − k̂_i)² + k̂_6·(k_7 − k̂_7)² + (k_8 − k̂_8)² )`
+    /// where `k̂` is the reference (true) vector. The phase term is weighted by the true magnitude
+    /// because the phase means nothing without eccentricity.
+    pub fn paper_error_percent(&self, truth: &FaultVector) -> f32 {
+        let (k, t) = (&self.0, &truth.0);
+        let mut sum = 0.0;
+        for i in 0..6 {
+            sum += (k[i] - t[i]) * (k[i] - t[i]);
+        }
+        sum += t[5] * (k[6] - t[6]) * (k[6] - t[6]);
+        sum += (k[7] - t[7]) * (k[7] - t[7]);
+        100.0 * libm::sqrtf(sum)
+    }
+}
+
+impl Default for FaultVector {
+    fn default() -> Self {
+        Self::HEALTHY
+    }
+}
+
+/// Physical parameters that a fault vector changes (the rest stay at [`EmaParams`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FaultPhysics {
+    /// Breakaway dry friction at the motor shaft, `FSJ`.
+    pub static_friction_n_m: f32,
+    /// Sliding dry friction at the motor shaft, `FDJ`.
+    pub dynamic_friction_n_m: f32,
+    /// Total free play at the surface, `BL`.
+    pub backlash_rad: f32,
+    /// Shorted fraction of the turns of phases A, B, C, `s_j`.
+    pub shorted_fraction: [f32; 3],
+    /// Normalized static eccentricity `ζ`.
+    pub eccentricity: f32,
+    /// Angle of the minimum air gap `φ`, in `[−π, π]`.
+    pub eccentricity_phase_rad: f32,
+    /// Proportional gain after drift, `Kp`.
+    pub kp_a_per_rad: f32,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn healthy_maps_to_nominal() {
+        let p = EmaParams::NOMINAL;
+        let f = FaultVector::HEALTHY.physical(&p);
+        assert_eq!(f.static_friction_n_m, p.static_friction_n_m);
+        assert_eq!(f.backlash_rad, p.nominal_backlash_rad);
+        assert_eq!(f.shorted_fraction, [0.0; 3]);
+        assert_eq!(f.eccentricity, 0.0);
+        assert_eq!(f.eccentricity_phase_rad, 0.0);
+        assert_eq!(f.kp_a_per_rad, p.kp_a_per_rad);
+    }
+
+    #[test]
+    fn full_scale_ends_of_the_ranges() {
+        let p = EmaParams::NOMINAL;
+        let f = FaultVector([1.0; 8]).physical(&p);
+        assert!((f.static_friction_n_m - 3.0 * p.static_friction_n_m).abs() < 1e-6);
+        assert!((f.backlash_rad - 100.0 * p.nominal_backlash_rad).abs() < 1e-9);
+        assert_eq!(f.shorted_fraction, [0.5; 3]);
+        assert!((f.kp_a_per_rad - 1.5 * p.kp_a_per_rad).abs() < 1e-3);
+        let f0 = FaultVector([0.0; 8]).physical(&p);
+        assert!((f0.kp_a_per_rad - 0.5 * p.kp_a_per_rad).abs() < 1e-3);
+        assert!((f0.eccentricity_phase_rad + core::f32::consts::PI).abs() < 1e-6);
+    }
+
+    #[test]
+    fn paper_error_matches_table_one() {
+        // Table I (GA, small friction fault): estimates printed to 4 decimals and their Err%.
+        // Rounding each printed k to ±5e-5 moves Err% by up to ~0.01 points, hence the bound.
+        let truth = FaultVector([0.25, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+        let rows: [([f32; 8], f32); 3] = [
+            ([0.2446, 0.0009, 0.0030, 0.0023, 0.0003, 0.0015, 0.7045, 0.4851], 1.6358),
+            ([0.2378, 0.0033, 0.0099, 0.0059, 0.0060, 0.0095, 0.3734, 0.4685], 3.7595),
+            ([0.2460, 0.0005, 0.0004, 0.0009, 0.0024, 0.0019, 0.3378, 0.4861], 1.4846),
+        ];
+        for (est, expected) in rows {
+            let e = FaultVector(est).paper_error_percent(&truth);
+            assert!((e - expected).abs() < 0.01, "{est:?}: {e} vs {expected}");
+        }
+    }
+
+    #[test]
+    fn validity() {
+        assert!(FaultVector::HEALTHY.is_valid());
+        assert!(!FaultVector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 1.5]).is_valid());
+        assert!(!FaultVector([f32::NAN, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]).is_valid());
+    }
+}

@@ -1,0 +1,1 @@
+//! TODO: fitness stage (being written).

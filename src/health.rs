@@ -1,0 +1,1 @@
+//! TODO: health stage (being written).

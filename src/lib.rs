@@ -1,0 +1,47 @@
+//! # ema-monitor: on-board fault identification for flight-control electromechanical actuators
+//!
+//! An EMA (three-phase trapezoidal BLDC motor, gearbox, PID position loop) degrades slowly: dry
+//! friction and backlash grow, stator coils partially short, the rotor goes eccentric, the
+//! controller gain drifts. This crate catches it on board, without an allocator and without panics,
+//! by the method of Dalla Vedova, Berri and Re (ICSRS 2018): a light *monitor model* of the EMA is
+//! simulated again and again by a bio-inspired optimizer (PSO; GA for comparison) until its
+//! equivalent current matches the measured one; the 8 fault parameters that make it match are the
+//! diagnosis.
+//!
+//! ```text
+//!  ADC (embedded-hal OneShot) ─► acquisition ─► conditioning ─► fitness ◄─ model (monitor model)
+//!   3 phase currents, counts     amperes,        I_3eq, block      weighted      driven by the same
+//!                                 checks          means, weights   residual      command profile
+//!                                                                    │
+//!                                                 optimizer (PSO/GA, step-wise) ─► health report
+//! ```
+//!
+//! Vocabulary of the const generics: `W` = samples in the conditioned window, `P` = individuals
+//! (particles), `D` = parameters fitted.
+//!
+//! Stages, one module each: [`acquisition`], [`conditioning`], [`model`], [`fitness`],
+//! [`optimizer`], [`health`]; [`monitor`] wires them. Shared definitions: [`params`] (nominal
+//! actuator), [`faults`] (the fault vector and its physical mapping), [`profile`] (the test
+//! manoeuvre), [`trace`] (the ADC format).
+#![cfg_attr(not(test), no_std)]
+#![deny(missing_docs)]
+#![forbid(unsafe_code)]
+
+#[macro_use]
+mod fmt;
+
+pub mod acquisition;
+pub mod conditioning;
+pub mod faults;
+pub mod fitness;
+pub mod health;
+pub mod model;
+pub mod monitor;
+pub mod optimizer;
+pub mod params;
+pub mod profile;
+pub mod trace;
+
+pub use faults::{FaultVector, FAULT_COUNT};
+pub use params::EmaParams;
+pub use profile::Profile;

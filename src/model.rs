@@ -1,0 +1,1 @@
+//! TODO: model stage (being written).

@@ -1,0 +1,154 @@
+//! Memory-bounded, step-wise optimizers (contract first, algorithms in their own files).
+//!
+//! The contract follows argmin (`CostFunction` / `Solver::next_iter`) without an allocator:
+//! - an [`Objective`] maps a candidate `x ∈ R^D` to a cost (lower is better);
+//! - an optimizer owns all its storage, sized by const generics (`P` individuals × `D` parameters);
+//! - [`Optimizer::step`] does at most ONE objective evaluation, so firmware can budget work per
+//!   control cycle; [`run`] loops until termination or an evaluation budget.
+//!
+//! Invalid costs: a non-finite cost ranks worst (it is treated as `f32::INFINITY`), never a panic.
+
+pub mod ga;
+pub mod pso;
+pub mod rng;
+
+/// A function to minimise over `D` parameters.
+pub trait Objective<const D: usize> {
+    /// Cost of `x` (lower is better). `abandon_above` is the value the evaluation must beat to matter
+    /// (`f32::INFINITY` when it must run to the end): an objective MAY stop early and return any value
+    /// `> abandon_above` as soon as it knows its result will exceed it (early abandoning).
+    fn cost(&mut self, x: &[f32; D], abandon_above: f32) -> f32;
+}
+
+/// Box bounds of the search space; a `periodic` parameter wraps around instead of being clamped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Bounds<const D: usize> {
+    /// Lower bound per parameter.
+    pub lower: [f32; D],
+    /// Upper bound per parameter (`> lower`).
+    pub upper: [f32; D],
+    /// Parameters that live on a circle (the eccentricity phase).
+    pub periodic: [bool; D],
+}
+
+impl<const D: usize> Bounds<D> {
+    /// The unit box `[0, 1]^D`, nothing periodic.
+    pub const fn unit() -> Self {
+        Self { lower: [0.0; D], upper: [1.0; D], periodic: [false; D] }
+    }
+
+    /// `true` when every bound is finite and `lower < upper`.
+    pub fn is_valid(&self) -> bool {
+        self.lower.iter().zip(self.upper.iter()).all(|(l, u)| l.is_finite() && u.is_finite() && l < u)
+    }
+
+    /// Brings `x[i]` back into the box: wraps periodic parameters, clamps the others.
+    /// Returns `true` when the value was clamped (not wrapped), so the caller can damp its velocity.
+    pub fn enforce(&self, i: usize, x: &mut f32) -> bool {
+        let (lo, hi) = (self.lower[i], self.upper[i]);
+        if !x.is_finite() {
+            *x = 0.5 * (lo + hi);
+            return true;
+        }
+        if self.periodic[i] {
+            let span = hi - lo;
+            let mut y = lo + libm::fmodf(*x - lo, span);
+            if y < lo {
+                y += span;
+            }
+            if y >= hi {
+                y = lo;
+            }
+            *x = y;
+            false
+        } else if *x < lo {
+            *x = lo;
+            true
+        } else if *x > hi {
+            *x = hi;
+            true
+        } else {
+            false
+        }
+    }
+}
+
+/// Why an optimizer stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum TerminationReason {
+    /// The iteration (generation) limit was reached.
+    MaxIterations,
+    /// The best cost improved by less than the function tolerance over the stall window.
+    FunctionTolerance,
+    /// The best cost reached the target cost.
+    TargetReached,
+}
+
+/// What one [`Optimizer::step`] left behind.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Status {
+    /// More work to do.
+    Running,
+    /// Finished; further steps do nothing.
+    Done(TerminationReason),
+}
+
+/// Why a configuration was refused (checked once at construction; the hot loop has no checks).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// Bounds not finite or `lower >= upper`.
+    Bounds,
+    /// A coefficient is negative or not finite.
+    Coefficient,
+    /// Zero iterations, a zero stall window, or a negative tolerance.
+    Termination,
+}
+
+impl core::fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            ConfigError::Bounds => "bounds must be finite with lower < upper",
+            ConfigError::Coefficient => "optimizer coefficients must be finite and non-negative",
+            ConfigError::Termination => "iterations and stall window must be > 0 and the tolerance >= 0",
+        })
+    }
+}
+
+impl core::error::Error for ConfigError {}
+
+/// Common step-wise interface of the population optimizers.
+pub trait Optimizer<const D: usize> {
+    /// Does at most one objective evaluation (plus the bookkeeping that follows it).
+    fn step<O: Objective<D>>(&mut self, objective: &mut O) -> Status;
+    /// Best point found so far and its cost (`f32::INFINITY` before the first evaluation).
+    fn best(&self) -> (&[f32; D], f32);
+    /// Objective evaluations done so far.
+    fn evaluations(&self) -> u32;
+    /// Completed iterations (generations).
+    fn iterations(&self) -> u32;
+}
+
+/// Steps `optimizer` until it finishes or `max_evaluations` more evaluations are spent.
+/// Returns the final status (`Running` when the budget ran out first).
+pub fn run<const D: usize, S: Optimizer<D>, O: Objective<D>>(
+    optimizer: &mut S,
+    objective: &mut O,
+    max_evaluations: u32,
+) -> Status {
+    let start = optimizer.evaluations();
+    loop {
+        let status = optimizer.step(objective);
+        if let Status::Done(_) = status {
+            return status;
+        }
+        if optimizer.evaluations().wrapping_sub(start) >= max_evaluations {
+            return Status::Running;
+        }
+    }
+}

@@ -1,0 +1,1 @@
+//! TODO: pso (being written).

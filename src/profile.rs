@@ -1,0 +1,210 @@
+//! The test manoeuvre: the surface position command `θ_cmd(t)` both models are driven by.
+//!
+//! A profile is a short list of segments, each starting at `start_s` and lasting until the next.
+//! The standard profile (physics.md §7.1) gives every fault a visible signature: a step
+//! (current saturation, overshoot: gain, friction), a fast reversal (voltage limit, backlash),
+//! a slow ramp (friction level, short-circuit and eccentricity ripple) and a small 4 Hz sine
+//! (repeated reversals: stick-slip, backlash).
+
+use core::f32::consts::PI;
+
+/// Most segments a profile can hold.
+pub const MAX_SEGMENTS: usize = 16;
+
+/// One piece of the command, active from `start_s` on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Segment {
+    /// `θ_cmd = value_rad`.
+    Hold {
+        /// Start time of the segment.
+        start_s: f32,
+        /// Held position.
+        value_rad: f32,
+    },
+    /// `θ_cmd = start_rad + rate_rad_per_s·(t − start_s)`.
+    Ramp {
+        /// Start time of the segment.
+        start_s: f32,
+        /// Position at `start_s`.
+        start_rad: f32,
+        /// Slope.
+        rate_rad_per_s: f32,
+    },
+    /// `θ_cmd = offset_rad + amplitude_rad·sin(2π·frequency_hz·(t − start_s))`.
+    Sine {
+        /// Start time of the segment.
+        start_s: f32,
+        /// Mean position.
+        offset_rad: f32,
+        /// Amplitude.
+        amplitude_rad: f32,
+        /// Frequency.
+        frequency_hz: f32,
+    },
+}
+
+impl Segment {
+    /// Start time of the segment.
+    pub const fn start_s(&self) -> f32 {
+        match *self {
+            Segment::Hold { start_s, .. } | Segment::Ramp { start_s, .. } | Segment::Sine { start_s, .. } => start_s,
+        }
+    }
+
+    fn value_rad(&self, t_s: f32) -> f32 {
+        match *self {
+            Segment::Hold { value_rad, .. } => value_rad,
+            Segment::Ramp { start_s, start_rad, rate_rad_per_s } => start_rad + rate_rad_per_s * (t_s - start_s),
+            Segment::Sine { start_s, offset_rad, amplitude_rad, frequency_hz } => {
+                offset_rad + amplitude_rad * libm::sinf(2.0 * PI * frequency_hz * (t_s - start_s))
+            }
+        }
+    }
+}
+
+/// Why a profile was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum ProfileError {
+    /// No segment, or more than [`MAX_SEGMENTS`].
+    SegmentCount,
+    /// A start time is not finite, negative, or not after the previous one; or the duration is not after the last start.
+    TimeOrder,
+    /// A value is not finite, or the command leaves the end stops.
+    Value,
+}
+
+impl core::fmt::Display for ProfileError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            ProfileError::SegmentCount => "a profile needs 1 to 16 segments",
+            ProfileError::TimeOrder => {
+                "segment start times must be finite, start at 0 and increase, and end before the duration"
+            }
+            ProfileError::Value => "a segment value is not finite or beyond the end stops",
+        })
+    }
+}
+
+impl core::error::Error for ProfileError {}
+
+/// A command profile: up to [`MAX_SEGMENTS`] segments and a total duration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Profile {
+    segments: [Segment; MAX_SEGMENTS],
+    len: usize,
+    duration_s: f32,
+}
+
+const EMPTY: Segment = Segment::Hold { start_s: 0.0, value_rad: 0.0 };
+
+impl Profile {
+    /// The standard 0.85 s test manoeuvre (physics.md §7.1).
+    pub const STANDARD: Profile = {
+        let mut segments = [EMPTY; MAX_SEGMENTS];
+        segments[0] = Segment::Hold { start_s: 0.0, value_rad: 0.0 };
+        segments[1] = Segment::Hold { start_s: 0.01, value_rad: 0.05 };
+        segments[2] = Segment::Hold { start_s: 0.15, value_rad: -0.05 };
+        segments[3] = Segment::Ramp { start_s: 0.30, start_rad: -0.05, rate_rad_per_s: 0.2 };
+        segments[4] = Segment::Sine { start_s: 0.60, offset_rad: 0.01, amplitude_rad: 0.01, frequency_hz: 4.0 };
+        Profile { segments, len: 5, duration_s: 0.85 }
+    };
+
+    /// Builds a checked profile; `end_stop_rad` bounds the commanded value at every segment start and end.
+    pub fn new(segments: &[Segment], duration_s: f32, end_stop_rad: f32) -> Result<Self, ProfileError> {
+        if segments.is_empty() || segments.len() > MAX_SEGMENTS {
+            return Err(ProfileError::SegmentCount);
+        }
+        if !duration_s.is_finite() || duration_s <= 0.0 || segments[0].start_s() != 0.0 {
+            return Err(ProfileError::TimeOrder);
+        }
+        let mut out = [EMPTY; MAX_SEGMENTS];
+        for (i, s) in segments.iter().enumerate() {
+            let start = s.start_s();
+            let end = segments.get(i + 1).map_or(duration_s, Segment::start_s);
+            if !start.is_finite() || !end.is_finite() || end <= start {
+                return Err(ProfileError::TimeOrder);
+            }
+            let fields_ok = match *s {
+                Segment::Hold { value_rad, .. } => value_rad.is_finite(),
+                Segment::Ramp { start_rad, rate_rad_per_s, .. } => start_rad.is_finite() && rate_rad_per_s.is_finite(),
+                Segment::Sine { offset_rad, amplitude_rad, frequency_hz, .. } => {
+                    offset_rad.is_finite()
+                        && amplitude_rad.is_finite()
+                        && frequency_hz.is_finite()
+                        && frequency_hz >= 0.0
+                }
+            };
+            let bound = match *s {
+                Segment::Sine { offset_rad, amplitude_rad, .. } => libm::fabsf(offset_rad) + libm::fabsf(amplitude_rad),
+                _ => libm::fmaxf(libm::fabsf(s.value_rad(start)), libm::fabsf(s.value_rad(end))),
+            };
+            if !fields_ok || !(bound < end_stop_rad) {
+                return Err(ProfileError::Value);
+            }
+            out[i] = *s;
+        }
+        Ok(Profile { segments: out, len: segments.len(), duration_s })
+    }
+
+    /// The segments in time order.
+    pub fn segments(&self) -> &[Segment] {
+        &self.segments[..self.len]
+    }
+
+    /// Total duration of the manoeuvre.
+    pub fn duration_s(&self) -> f32 {
+        self.duration_s
+    }
+
+    /// Commanded surface position at time `t_s` (the last segment that has started; the first before 0).
+    pub fn command_rad(&self, t_s: f32) -> f32 {
+        let mut active = &self.segments[0];
+        for s in self.segments() {
+            if s.start_s() <= t_s {
+                active = s;
+            } else {
+                break;
+            }
+        }
+        active.value_rad(t_s)
+    }
+}
+
+impl Default for Profile {
+    fn default() -> Self {
+        Self::STANDARD
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn standard_profile_values() {
+        let p = Profile::STANDARD;
+        assert_eq!(p.command_rad(0.005), 0.0);
+        assert_eq!(p.command_rad(0.1), 0.05);
+        assert_eq!(p.command_rad(0.2), -0.05);
+        assert!((p.command_rad(0.45) - (-0.05 + 0.2 * 0.15)).abs() < 1e-6);
+        assert!((p.command_rad(0.6625) - 0.02).abs() < 1e-5); // quarter period of 4 Hz
+        assert!(Profile::new(p.segments(), p.duration_s(), 0.6).is_ok());
+    }
+
+    #[test]
+    fn bad_profiles_are_refused() {
+        let hold = |start_s, value_rad| Segment::Hold { start_s, value_rad };
+        assert_eq!(Profile::new(&[], 1.0, 0.6), Err(ProfileError::SegmentCount));
+        assert_eq!(Profile::new(&[hold(0.1, 0.0)], 1.0, 0.6), Err(ProfileError::TimeOrder));
+        assert_eq!(Profile::new(&[hold(0.0, 0.0), hold(0.0, 0.1)], 1.0, 0.6), Err(ProfileError::TimeOrder));
+        assert_eq!(Profile::new(&[hold(0.0, 0.0)], f32::NAN, 0.6), Err(ProfileError::TimeOrder));
+        assert_eq!(Profile::new(&[hold(0.0, 0.7)], 1.0, 0.6), Err(ProfileError::Value));
+        assert_eq!(Profile::new(&[hold(0.0, f32::INFINITY)], 1.0, 0.6), Err(ProfileError::Value));
+        let ramp = Segment::Ramp { start_s: 0.0, start_rad: 0.0, rate_rad_per_s: 1.0 };
+        assert_eq!(Profile::new(&[ramp], 1.0, 0.6), Err(ProfileError::Value));
+    }
+}
