@@ -1,1 +1,144 @@
-//! TODO: fitness stage (being written).
+//! The fitness: how far the monitor model with a candidate fault vector is from the measurement.
+//!
+//! The paper's error (§VI), on the conditioned equivalent current:
+//!
+//! ```text
+//! E(k) = (1/n)·Σ_i w_i·(I_3eq,i − Ĩ_MM,i(k))²,     w_i = 1 / (1 + (İ_3eq,i / C)²)
+//! ```
+//!
+//! where `Ĩ_MM` is the monitor model's `|I|` through the same block mean as the measurement
+//! ([`crate::conditioning`]) and `C` the RMS of the measured derivative. The mean (not the sum)
+//! keeps `E` in A², independent of the trace length. Every term is ≥ 0, so the running partial sum
+//! only grows: an evaluation can stop as soon as it exceeds the value it must beat
+//! (early abandoning, see [`crate::optimizer::Objective`]).
+
+use crate::conditioning::{MeasuredTrace, DECIMATION};
+use crate::faults::{FaultVector, FAULT_COUNT};
+use crate::model::{ModelState, MonitorModel};
+use crate::optimizer::Objective;
+use crate::params::EmaParams;
+use crate::profile::Profile;
+
+/// Runs the monitor model with faults `k` under `profile` for `samples` window samples and hands
+/// each block-averaged `|I|` to `sink(index, value)`; `sink` returns `false` to stop early.
+pub fn simulate_window(
+    params: &EmaParams,
+    profile: &Profile,
+    k: &FaultVector,
+    samples: usize,
+    mut sink: impl FnMut(usize, f32) -> bool,
+) {
+    let model = MonitorModel::new(params, k);
+    let dt = model.dt_s();
+    let mut state = ModelState::at_rest();
+    let mut step = 0u32;
+    for i in 0..samples {
+        let mut block = 0.0f32;
+        for _ in 0..DECIMATION {
+            block += libm::fabsf(state.current_a);
+            model.step(&mut state, profile.command_rad(step as f32 * dt));
+            step += 1;
+        }
+        if !sink(i, block * (1.0 / DECIMATION as f32)) {
+            return;
+        }
+    }
+}
+
+/// The paper's fitness over a measured trace: an [`Objective`] over the 8 fault parameters.
+#[derive(Clone, Debug)]
+pub struct CurrentFit<'a, const W: usize> {
+    trace: &'a MeasuredTrace<W>,
+    params: EmaParams,
+    profile: Profile,
+}
+
+impl<'a, const W: usize> CurrentFit<'a, W> {
+    /// The fitness of the monitor model of `params`, driven by `profile`, against `trace`.
+    pub fn new(trace: &'a MeasuredTrace<W>, params: EmaParams, profile: Profile) -> Self {
+        Self { trace, params, profile }
+    }
+
+    /// `E(k)`, evaluated to the end.
+    pub fn error(&self, k: &FaultVector) -> f32 {
+        self.error_abandoning(k, f32::INFINITY)
+    }
+
+    /// `E(k)`, or any value above `abandon_above` as soon as the partial sum exceeds it.
+    /// A non-finite result is returned as `f32::INFINITY`.
+    pub fn error_abandoning(&self, k: &FaultVector, abandon_above: f32) -> f32 {
+        let y = self.trace.current_a();
+        let w = self.trace.weight();
+        let n = y.len();
+        if n == 0 {
+            return f32::INFINITY;
+        }
+        let inv_n = 1.0 / n as f32;
+        // Stop when sum·inv_n > abandon_above; compare sums to avoid a multiply per sample.
+        let limit = if abandon_above.is_finite() { abandon_above * n as f32 } else { f32::INFINITY };
+        let mut sum = 0.0f32;
+        simulate_window(&self.params, &self.profile, k, n, |i, model_a| {
+            let r = y[i] - model_a;
+            sum += w[i] * r * r;
+            sum <= limit
+        });
+        let e = sum * inv_n;
+        if e.is_finite() {
+            e
+        } else {
+            f32::INFINITY
+        }
+    }
+}
+
+impl<const W: usize> Objective<FAULT_COUNT> for CurrentFit<'_, W> {
+    fn cost(&mut self, x: &[f32; FAULT_COUNT], abandon_above: f32) -> f32 {
+        self.error_abandoning(&FaultVector(*x), abandon_above)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::conditioning::Conditioner;
+
+    /// A "measurement" made by the monitor model itself (noise-free), through the conditioner.
+    fn self_trace(k: &FaultVector) -> MeasuredTrace<2200> {
+        let (p, profile) = (EmaParams::NOMINAL, Profile::STANDARD);
+        let mut c = Conditioner::new();
+        let n = (profile.duration_s() / p.control_period_s) as usize / DECIMATION;
+        simulate_window(&p, &profile, k, n, |_, i| {
+            // feed DECIMATION identical frames whose I_3eq is the block value
+            for _ in 0..DECIMATION {
+                c.push(i, -i, 0.0).unwrap();
+            }
+            true
+        });
+        c.finish().unwrap()
+    }
+
+    #[test]
+    fn the_true_vector_has_zero_error_and_others_do_not() {
+        let truth = FaultVector([0.3, 0.1, 0.0, 0.2, 0.0, 0.0, 0.5, 0.4]);
+        let trace = self_trace(&truth);
+        let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD);
+        assert_eq!(fit.error(&truth), 0.0);
+        for i in [0usize, 1, 3, 7] {
+            let mut k = truth;
+            k.0[i] += 0.05;
+            assert!(fit.error(&k) > 1e-6, "parameter {i} is invisible: {}", fit.error(&k));
+        }
+    }
+
+    #[test]
+    fn abandoning_returns_above_the_bound_or_the_exact_value() {
+        let trace = self_trace(&FaultVector::HEALTHY);
+        let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD);
+        let k = FaultVector([0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.8]);
+        let exact = fit.error(&k);
+        assert!(exact > 0.0);
+        let abandoned = fit.error_abandoning(&k, exact * 0.1);
+        assert!(abandoned > exact * 0.1 && abandoned <= exact);
+        assert_eq!(fit.error_abandoning(&k, exact * 2.0), exact);
+    }
+}

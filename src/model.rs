@@ -1,1 +1,486 @@
-//! TODO: model stage (being written).
+//! The monitor model (MM): a light EMA model run thousands of times per identification.
+//!
+//! Simplifications against the reference model (physics.md §4): the three-phase inverter with
+//! hysteresis control becomes one equivalent DC motor (the conducting pair in series) with an
+//! ideal, slew- and voltage-limited first-order current loop; motor faults enter through *shape
+//! functions* of the rotor angle. The controller (ACE) is the same algorithm as the real one.
+//!
+//! One [`MonitorModel::step`] advances one control period `T` (100 µs):
+//!
+//! ```text
+//! ACE     e = θ_cmd − θ_u;  D += (T/τ_D)((θ_u − θ_u,prev)/T − D);  I_int += e·T
+//!         u = Kp·e + Ki·I_int − Kd·D;  |u| > I_max ⇒ I_int −= e·T (conditional integration)
+//!         I_ref = clamp(u, ±I_max)
+//! shape   sector s = ⌊((θ_e − π/6) mod 2π)/(π/3)⌋ → conducting pair (p, q)
+//!         k_j(θ_m) = k_0(1−s_j)[1 + ζ cos(θ_m − φ − j·2π/3)]
+//!         K_eq = k_p + k_q,  R_eq = R_0(2 − s_p − s_q),  L_eq = L_0((1−s_p)² + (1−s_q)²)
+//! current I⁺ = I_ref + (I − I_ref)·e^{−T/τ_c}, its change clamped to the available voltage:
+//!         T·(−V_dc − R_eq·I − K_eq·ω)/L_eq ≤ ΔI ≤ T·(V_dc − R_eq·I − K_eq·ω)/L_eq
+//! torque  T_m = K_eq·I;  T_R = −K_h·θ_u/N (hinge load at the motor)
+//! motion  Borello dry friction (stick/slip, load-dependent), viscous C_m, semi-implicit Euler:
+//!         ω⁺ from the friction step; θ_m += ω⁺·T
+//! play    θ_u = clamp(θ_u, θ_m/N − BL/2, θ_m/N + BL/2); end stops ±θ_max
+//! ```
+//!
+//! The electrical and mechanical time constants (4 ms, 2.2 ms) are ≥ 20 T, so explicit steps at
+//! the control period are accurate; the current loop lag (0.2 ms) is integrated exactly.
+
+use crate::faults::{FaultPhysics, FaultVector};
+use crate::params::EmaParams;
+use core::f32::consts::{FRAC_PI_3, FRAC_PI_6, PI};
+
+const TWO_PI: f32 = 2.0 * PI;
+
+/// Conducting pair `(positive phase, negative phase)` per Hall sector (physics.md §3.2).
+const PAIRS: [(usize, usize); 6] = [(0, 1), (0, 2), (1, 2), (1, 0), (2, 0), (2, 1)];
+
+/// `(cos ψ_j, sin ψ_j)` for `ψ_j = j·2π/3`.
+const PHASE_SHIFT: [(f32, f32); 3] = [(1.0, 0.0), (-0.5, 0.866_025_4), (-0.5, -0.866_025_4)];
+
+/// State of the monitor model (also the controller's memory).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ModelState {
+    /// Equivalent (conducting-pair) current `I`.
+    pub current_a: f32,
+    /// Motor speed `ω_m`.
+    pub motor_speed_rad_s: f32,
+    /// Motor angle `θ_m` (unwrapped).
+    pub motor_angle_rad: f32,
+    /// Motor angle wrapped into `[0, 2π)`, for the eccentricity shape function.
+    pub motor_angle_wrapped_rad: f32,
+    /// Hall angle `θ_e − π/6` wrapped into `[0, 2π)`: the sector is `⌊·/(π/3)⌋`.
+    pub hall_angle_rad: f32,
+    /// Surface angle `θ_u`.
+    pub surface_angle_rad: f32,
+    /// Controller integrator state `∫e dt`.
+    pub integral_rad_s: f32,
+    /// Controller filtered derivative of the measured position.
+    pub derivative_rad_per_s: f32,
+    /// Position measured at the previous control sample.
+    pub previous_position_rad: f32,
+    /// Current reference `I_ref` computed by the controller.
+    pub current_ref_a: f32,
+}
+
+impl ModelState {
+    /// At rest, with the hall angle of `θ_e = 0`.
+    pub fn at_rest() -> Self {
+        Self { hall_angle_rad: TWO_PI - FRAC_PI_6, ..Self::default() }
+    }
+}
+
+/// The monitor model for one candidate fault vector: constants precomputed once per evaluation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MonitorModel {
+    dt_s: f32,
+    pole_pairs: f32,
+    gear_ratio: f32,
+    half_backlash_rad: f32,
+    end_stop_rad: f32,
+    supply_voltage_v: f32,
+    current_limit_a: f32,
+    lag_factor: f32,
+    kp: f32,
+    ki: f32,
+    kd: f32,
+    derivative_gain: f32,
+    viscous_n_m_s: f32,
+    static_friction_n_m: f32,
+    dynamic_friction_n_m: f32,
+    opposing_load_factor: f32,
+    aiding_load_factor: f32,
+    hinge_at_motor_n_m_per_rad: f32,
+    /// Per phase `k_0(1 − s_j)`.
+    phase_k: [f32; 3],
+    /// Per sector `R_eq` and `T/L_eq` of the conducting pair (precomputed: no division per step).
+    pair_r: [f32; 6],
+    pair_dt_over_l: [f32; 6],
+    /// Per sector `L_eq` (for reports and tests).
+    pair_l: [f32; 6],
+    inv_dt: f32,
+    dt_over_j: f32,
+    eccentricity: f32,
+    /// `(cos, sin)` of `φ + ψ_j` per phase.
+    ecc_phase: [(f32, f32); 3],
+}
+
+impl MonitorModel {
+    /// The model of `params` with the faults `k`.
+    pub fn new(params: &EmaParams, k: &FaultVector) -> Self {
+        Self::from_physics(params, &k.physical(params))
+    }
+
+    /// The model of `params` with the physical fault parameters `f`.
+    pub fn from_physics(params: &EmaParams, f: &FaultPhysics) -> Self {
+        let p = params;
+        let mut phase_k = [0.0; 3];
+        let mut phase_r = [0.0f32; 3];
+        let mut phase_l = [0.0f32; 3];
+        let mut ecc_phase = [(1.0, 0.0); 3];
+        let (cphi, sphi) = (libm::cosf(f.eccentricity_phase_rad), libm::sinf(f.eccentricity_phase_rad));
+        for j in 0..3 {
+            let healthy = 1.0 - f.shorted_fraction[j];
+            phase_k[j] = p.phase_emf_constant_v_s_per_rad * healthy;
+            phase_r[j] = p.phase_resistance_ohm * healthy;
+            phase_l[j] = p.phase_inductance_h * healthy * healthy;
+            let (cpsi, spsi) = PHASE_SHIFT[j];
+            // cos/sin of (φ + ψ_j)
+            ecc_phase[j] = (cphi * cpsi - sphi * spsi, sphi * cpsi + cphi * spsi);
+        }
+        let mut pair_r = [0.0; 6];
+        let mut pair_l = [0.0; 6];
+        let mut pair_dt_over_l = [0.0; 6];
+        for (sector, &(a, b)) in PAIRS.iter().enumerate() {
+            pair_r[sector] = phase_r[a] + phase_r[b];
+            pair_l[sector] = phase_l[a] + phase_l[b];
+            pair_dt_over_l[sector] = p.control_period_s / pair_l[sector];
+        }
+        Self {
+            dt_s: p.control_period_s,
+            pole_pairs: p.pole_pairs,
+            gear_ratio: p.gear_ratio,
+            half_backlash_rad: 0.5 * f.backlash_rad,
+            end_stop_rad: p.end_stop_rad,
+            supply_voltage_v: p.supply_voltage_v,
+            current_limit_a: p.current_limit_a,
+            lag_factor: libm::expf(-p.control_period_s / p.current_loop_lag_s),
+            kp: f.kp_a_per_rad,
+            ki: p.ki_a_per_rad_s,
+            kd: p.kd_a_s_per_rad,
+            derivative_gain: p.control_period_s / p.derivative_filter_s,
+            viscous_n_m_s: p.viscous_friction_n_m_s_per_rad,
+            static_friction_n_m: f.static_friction_n_m,
+            dynamic_friction_n_m: f.dynamic_friction_n_m,
+            opposing_load_factor: 1.0 / p.efficiency_opposing - 1.0,
+            aiding_load_factor: 1.0 - p.efficiency_aiding,
+            hinge_at_motor_n_m_per_rad: p.hinge_stiffness_n_m_per_rad / p.gear_ratio,
+            phase_k,
+            pair_r,
+            pair_dt_over_l,
+            pair_l,
+            inv_dt: 1.0 / p.control_period_s,
+            dt_over_j: p.control_period_s / p.equivalent_inertia_kg_m2(),
+            eccentricity: f.eccentricity,
+            ecc_phase,
+        }
+    }
+
+    /// Model step (control period `T`).
+    pub fn dt_s(&self) -> f32 {
+        self.dt_s
+    }
+
+    /// The controller (ACE): returns `I_ref` for the coming period, from the measured position.
+    pub fn control(&self, s: &mut ModelState, command_rad: f32, position_rad: f32) -> f32 {
+        let dt = self.dt_s;
+        let e = command_rad - position_rad;
+        s.derivative_rad_per_s +=
+            self.derivative_gain * ((position_rad - s.previous_position_rad) * self.inv_dt - s.derivative_rad_per_s);
+        s.previous_position_rad = position_rad;
+        s.integral_rad_s += e * dt;
+        let mut u = self.kp * e + self.ki * s.integral_rad_s - self.kd * s.derivative_rad_per_s;
+        if libm::fabsf(u) > self.current_limit_a {
+            s.integral_rad_s -= e * dt;
+            u = self.kp * e + self.ki * s.integral_rad_s - self.kd * s.derivative_rad_per_s;
+        }
+        s.current_ref_a = clamp(u, -self.current_limit_a, self.current_limit_a);
+        s.current_ref_a
+    }
+
+    /// Hall sector `0..6` of the state's rotor angle.
+    fn sector(s: &ModelState) -> usize {
+        let sector = (s.hall_angle_rad * (1.0 / FRAC_PI_3)) as usize;
+        if sector < 6 {
+            sector
+        } else {
+            5
+        }
+    }
+
+    /// `K_eq` of the conducting pair of `sector` at the state's rotor angle.
+    fn pair_emf_constant(&self, s: &ModelState, sector: usize) -> f32 {
+        let (p, q) = PAIRS[sector];
+        let mut kp = self.phase_k[p];
+        let mut kq = self.phase_k[q];
+        if self.eccentricity > 0.0 {
+            let (sin_t, cos_t) = libm::sincosf(s.motor_angle_wrapped_rad);
+            // cos(θ − (φ+ψ)) = cos θ cos(φ+ψ) + sin θ sin(φ+ψ)
+            let (cp, sp) = self.ecc_phase[p];
+            let (cq, sq) = self.ecc_phase[q];
+            kp *= 1.0 + self.eccentricity * (cos_t * cp + sin_t * sp);
+            kq *= 1.0 + self.eccentricity * (cos_t * cq + sin_t * sq);
+        }
+        kp + kq
+    }
+
+    /// Shape functions of the conducting pair at the state's rotor angle: `(K_eq, R_eq, L_eq)`.
+    pub fn shape(&self, s: &ModelState) -> (f32, f32, f32) {
+        let sector = Self::sector(s);
+        (self.pair_emf_constant(s, sector), self.pair_r[sector], self.pair_l[sector])
+    }
+
+    /// Advances the model one control period under the surface command `command_rad`.
+    pub fn step(&self, s: &mut ModelState, command_rad: f32) {
+        let i_ref = self.control(s, command_rad, s.surface_angle_rad);
+
+        // Electrical: first-order loop toward I_ref, limited by the voltage left across the pair.
+        let sector = Self::sector(s);
+        let k_eq = self.pair_emf_constant(s, sector);
+        let dt_over_l = self.pair_dt_over_l[sector];
+        let i = s.current_a;
+        let w = s.motor_speed_rad_s;
+        let wanted = i_ref + (i - i_ref) * self.lag_factor - i;
+        let back = self.pair_r[sector] * i + k_eq * w;
+        let up = dt_over_l * (self.supply_voltage_v - back);
+        let down = dt_over_l * (-self.supply_voltage_v - back);
+        s.current_a = i + clamp(wanted, down, up);
+
+        // Mechanical: torque balance at the motor shaft with Borello dry friction.
+        let torque_motor = k_eq * s.current_a;
+        let torque_load = -self.hinge_at_motor_n_m_per_rad * s.surface_angle_rad;
+        let torque_active = torque_motor - self.viscous_n_m_s * w;
+        let w_new = self.friction_step(w, torque_active, torque_load);
+        s.motor_speed_rad_s = w_new;
+        let d_theta = w_new * self.dt_s;
+        s.motor_angle_rad += d_theta;
+        s.motor_angle_wrapped_rad = wrap(s.motor_angle_wrapped_rad + d_theta);
+        s.hall_angle_rad = wrap(s.hall_angle_rad + self.pole_pairs * d_theta);
+
+        // Backlash (play operator) and end stops on the surface.
+        let x = s.motor_angle_rad / self.gear_ratio;
+        s.surface_angle_rad = clamp(s.surface_angle_rad, x - self.half_backlash_rad, x + self.half_backlash_rad);
+        if s.surface_angle_rad > self.end_stop_rad {
+            s.surface_angle_rad = self.end_stop_rad;
+            s.motor_angle_rad = s.motor_angle_rad.min((self.end_stop_rad + self.half_backlash_rad) * self.gear_ratio);
+            if s.motor_speed_rad_s > 0.0 {
+                s.motor_speed_rad_s = 0.0;
+            }
+        } else if s.surface_angle_rad < -self.end_stop_rad {
+            s.surface_angle_rad = -self.end_stop_rad;
+            s.motor_angle_rad = s.motor_angle_rad.max(-(self.end_stop_rad + self.half_backlash_rad) * self.gear_ratio);
+            if s.motor_speed_rad_s < 0.0 {
+                s.motor_speed_rad_s = 0.0;
+            }
+        }
+    }
+
+    /// Borello dry friction (physics.md §3.7): the four cases stuck/breakaway/slip/stop.
+    /// `torque_active` = motor torque minus viscous; `torque_load` = load reflected to the motor.
+    /// The motor is stuck only when `ω` is exactly 0; a slip step that would reverse `ω` stops it.
+    pub fn friction_step(&self, w: f32, torque_active: f32, torque_load: f32) -> f32 {
+        let dt_over_j = self.dt_over_j;
+        let load_term = |direction: f32| -> f32 {
+            let opposing = torque_load * direction < 0.0;
+            libm::fabsf(torque_load) * if opposing { self.opposing_load_factor } else { self.aiding_load_factor }
+        };
+        let net = torque_active + torque_load;
+        if w != 0.0 {
+            let d = sign(w);
+            let friction = self.dynamic_friction_n_m + load_term(d);
+            let w_new = w + dt_over_j * (net - d * friction);
+            if w_new * w < 0.0 {
+                0.0
+            } else {
+                w_new
+            }
+        } else {
+            let d = sign(net);
+            let breakaway = self.static_friction_n_m + load_term(d);
+            if libm::fabsf(net) <= breakaway {
+                0.0
+            } else {
+                let friction = self.dynamic_friction_n_m + load_term(d);
+                dt_over_j * (net - d * friction)
+            }
+        }
+    }
+}
+
+fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
+    if x < lo {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}
+
+fn sign(x: f32) -> f32 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+/// Wraps an angle that moved by less than 2π per step back into `[0, 2π)`.
+fn wrap(a: f32) -> f32 {
+    if a >= TWO_PI {
+        a - TWO_PI
+    } else if a < 0.0 {
+        a + TWO_PI
+    } else {
+        a
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::profile::Profile;
+
+    fn model(k: [f32; 8]) -> MonitorModel {
+        MonitorModel::new(&EmaParams::NOMINAL, &FaultVector(k))
+    }
+
+    #[test]
+    fn healthy_shape_functions_are_constant() {
+        let m = model(FaultVector::HEALTHY.0);
+        let mut s = ModelState::at_rest();
+        for k in 0..600 {
+            s.hall_angle_rad = k as f32 * TWO_PI / 600.0;
+            let (ke, re, le) = m.shape(&s);
+            assert!((ke - 0.26).abs() < 1e-6 && (re - 1.0).abs() < 1e-6 && (le - 4e-3).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn short_circuit_lowers_the_pairs_that_use_the_phase() {
+        let m = model([0.0, 0.0, 0.4, 0.0, 0.0, 0.0, 0.5, 0.5]); // s_a = 0.2
+        let mut s = ModelState::at_rest();
+        for sector in 0..6 {
+            s.hall_angle_rad = (sector as f32 + 0.5) * FRAC_PI_3;
+            let (ke, re, le) = m.shape(&s);
+            let uses_a = PAIRS[sector].0 == 0 || PAIRS[sector].1 == 0;
+            let expect_k = if uses_a { 0.13 * 1.8 } else { 0.26 };
+            let expect_r = if uses_a { 0.5 * 1.8 } else { 1.0 };
+            let expect_l = if uses_a { 2e-3 * (1.0 + 0.64) } else { 4e-3 };
+            assert!((ke - expect_k).abs() < 1e-6, "sector {sector}: {ke}");
+            assert!((re - expect_r).abs() < 1e-6);
+            assert!((le - expect_l).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn eccentricity_ripple_averages_to_zero_over_an_electrical_turn() {
+        // physics.md §3.6: k_p + k_q = k_0[2 − ζ cos(θ_m − φ − ψ_r)]; the per-phase form averages out.
+        let m = model([0.0, 0.0, 0.0, 0.0, 0.0, 0.6, 0.3, 0.5]);
+        let mut s = ModelState::at_rest();
+        let n = 36_000;
+        let (mut sum, mut max, mut min) = (0.0f64, f32::MIN, f32::MAX);
+        for k in 0..n {
+            let theta_m = k as f32 * TWO_PI / n as f32;
+            s.motor_angle_wrapped_rad = theta_m;
+            s.hall_angle_rad = wrap(libm::fmodf(4.0 * theta_m, TWO_PI) - FRAC_PI_6 + TWO_PI);
+            let (ke, _, _) = m.shape(&s);
+            sum += ke as f64;
+            max = max.max(ke);
+            min = min.min(ke);
+        }
+        let mean = sum / n as f64;
+        assert!((mean - 0.26).abs() < 2e-3, "mean {mean}");
+        // ζ = 0.3: the ripple spans about ±ζ·k_0.
+        assert!(max - min > 0.13 * 0.3 && max - min < 2.0 * 0.13 * 0.3 + 1e-3, "{min}..{max}");
+    }
+
+    #[test]
+    fn rl_current_step_at_locked_rotor() {
+        // Rotor locked by an enormous breakaway friction, ideal current loop, no current limit:
+        // the voltage clamp alone shapes the current, i(t) = V/R_eq·(1 − e^{−R_eq t/L_eq}).
+        let mut p = EmaParams::NOMINAL;
+        p.current_loop_lag_s = 1e-9;
+        p.current_limit_a = 1e6;
+        p.supply_voltage_v = 10.0; // 10 A steady state through R_eq = 1 Ω
+        let mut f = FaultVector::HEALTHY.physical(&p);
+        f.static_friction_n_m = 1e9;
+        f.dynamic_friction_n_m = 1e9;
+        let m = MonitorModel::from_physics(&p, &f);
+        let mut s = ModelState::at_rest();
+        let (r, l) = (1.0f32, 4e-3f32);
+        for k in 1..=400 {
+            m.step(&mut s, 0.5); // I_ref = Kp·0.5 ≫ 10 A: always voltage-limited
+            assert_eq!(s.motor_speed_rad_s, 0.0);
+            let t = k as f32 * m.dt_s();
+            let exact = p.supply_voltage_v / r * (1.0 - libm::expf(-r * t / l));
+            // explicit Euler with T·R/L = 0.025 lags the exact curve by < 1.3 % of the final value
+            assert!((s.current_a - exact).abs() < 0.013 * 10.0, "t={t}: {} vs {exact}", s.current_a);
+        }
+        assert!((s.current_a - 10.0).abs() < 0.01);
+    }
+
+    #[test]
+    fn friction_stick_slip_cases() {
+        let m = model(FaultVector::HEALTHY.0); // FSJ 0.10, FDJ 0.07 N·m
+        let dt_over_j = m.dt_over_j;
+        // 1. stuck, below breakaway: stays stuck
+        assert_eq!(m.friction_step(0.0, 0.09, 0.0), 0.0);
+        assert_eq!(m.friction_step(0.0, -0.099, 0.0), 0.0);
+        // 2. stuck, above breakaway: moves with the sliding friction
+        let w = m.friction_step(0.0, 0.2, 0.0);
+        assert!((w - dt_over_j * (0.2 - 0.07)).abs() < 1e-6, "{w}");
+        // 3. slipping keeps slipping, friction opposes the motion
+        let w = m.friction_step(10.0, 0.0, 0.0);
+        assert!((w - (10.0 - dt_over_j * 0.07)).abs() < 1e-4, "{w}");
+        // 4. slipping that would reverse stops exactly at zero
+        assert_eq!(m.friction_step(0.01, -1.0, 0.0), 0.0);
+        // load-dependent: an opposing load raises the breakaway by (1/η_O − 1)|T_R|
+        let opposing = 0.3; // load pushes negative (−0.3), motor pushes positive
+        let net_needed = 0.10 + (1.0 / 0.85 - 1.0) * opposing;
+        assert_eq!(m.friction_step(0.0, opposing + net_needed - 1e-4, -opposing), 0.0);
+        assert!(m.friction_step(0.0, opposing + net_needed + 1e-3, -opposing) > 0.0);
+    }
+
+    #[test]
+    fn healthy_step_response_is_well_damped() {
+        // physics.md §7.2 [S]: 0.05 rad step, overshoot ≈ 3.5 %, t90 ≈ 70 ms.
+        let m = model(FaultVector::HEALTHY.0);
+        let mut s = ModelState::at_rest();
+        let (mut peak, mut t90) = (0.0f32, None);
+        for k in 0..3000 {
+            m.step(&mut s, 0.05);
+            peak = peak.max(s.surface_angle_rad);
+            if t90.is_none() && s.surface_angle_rad >= 0.045 {
+                t90 = Some(k as f32 * m.dt_s());
+            }
+        }
+        let t90 = t90.expect("reaches 90 %");
+        assert!(t90 > 0.03 && t90 < 0.12, "t90 {t90}");
+        assert!(peak < 0.05 * 1.10, "overshoot {}", peak / 0.05 - 1.0);
+        assert!((s.surface_angle_rad - 0.05).abs() < 0.003, "final {}", s.surface_angle_rad);
+    }
+
+    #[test]
+    fn gain_drift_changes_the_step_response() {
+        let run = |gain: f32| {
+            let m = model([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, gain]);
+            let mut s = ModelState::at_rest();
+            let mut err = 0.0;
+            for _ in 0..1500 {
+                m.step(&mut s, 0.01); // small step: stays in the linear range of the loop
+                err += libm::fabsf(0.01 - s.surface_angle_rad);
+            }
+            err
+        };
+        assert!(run(0.1) > 1.2 * run(0.5), "a lower gain tracks worse");
+    }
+
+    #[test]
+    fn standard_profile_runs_with_any_fault_and_stays_finite() {
+        let profile = Profile::STANDARD;
+        for k in [[0.0; 8], [1.0; 8], FaultVector::HEALTHY.0, [0.3, 0.7, 0.2, 0.9, 0.1, 0.8, 0.1, 0.0]] {
+            let m = model(k);
+            let mut s = ModelState::at_rest();
+            let n = (profile.duration_s() / m.dt_s()) as usize;
+            for step in 0..n {
+                m.step(&mut s, profile.command_rad(step as f32 * m.dt_s()));
+                assert!(s.current_a.is_finite() && s.motor_speed_rad_s.is_finite());
+                assert!(libm::fabsf(s.current_a) <= 15.0 + 1e-3);
+            }
+            assert!((s.surface_angle_rad - profile.command_rad(profile.duration_s())).abs() < 0.01);
+        }
+    }
+}
