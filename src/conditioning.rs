@@ -156,7 +156,7 @@ impl<const W: usize> Conditioner<W> {
             sum_sq += d * d;
         }
         let c_sq = sum_sq / n as f32;
-        if !(c_sq > 0.0) || !c_sq.is_finite() {
+        if c_sq.is_nan() || c_sq <= 0.0 || c_sq.is_infinite() {
             return Err(ConditioningError::NoExcitation);
         }
         let mut weight = Vec::new();

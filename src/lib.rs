@@ -36,7 +36,7 @@ pub mod faults;
 pub mod fitness;
 pub mod health;
 pub mod model;
-// pub mod monitor; (enabled once the optimizers land)
+pub mod monitor;
 pub mod optimizer;
 pub mod params;
 pub mod profile;

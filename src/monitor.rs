@@ -175,7 +175,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                     stall_iterations: config.stall_iterations,
                     ..PsoConfig::default()
                 };
-                Solver::Pso(ParticleSwarm::new(bounds, c, config.seed)?.with_initial_guess(&healthy))
+                Solver::Pso(ParticleSwarm::new(bounds, c, config.seed)?.with_initial_guess(healthy))
             }
             Algorithm::Ga => {
                 let c = GaConfig {
@@ -184,7 +184,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                     stall_iterations: config.stall_iterations,
                     ..GaConfig::default()
                 };
-                Solver::Ga(Genetic::new(bounds, c, config.seed)?.with_initial_guess(&healthy))
+                Solver::Ga(Genetic::new(bounds, c, config.seed)?.with_initial_guess(healthy))
             }
         };
         Ok(Self { fit: CurrentFit::new(trace, params, profile), solver, params, status: Status::Running })

@@ -142,7 +142,7 @@ impl Profile {
                 Segment::Sine { offset_rad, amplitude_rad, .. } => libm::fabsf(offset_rad) + libm::fabsf(amplitude_rad),
                 _ => libm::fmaxf(libm::fabsf(s.value_rad(start)), libm::fabsf(s.value_rad(end))),
             };
-            if !fields_ok || !(bound < end_stop_rad) {
+            if !fields_ok || bound.is_nan() || end_stop_rad.is_nan() || bound >= end_stop_rad {
                 return Err(ProfileError::Value);
             }
             out[i] = *s;

@@ -43,6 +43,18 @@ impl<const D: usize> Bounds<D> {
         self.lower.iter().zip(self.upper.iter()).all(|(l, u)| l.is_finite() && u.is_finite() && l < u)
     }
 
+    /// Signed difference `to − from` along parameter `i`; for a periodic parameter the shortest way round the
+    /// circle, in `[−span/2, span/2]` (so a swarm or a crossover can meet across the wrap point).
+    pub fn delta(&self, i: usize, from: f32, to: f32) -> f32 {
+        let d = to - from;
+        if self.periodic[i] {
+            let span = self.upper[i] - self.lower[i];
+            d - span * libm::roundf(d / span)
+        } else {
+            d
+        }
+    }
+
     /// Brings `x[i]` back into the box: wraps periodic parameters, clamps the others.
     /// Returns `true` when the value was clamped (not wrapped), so the caller can damp its velocity.
     pub fn enforce(&self, i: usize, x: &mut f32) -> bool {
@@ -106,7 +118,8 @@ pub enum ConfigError {
     Bounds,
     /// A coefficient is negative or not finite.
     Coefficient,
-    /// Zero iterations, a zero stall window, or a negative tolerance.
+    /// Zero iterations, a stall window of zero or above [`MAX_STALL_ITERATIONS`], a negative or NaN tolerance,
+    /// or a NaN / `+∞` target cost.
     Termination,
 }
 
@@ -121,6 +134,81 @@ impl core::fmt::Display for ConfigError {
 }
 
 impl core::error::Error for ConfigError {}
+
+/// Largest accepted stall window (`stall_iterations`); the window is a fixed ring of this many + 1 costs.
+pub const MAX_STALL_ITERATIONS: u32 = 64;
+
+/// Termination bookkeeping shared by the optimizers (MATLAB `particleswarm` / `ga` discipline): after each
+/// completed iteration `k` with best cost `f_k`, stop when
+/// 1. `f_k <= target_cost` ([`TerminationReason::TargetReached`]; the optimizers also check after every evaluation),
+/// 2. `k > s` and `f_{k−s} − f_k <= tol · max(1, |f_k|)` with `s = stall_iterations`
+///    ([`TerminationReason::FunctionTolerance`]; an infinite best never stalls since `∞ − ∞` is NaN),
+/// 3. `k >= max_iterations` ([`TerminationReason::MaxIterations`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Stopping {
+    max_iterations: u32,
+    stall_iterations: u32,
+    function_tolerance: f32,
+    target_cost: f32,
+    /// `history[k % len]` = best cost after iteration `k`.
+    history: [f32; MAX_STALL_ITERATIONS as usize + 1],
+}
+
+impl Stopping {
+    /// Validates the termination settings (see [`ConfigError::Termination`]).
+    pub(crate) fn new(
+        max_iterations: u32,
+        stall_iterations: u32,
+        function_tolerance: f32,
+        target_cost: f32,
+    ) -> Result<Self, ConfigError> {
+        let tolerance_ok = function_tolerance.is_finite() && function_tolerance >= 0.0;
+        let target_ok = !target_cost.is_nan() && target_cost != f32::INFINITY;
+        if max_iterations == 0
+            || stall_iterations == 0
+            || stall_iterations > MAX_STALL_ITERATIONS
+            || !tolerance_ok
+            || !target_ok
+        {
+            return Err(ConfigError::Termination);
+        }
+        Ok(Self {
+            max_iterations,
+            stall_iterations,
+            function_tolerance,
+            target_cost,
+            history: [f32::INFINITY; MAX_STALL_ITERATIONS as usize + 1],
+        })
+    }
+
+    /// `true` when `cost` reaches the target (never for the default `−∞`).
+    pub(crate) fn target_reached(&self, cost: f32) -> bool {
+        cost <= self.target_cost
+    }
+
+    /// Records the best cost after completed iteration `k >= 1` and says whether to stop.
+    pub(crate) fn after_iteration(&mut self, k: u32, best: f32) -> Option<TerminationReason> {
+        const LEN: usize = MAX_STALL_ITERATIONS as usize + 1;
+        if let Some(slot) = self.history.get_mut(k as usize % LEN) {
+            *slot = best;
+        }
+        if self.target_reached(best) {
+            return Some(TerminationReason::TargetReached);
+        }
+        if k > self.stall_iterations {
+            let then = self.history.get((k - self.stall_iterations) as usize % LEN).copied().unwrap_or(f32::INFINITY);
+            let scale = if libm::fabsf(best) > 1.0 { libm::fabsf(best) } else { 1.0 };
+            // NaN (∞ − ∞) compares false: an all-infinite history never counts as stalled.
+            if then - best <= self.function_tolerance * scale {
+                return Some(TerminationReason::FunctionTolerance);
+            }
+        }
+        if k >= self.max_iterations {
+            return Some(TerminationReason::MaxIterations);
+        }
+        None
+    }
+}
 
 /// Common step-wise interface of the population optimizers.
 pub trait Optimizer<const D: usize> {

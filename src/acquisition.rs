@@ -1,1 +1,0 @@
-//! TODO: acquisition stage (being written).

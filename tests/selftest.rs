@@ -1,0 +1,291 @@
+//! On-target self-test (`cargo test` runs it in QEMU through `scripts/qemu-run`).
+//!
+//! A tiny harness: [`TESTS`] is a table of `(name, fn() -> Result<(), &'static str>)`; each test
+//! runs in turn and prints `PASS name` or `FAIL name: reason`, then one plain summary line
+//! `selftest: N passed, N failed`, and the binary exits 0 if every test passed, 1 otherwise.
+//!
+//! **Adding a test** = writing a `fn my_test() -> Result<(), &'static str>` (use [`ensure`]) and one
+//! table line `("my_test", my_test),`.
+//!
+//! Output goes through defmt (`defmt::println!`, no level) and the runner decodes it with
+//! `defmt-print --log-format "{s}"`, so each line reaches stdout exactly as printed.
+#![no_std]
+#![no_main]
+
+use cortex_m as _; // critical-section implementation
+use defmt_semihosting as _; // defmt logger over semihosting stdout
+use panic_probe as _; // a panicking test → HardFault → exit(1)
+
+use cortex_m_rt::{entry, exception, ExceptionFrame};
+use cortex_m_semihosting::debug;
+use ema_monitor::acquisition::{
+    AcquisitionConfig, AcquisitionError, Calibration, Phase, PhaseA, PhaseB, PhaseC, PhaseCalibration,
+    PhaseCurrentReader, PhasePin, ReplayAdc,
+};
+use ema_monitor::trace::{self, pack, packed_len, PackedTrace, TraceError, ADC_MAX, ADC_MIDSCALE};
+use ema_monitor::{EmaParams, FaultVector, Profile};
+use embedded_hal::adc::{Channel, OneShot};
+
+/// A test: `Ok(())` passes, `Err(reason)` fails.
+type Test = fn() -> Result<(), &'static str>;
+
+/// Every on-target test, in run order. One line per test.
+const TESTS: &[(&str, Test)] = &[
+    ("trace_pack_round_trip", trace_pack_round_trip),
+    ("trace_corrupt_input_is_error", trace_corrupt_input_is_error),
+    ("trace_built_in_decodes", trace_built_in_decodes),
+    ("replay_one_shot_reproduces_codes", replay_one_shot_reproduces_codes),
+    ("reader_converts_analytically", reader_converts_analytically),
+    ("reader_reads_built_in_trace_to_end", reader_reads_built_in_trace_to_end),
+    ("reader_detects_saturation_and_sum", reader_detects_saturation_and_sum),
+    ("reader_times_out_on_busy_adc", reader_times_out_on_busy_adc),
+    ("calibration_fixed_point", calibration_fixed_point),
+    ("fault_vector_physical_mapping", fault_vector_physical_mapping),
+    ("fault_vector_paper_error", fault_vector_paper_error),
+    ("profile_standard_values", profile_standard_values),
+];
+
+#[entry]
+fn main() -> ! {
+    let (mut passed, mut failed) = (0u32, 0u32);
+    for (name, test) in TESTS {
+        match test() {
+            Ok(()) => {
+                passed += 1;
+                defmt::println!("PASS {=str}", name);
+            }
+            Err(reason) => {
+                failed += 1;
+                defmt::println!("FAIL {=str}: {=str}", name, reason);
+            }
+        }
+    }
+    defmt::println!("selftest: {=u32} passed, {=u32} failed", passed, failed);
+    exit(failed == 0)
+}
+
+fn exit(ok: bool) -> ! {
+    debug::exit(if ok { debug::EXIT_SUCCESS } else { debug::EXIT_FAILURE });
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// A panic (panic-probe ends in `udf`) or fault must end the QEMU run with failure.
+#[exception]
+unsafe fn HardFault(_frame: &ExceptionFrame) -> ! {
+    exit(false)
+}
+
+/// `Err(reason)` unless `cond`.
+fn ensure(cond: bool, reason: &'static str) -> Result<(), &'static str> {
+    if cond {
+        Ok(())
+    } else {
+        Err(reason)
+    }
+}
+
+fn close(a: f32, b: f32, tol: f32) -> bool {
+    libm::fabsf(a - b) <= tol
+}
+
+// ---- trace -------------------------------------------------------------------------------------
+
+const SMALL: [[u16; 3]; 5] = [[2048, 2148, 1948], [0x123, 0x456, 0x789], [0, ADC_MAX, 0], [4095, 0, 17], [1, 2, 3]];
+
+fn trace_pack_round_trip() -> Result<(), &'static str> {
+    let mut buf = [0u8; 64];
+    for n in [0usize, 1, 2, 5] {
+        let len = pack(&SMALL[..n], 10_000, &mut buf).map_err(|_| "pack failed")?;
+        ensure(len == packed_len(n), "packed length")?;
+        let t = PackedTrace::parse(&buf[..len]).map_err(|_| "parse failed")?;
+        ensure(t.frames() == n && t.sample_rate_hz() == 10_000, "header")?;
+        for (i, f) in SMALL[..n].iter().enumerate() {
+            ensure(t.frame(i) == Some(*f), "frame codes differ")?;
+        }
+        ensure(t.frame(n).is_none(), "frame past the end")?;
+    }
+    let len = pack(&SMALL[1..2], 1, &mut buf).map_err(|_| "pack failed")?;
+    ensure(buf[12..len] == [0x23, 0x61, 0x45, 0x89, 0x07, 0x00], "byte layout")
+}
+
+fn trace_corrupt_input_is_error() -> Result<(), &'static str> {
+    let mut buf = [0u8; 64];
+    let len = pack(&SMALL[..3], 10_000, &mut buf).map_err(|_| "pack failed")?;
+    ensure(PackedTrace::parse(&buf[..len]).is_ok(), "valid trace refused")?;
+    for n in 0..len {
+        ensure(PackedTrace::parse(&buf[..n]).is_err(), "truncated trace accepted")?;
+    }
+    let mut bad = buf;
+    bad[1] = b'X';
+    ensure(PackedTrace::parse(&bad[..len]) == Err(TraceError::BadMagic), "bad magic")?;
+    let mut bad = buf;
+    bad[8..12].copy_from_slice(&0u32.to_le_bytes());
+    ensure(PackedTrace::parse(&bad[..len]) == Err(TraceError::SampleRate), "zero rate")?;
+    let mut bad = buf;
+    bad[4..8].copy_from_slice(&u32::MAX.to_le_bytes());
+    ensure(PackedTrace::parse(&bad[..len]).is_err(), "huge frame count")?;
+    ensure(pack(&[[0, 4096, 0]], 1, &mut buf) == Err(TraceError::CodeRange), "code range")?;
+    ensure(pack(&SMALL, 1, &mut buf[..20]) == Err(TraceError::OutputTooSmall), "small output")
+}
+
+static BUILT_IN: &[u8] = include_bytes!("../traces/standard.ematrace");
+
+fn trace_built_in_decodes() -> Result<(), &'static str> {
+    let t = PackedTrace::parse(BUILT_IN).map_err(|_| "built-in trace invalid")?;
+    ensure(t.frames() > 0, "no frames")?;
+    ensure(t.sample_rate_hz() == trace::SAMPLE_RATE_HZ, "sample rate")?;
+    let mut n = 0;
+    for f in t.iter() {
+        ensure(f.iter().all(|&c| c <= ADC_MAX), "code above 12 bits")?;
+        n += 1;
+    }
+    ensure(n == t.frames(), "frame count")
+}
+
+// ---- acquisition -------------------------------------------------------------------------------
+
+fn small_trace(buf: &mut [u8], frames: &[[u16; 3]]) -> Result<usize, &'static str> {
+    pack(frames, trace::SAMPLE_RATE_HZ, buf).map_err(|_| "pack failed")
+}
+
+fn replay_one_shot_reproduces_codes() -> Result<(), &'static str> {
+    let mut buf = [0u8; 64];
+    let len = small_trace(&mut buf, &SMALL)?;
+    let t = PackedTrace::parse(&buf[..len]).map_err(|_| "parse")?;
+    let mut adc = ReplayAdc::new(t);
+    let (mut a, mut b, mut c) = (PhaseA, PhaseB, PhaseC);
+    for f in SMALL {
+        // C first: any order completes the frame
+        let cc = adc.read(&mut c).map_err(|_| "read C")?;
+        let aa = adc.read(&mut a).map_err(|_| "read A")?;
+        let bb = adc.read(&mut b).map_err(|_| "read B")?;
+        ensure([aa, bb, cc] == f, "replayed codes differ")?;
+    }
+    ensure(adc.read(&mut a).is_err(), "read past the end")
+}
+
+fn reader_converts_analytically() -> Result<(), &'static str> {
+    let mut buf = [0u8; 64];
+    let len = small_trace(&mut buf, &[[2048, 2148, 1948], [3072, 1536, 1536]])?;
+    let t = PackedTrace::parse(&buf[..len]).map_err(|_| "parse")?;
+    let mut r = PhaseCurrentReader::new(
+        ReplayAdc::new(t).with_busy_polls(2),
+        (PhaseA, PhaseB, PhaseC),
+        Calibration::NOMINAL,
+        AcquisitionConfig::DEFAULT,
+    )
+    .map_err(|_| "config refused")?;
+    let f = r.read_frame().map_err(|_| "frame 0 refused")?;
+    ensure(f.currents_a() == [0.0, 0.9765625, -0.9765625], "frame 0 currents")?;
+    let f = r.read_frame().map_err(|_| "frame 1 refused")?;
+    ensure(f.currents_a() == [10.0, -5.0, -5.0], "frame 1 currents")?;
+    ensure(r.read_frame() == Err(AcquisitionError::EndOfData), "end of data")
+}
+
+fn reader_reads_built_in_trace_to_end() -> Result<(), &'static str> {
+    let t = PackedTrace::parse(BUILT_IN).map_err(|_| "built-in trace invalid")?;
+    let mut r = PhaseCurrentReader::new(
+        ReplayAdc::new(t),
+        (PhaseA, PhaseB, PhaseC),
+        Calibration::NOMINAL,
+        AcquisitionConfig::DEFAULT,
+    )
+    .map_err(|_| "config refused")?;
+    // every call completes a frame (accepted or refused by a check) until the end of data
+    for _ in 0..t.frames() {
+        match r.read_frame() {
+            Ok(_) => {}
+            Err(AcquisitionError::EndOfData) => return Err("end of data too early"),
+            Err(AcquisitionError::Timeout { .. } | AcquisitionError::Adc { .. }) => return Err("driver error"),
+            Err(_) => {}
+        }
+    }
+    ensure(r.read_frame() == Err(AcquisitionError::EndOfData), "no end of data")?;
+    ensure(r.frames_read() as usize == t.frames(), "frame count")
+}
+
+fn reader_detects_saturation_and_sum() -> Result<(), &'static str> {
+    let mut buf = [0u8; 128];
+    let bad_sum = [2148u16; 3];
+    let frames = [[2048, 4095, 2048], [2048, 2048, 0], bad_sum, bad_sum, bad_sum, bad_sum, bad_sum];
+    let len = small_trace(&mut buf, &frames)?;
+    let t = PackedTrace::parse(&buf[..len]).map_err(|_| "parse")?;
+    let mut r = PhaseCurrentReader::new(
+        ReplayAdc::new(t),
+        (PhaseA, PhaseB, PhaseC),
+        Calibration::NOMINAL,
+        AcquisitionConfig::DEFAULT,
+    )
+    .map_err(|_| "config refused")?;
+    ensure(r.read_frame() == Err(AcquisitionError::Saturated { phase: Phase::B, code: 4095 }), "saturation B")?;
+    ensure(r.read_frame() == Err(AcquisitionError::Saturated { phase: Phase::C, code: 0 }), "saturation C")?;
+    for _ in 0..4 {
+        ensure(r.read_frame().is_ok(), "sum flagged too early")?;
+    }
+    ensure(r.read_frame() == Err(AcquisitionError::InconsistentSum { sum_ma: 2930 }), "inconsistent sum")
+}
+
+/// A driver that never finishes a conversion.
+struct BusyAdc;
+impl<P: PhasePin + Channel<BusyAdc>> OneShot<BusyAdc, u16, P> for BusyAdc {
+    type Error = ();
+    fn read(&mut self, _pin: &mut P) -> nb::Result<u16, ()> {
+        Err(nb::Error::WouldBlock)
+    }
+}
+
+fn reader_times_out_on_busy_adc() -> Result<(), &'static str> {
+    let mut r =
+        PhaseCurrentReader::new(BusyAdc, (PhaseA, PhaseB, PhaseC), Calibration::NOMINAL, AcquisitionConfig::DEFAULT)
+            .map_err(|_| "config refused")?;
+    ensure(r.read_frame() == Err(AcquisitionError::Timeout { phase: Phase::A }), "timeout")
+}
+
+fn calibration_fixed_point() -> Result<(), &'static str> {
+    let n = PhaseCalibration::NOMINAL;
+    for code in 0..=ADC_MAX {
+        ensure(n.to_amps(code) == trace::counts_to_amps(code), "nominal differs from counts_to_amps")?;
+    }
+    ensure(n.to_amps(ADC_MIDSCALE) == 0.0, "zero")?;
+    let cal = PhaseCalibration::from_f32(2000.5, 0.01).map_err(|_| "calibration refused")?;
+    ensure(close(cal.to_amps(3000), 9.995, 2e-6), "offset/gain")?;
+    ensure(PhaseCalibration::from_f32(2048.0, 0.0).is_err(), "zero gain accepted")?;
+    ensure(PhaseCalibration::from_f32(f32::NAN, 0.01).is_err(), "NaN offset accepted")
+}
+
+// ---- shared contract ---------------------------------------------------------------------------
+
+fn fault_vector_physical_mapping() -> Result<(), &'static str> {
+    let p = EmaParams::NOMINAL;
+    let h = FaultVector::HEALTHY.physical(&p);
+    ensure(h.static_friction_n_m == p.static_friction_n_m, "healthy friction")?;
+    ensure(h.backlash_rad == p.nominal_backlash_rad, "healthy backlash")?;
+    ensure(h.shorted_fraction == [0.0; 3] && h.eccentricity == 0.0, "healthy shorts/eccentricity")?;
+    ensure(h.eccentricity_phase_rad == 0.0 && h.kp_a_per_rad == p.kp_a_per_rad, "healthy phase/gain")?;
+    let f = FaultVector([1.0; 8]).physical(&p);
+    ensure(close(f.static_friction_n_m, 3.0 * p.static_friction_n_m, 1e-6), "friction 3x")?;
+    ensure(close(f.backlash_rad, 100.0 * p.nominal_backlash_rad, 1e-9), "backlash 100x")?;
+    ensure(f.shorted_fraction == [0.5; 3] && f.eccentricity == 0.5, "full shorts/eccentricity")?;
+    ensure(close(f.kp_a_per_rad, 1.5 * p.kp_a_per_rad, 1e-3), "gain 1.5x")?;
+    let z = FaultVector([0.0; 8]).physical(&p);
+    ensure(close(z.eccentricity_phase_rad, -core::f32::consts::PI, 1e-6), "phase -pi")
+}
+
+fn fault_vector_paper_error() -> Result<(), &'static str> {
+    // Table I (GA, small friction fault), first row: Err% 1.6358
+    let truth = FaultVector([0.25, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+    let est = FaultVector([0.2446, 0.0009, 0.0030, 0.0023, 0.0003, 0.0015, 0.7045, 0.4851]);
+    ensure(close(est.paper_error_percent(&truth), 1.6358, 0.01), "Err% of Table I row 1")
+}
+
+fn profile_standard_values() -> Result<(), &'static str> {
+    let p = Profile::STANDARD;
+    ensure(p.command_rad(0.005) == 0.0, "hold 0")?;
+    ensure(p.command_rad(0.1) == 0.05, "step +0.05")?;
+    ensure(p.command_rad(0.2) == -0.05, "step -0.05")?;
+    ensure(close(p.command_rad(0.45), -0.05 + 0.2 * 0.15, 1e-6), "ramp")?;
+    ensure(close(p.command_rad(0.6625), 0.02, 1e-5), "sine peak")?;
+    ensure(p.duration_s() == 0.85, "duration")
+}
