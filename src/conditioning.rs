@@ -190,7 +190,8 @@ mod tests {
         let a = 2.0;
         for k in 0..360 {
             let th = k as f32 * PI / 180.0;
-            let (ia, ib, ic) = (a * libm::cosf(th), a * libm::cosf(th - 2.0 * PI / 3.0), a * libm::cosf(th + 2.0 * PI / 3.0));
+            let (ia, ib, ic) =
+                (a * libm::cosf(th), a * libm::cosf(th - 2.0 * PI / 3.0), a * libm::cosf(th + 2.0 * PI / 3.0));
             let e = equivalent_current_a(ia, ib, ic);
             assert!(e <= a + 1e-5 && e >= 0.866 * a - 1e-5, "{e} at {k}°");
         }

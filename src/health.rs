@@ -37,8 +37,13 @@ pub enum FaultMode {
 
 impl FaultMode {
     /// All modes in report order.
-    pub const ALL: [FaultMode; 5] =
-        [FaultMode::Friction, FaultMode::Backlash, FaultMode::ShortCircuit, FaultMode::Eccentricity, FaultMode::GainDrift];
+    pub const ALL: [FaultMode; 5] = [
+        FaultMode::Friction,
+        FaultMode::Backlash,
+        FaultMode::ShortCircuit,
+        FaultMode::Eccentricity,
+        FaultMode::GainDrift,
+    ];
 
     /// Short name.
     pub const fn name(self) -> &'static str {
@@ -196,7 +201,15 @@ impl core::fmt::Display for HealthReport {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         writeln!(f, "EMA health: {}", self.overall().label())?;
         for m in &self.modes {
-            write!(f, "  {:<14} {:<9} severity {:.3}  {:.3} {}", m.mode.name(), m.condition.label(), m.severity, m.value, m.unit())?;
+            write!(
+                f,
+                "  {:<14} {:<9} severity {:.3}  {:.3} {}",
+                m.mode.name(),
+                m.condition.label(),
+                m.severity,
+                m.value,
+                m.unit()
+            )?;
             match m.mode {
                 FaultMode::ShortCircuit => write!(f, " (phase {})", ['A', 'B', 'C'][m.phase as usize % 3])?,
                 FaultMode::Eccentricity => write!(f, " (min gap at {:.0} deg)", self.eccentricity_phase_deg)?,
@@ -209,7 +222,11 @@ impl core::fmt::Display for HealthReport {
             write!(f, " {k:.4}")?;
         }
         writeln!(f)?;
-        write!(f, "  fitness {:.4e} A^2, {} evaluations, {} iterations", self.fitness, self.evaluations, self.iterations)
+        write!(
+            f,
+            "  fitness {:.4e} A^2, {} evaluations, {} iterations",
+            self.fitness, self.evaluations, self.iterations
+        )
     }
 }
 
