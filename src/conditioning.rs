@@ -41,6 +41,8 @@ pub enum ConditioningError {
     TooShort,
     /// The measured current never changes: nothing to identify from.
     NoExcitation,
+    /// A frame came after the window was closed, or the window is used before it was closed.
+    Finished,
 }
 
 impl core::fmt::Display for ConditioningError {
@@ -50,6 +52,7 @@ impl core::fmt::Display for ConditioningError {
             ConditioningError::WindowFull => "the trace is longer than the conditioning window",
             ConditioningError::TooShort => "the trace is too short to identify from",
             ConditioningError::NoExcitation => "the measured current never changes: no excitation",
+            ConditioningError::Finished => "the window is closed (frames after finish) or not closed yet",
         })
     }
 }
@@ -57,57 +60,36 @@ impl core::fmt::Display for ConditioningError {
 impl core::error::Error for ConditioningError {}
 
 /// The conditioned measurement: window samples of `I_3eq` and their fitness weights.
+///
+/// Filled in place (no copy of the window ever exists): [`MeasuredTrace::push`] frames in, then
+/// [`MeasuredTrace::finish`] closes the window and computes the weights. Only a finished trace is
+/// identified from.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeasuredTrace<const W: usize> {
     current_a: Vec<f32, W>,
     weight: Vec<f32, W>,
-}
-
-impl<const W: usize> MeasuredTrace<W> {
-    /// Block-averaged equivalent current, one value per window sample.
-    pub fn current_a(&self) -> &[f32] {
-        &self.current_a
-    }
-
-    /// Fitness weight of each window sample, in `(0, 1]`.
-    pub fn weight(&self) -> &[f32] {
-        &self.weight
-    }
-
-    /// Number of window samples.
-    pub fn len(&self) -> usize {
-        self.current_a.len()
-    }
-
-    /// `true` when the window is empty (never for a trace returned by [`Conditioner::finish`]).
-    pub fn is_empty(&self) -> bool {
-        self.current_a.is_empty()
-    }
-}
-
-/// Streams frames in, builds a [`MeasuredTrace`] of capacity `W` window samples.
-#[derive(Clone, Debug)]
-pub struct Conditioner<const W: usize> {
-    current_a: Vec<f32, W>,
     block_sum_a: f32,
     block_len: usize,
 }
 
-impl<const W: usize> Default for Conditioner<W> {
+impl<const W: usize> Default for MeasuredTrace<W> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const W: usize> Conditioner<W> {
-    /// An empty conditioner.
+impl<const W: usize> MeasuredTrace<W> {
+    /// An empty window.
     pub const fn new() -> Self {
         const { assert!(W >= MIN_SAMPLES, "the window must hold at least MIN_SAMPLES samples") };
-        Self { current_a: Vec::new(), block_sum_a: 0.0, block_len: 0 }
+        Self { current_a: Vec::new(), weight: Vec::new(), block_sum_a: 0.0, block_len: 0 }
     }
 
-    /// Adds one frame of phase currents (amperes).
+    /// Adds one frame of phase currents (amperes). Refused after [`MeasuredTrace::finish`].
     pub fn push(&mut self, ia_a: f32, ib_a: f32, ic_a: f32) -> Result<(), ConditioningError> {
+        if self.is_finished() {
+            return Err(ConditioningError::Finished);
+        }
         if !(ia_a.is_finite() && ib_a.is_finite() && ic_a.is_finite()) {
             return Err(ConditioningError::NonFinite);
         }
@@ -122,19 +104,12 @@ impl<const W: usize> Conditioner<W> {
         Ok(())
     }
 
-    /// Number of complete window samples so far.
-    pub fn len(&self) -> usize {
-        self.current_a.len()
-    }
-
-    /// `true` before the first complete window sample.
-    pub fn is_empty(&self) -> bool {
-        self.current_a.is_empty()
-    }
-
     /// Closes the window (a trailing partial block is dropped) and computes the weights.
-    pub fn finish(self) -> Result<MeasuredTrace<W>, ConditioningError> {
-        let y = self.current_a;
+    pub fn finish(&mut self) -> Result<(), ConditioningError> {
+        if self.is_finished() {
+            return Ok(());
+        }
+        let y = &self.current_a;
         let n = y.len();
         if n < MIN_SAMPLES {
             return Err(ConditioningError::TooShort);
@@ -159,13 +134,37 @@ impl<const W: usize> Conditioner<W> {
         if c_sq.is_nan() || c_sq <= 0.0 || c_sq.is_infinite() {
             return Err(ConditioningError::NoExcitation);
         }
-        let mut weight = Vec::new();
         for i in 0..n {
             let d = derivative(i);
-            // Capacity is the same as `y`'s, so this push cannot fail; map it anyway (no panics).
-            weight.push(1.0 / (1.0 + d * d / c_sq)).map_err(|_| ConditioningError::WindowFull)?;
+            // Same capacity as `current_a`, so this push cannot fail; map it anyway (no panics).
+            self.weight.push(1.0 / (1.0 + d * d / c_sq)).map_err(|_| ConditioningError::WindowFull)?;
         }
-        Ok(MeasuredTrace { current_a: y, weight })
+        Ok(())
+    }
+
+    /// `true` once [`MeasuredTrace::finish`] succeeded.
+    pub fn is_finished(&self) -> bool {
+        !self.weight.is_empty()
+    }
+
+    /// Block-averaged equivalent current, one value per complete window sample.
+    pub fn current_a(&self) -> &[f32] {
+        &self.current_a
+    }
+
+    /// Fitness weight of each window sample, in `(0, 1]` (empty before `finish`).
+    pub fn weight(&self) -> &[f32] {
+        &self.weight
+    }
+
+    /// Number of complete window samples.
+    pub fn len(&self) -> usize {
+        self.current_a.len()
+    }
+
+    /// `true` before the first complete window sample.
+    pub fn is_empty(&self) -> bool {
+        self.current_a.is_empty()
     }
 }
 
@@ -199,13 +198,15 @@ mod tests {
 
     #[test]
     fn block_mean_and_weights() {
-        let mut c: Conditioner<100> = Conditioner::new();
+        let mut c: MeasuredTrace<100> = MeasuredTrace::new();
         for k in 0..(60 * DECIMATION) {
             let i = (k / DECIMATION) as f32 * 0.1; // a ramp: constant within each block
             c.push(i, -i, 0.0).unwrap();
         }
         c.push(1.0, -1.0, 0.0).unwrap(); // partial block: dropped
-        let t = c.finish().unwrap();
+        c.finish().unwrap();
+        let t = c;
+        assert_eq!(t.clone().push(1.0, 1.0, 1.0), Err(ConditioningError::Finished));
         assert_eq!(t.len(), 60);
         assert!((t.current_a()[10] - 1.0).abs() < 1e-6);
         // A constant slope: İ = C everywhere, so every weight is exactly 1/2.
@@ -214,29 +215,29 @@ mod tests {
 
     #[test]
     fn weights_drop_where_the_current_jumps() {
-        let mut c: Conditioner<200> = Conditioner::new();
+        let mut c: MeasuredTrace<200> = MeasuredTrace::new();
         for k in 0..(100 * DECIMATION) {
             let i = if k < 50 * DECIMATION { 1.0 } else { 5.0 };
             c.push(i, -i, 0.0).unwrap();
         }
-        let t = c.finish().unwrap();
-        let w = t.weight();
+        c.finish().unwrap();
+        let w = c.weight();
         assert!(w[49] < 0.2 && w[50] < 0.2, "{} {}", w[49], w[50]);
         assert_eq!(w[10], 1.0);
     }
 
     #[test]
     fn bad_input_gives_errors() {
-        let mut c: Conditioner<60> = Conditioner::new();
+        let mut c: MeasuredTrace<60> = MeasuredTrace::new();
         assert_eq!(c.push(f32::NAN, 0.0, 0.0), Err(ConditioningError::NonFinite));
         assert_eq!(c.push(0.0, f32::INFINITY, 0.0), Err(ConditioningError::NonFinite));
-        assert_eq!(Conditioner::<60>::new().finish(), Err(ConditioningError::TooShort));
-        let mut flat: Conditioner<60> = Conditioner::new();
+        assert_eq!(MeasuredTrace::<60>::new().finish(), Err(ConditioningError::TooShort));
+        let mut flat: MeasuredTrace<60> = MeasuredTrace::new();
         for _ in 0..(60 * DECIMATION) {
             flat.push(1.0, -1.0, 0.0).unwrap();
         }
         assert_eq!(flat.finish(), Err(ConditioningError::NoExcitation));
-        let mut full: Conditioner<60> = Conditioner::new();
+        let mut full: MeasuredTrace<60> = MeasuredTrace::new();
         let mut last = Ok(());
         for k in 0..(61 * DECIMATION) {
             last = full.push(k as f32, 0.0, -(k as f32));

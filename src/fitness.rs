@@ -100,12 +100,11 @@ impl<const W: usize> Objective<FAULT_COUNT> for CurrentFit<'_, W> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::conditioning::Conditioner;
 
     /// A "measurement" made by the monitor model itself (noise-free), through the conditioner.
     fn self_trace(k: &FaultVector) -> MeasuredTrace<2200> {
         let (p, profile) = (EmaParams::NOMINAL, Profile::STANDARD);
-        let mut c = Conditioner::new();
+        let mut c = MeasuredTrace::new();
         let n = (profile.duration_s() / p.control_period_s) as usize / DECIMATION;
         simulate_window(&p, &profile, k, n, |_, i| {
             // feed DECIMATION identical frames whose I_3eq is the block value
@@ -114,7 +113,8 @@ mod tests {
             }
             true
         });
-        c.finish().unwrap()
+        c.finish().unwrap();
+        c
     }
 
     #[test]

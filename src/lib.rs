@@ -41,6 +41,7 @@ pub mod optimizer;
 pub mod params;
 pub mod profile;
 pub mod trace;
+pub mod trig;
 
 pub use faults::{FaultVector, FAULT_COUNT};
 pub use params::EmaParams;

@@ -2,13 +2,16 @@
 //!
 //! Wiring only, no math. Numbered steps:
 //! 1. paint the stack (for the peak-stack figure at the end);
-//! 2. open the built-in phase-current trace (`traces/standard.ematrace`, packed, in flash) and put a
-//!    [`ReplayAdc`] behind the embedded-hal 0.2 `OneShot` reader;
-//! 3. read every frame through the reader, counting frames and refused frames;
-//! 4. identification, between the instruction-count markers [`ema_identification_start`] and
-//!    [`ema_identification_end`] (`scripts/qemu-run` counts the instructions between them);
-//! 5. report frames, errors, static RAM and peak stack over defmt, then exit through semihosting
-//!    (status 0 on success, 1 on failure; a panic or fault also exits with 1, see [`HardFault`]).
+//! 2. open the built-in phase-current trace (`traces/standard.ematrace`: a reference-model
+//!    recording of the standard manoeuvre, packed 12-bit, in flash) and put a [`ReplayAdc`] behind
+//!    the embedded-hal 0.2 `OneShot` reader;
+//! 3. acquire and condition every frame ([`monitor::acquire`]); a sensor fault stops here;
+//! 4. identify the faults with the on-board PSO, between the instruction-count markers
+//!    [`ema_identification_start`] and [`ema_identification_end`] (`scripts/qemu-run` counts the
+//!    instructions between them);
+//! 5. log the health report, the fault vector's bits (for the host/target parity check), static
+//!    RAM and peak stack over defmt, then exit through semihosting (status 0 on success, 1 on
+//!    failure; a panic or fault also exits with 1, see [`HardFault`]).
 #![no_std]
 #![no_main]
 
@@ -18,16 +21,15 @@ use panic_probe as _; // panic → defmt message → `udf` → HardFault → exi
 
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::debug;
-use ema_monitor::acquisition::{
-    AcquisitionConfig, AcquisitionError, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc,
-};
+use ema_monitor::acquisition::{AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
+use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::health::{FaultMode, HealthReport};
+use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::trace::PackedTrace;
+use ema_monitor::{EmaParams, Profile};
 
-/// The built-in trace (placeholder until the reference model writes the real one; traces/README.md).
+/// The built-in trace: the reference model's recording of the standard manoeuvre (traces/README.md).
 static TRACE: &[u8] = include_bytes!("../traces/standard.ematrace");
-
-/// Individually logged acquisition errors (the rest are only counted).
-const LOGGED_ERRORS: u32 = 8;
 
 #[entry]
 fn main() -> ! {
@@ -54,31 +56,31 @@ fn main() -> ! {
         }
     };
 
-    // 3. Acquisition.
-    let mut errors: u32 = 0;
-    loop {
-        match reader.read_frame() {
-            Ok(_frame) => {}
-            Err(AcquisitionError::EndOfData) => break,
-            Err(e) => {
-                if errors < LOGGED_ERRORS {
-                    defmt::warn!("frame {=u32}: {}", reader.frames_read(), e);
-                }
-                errors = errors.saturating_add(1);
-            }
-        }
+    // 3. Acquisition and conditioning.
+    let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
+    if let Err(e) = monitor::acquire(&mut reader, &mut trace) {
+        defmt::error!("acquisition stopped: {}", e);
+        exit(false)
     }
-    let frames = reader.frames_read();
+    defmt::info!("frames read: {=u32}, window samples: {=usize}", reader.frames_read(), trace.len());
 
     // 4. Identification (instruction-counted region).
     ema_identification_start();
-    let identified = identify_placeholder(frames);
+    let report = identify(&trace);
     ema_identification_end();
 
     // 5. Report and exit.
+    let ok = match report {
+        Ok(r) => {
+            log_report(&r);
+            true
+        }
+        Err(e) => {
+            defmt::error!("identification refused: {}", e);
+            false
+        }
+    };
     let ram = static_ram();
-    defmt::info!("frames read: {=u32}", frames);
-    defmt::info!("acquisition errors: {=u32}", errors);
     defmt::info!(
         "static RAM: {=usize} bytes (.data {=usize} + .bss {=usize} + .uninit {=usize})",
         ram.total(),
@@ -87,9 +89,6 @@ fn main() -> ! {
         ram.uninit
     );
     defmt::info!("peak stack: {=usize} bytes (of {=usize} available)", stack_peak(), stack_size());
-    // For now any refused frame fails the run (the placeholder trace is clean); the identification
-    // will decide which errors only exclude a frame from its window.
-    let ok = frames > 0 && errors == 0 && identified;
     if ok {
         defmt::info!("ema-monitor: OK");
     } else {
@@ -98,10 +97,60 @@ fn main() -> ! {
     exit(ok)
 }
 
-/// Placeholder for the identification call (the lead replaces it); returns quickly.
+/// The on-board identification: monitor model + PSO with the paper's settings, run to its end.
 #[inline(never)]
-fn identify_placeholder(frames: u32) -> bool {
-    core::hint::black_box(frames) > 0
+fn identify(trace: &MeasuredTrace<ONBOARD_WINDOW>) -> Result<HealthReport, monitor::MonitorError> {
+    let config = IdentifyConfig::default();
+    let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
+        Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &config)?;
+    id.run(u32::MAX);
+    Ok(id.report())
+}
+
+/// Logs the health report, one line per fault mode.
+fn log_report(r: &HealthReport) {
+    defmt::info!("EMA health: {=str}", r.overall().label());
+    for m in &r.modes {
+        match m.mode {
+            FaultMode::ShortCircuit => defmt::info!(
+                "  {=str}: {=str}, severity {=f32}, {=f32} {=str} (phase {=char})",
+                m.mode.name(),
+                m.condition.label(),
+                m.severity,
+                m.value,
+                m.unit(),
+                ['A', 'B', 'C'][usize::from(m.phase) % 3]
+            ),
+            _ => defmt::info!(
+                "  {=str}: {=str}, severity {=f32}, {=f32} {=str}",
+                m.mode.name(),
+                m.condition.label(),
+                m.severity,
+                m.value,
+                m.unit()
+            ),
+        }
+    }
+    let k = &r.faults.0;
+    defmt::info!("fault vector k = {}", k);
+    defmt::println!(
+        "fault vector bits: {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x}",
+        k[0].to_bits(),
+        k[1].to_bits(),
+        k[2].to_bits(),
+        k[3].to_bits(),
+        k[4].to_bits(),
+        k[5].to_bits(),
+        k[6].to_bits(),
+        k[7].to_bits()
+    );
+    defmt::info!(
+        "fitness {=f32} A^2, {=u32} evaluations, {=u32} iterations, stop: {}",
+        r.fitness,
+        r.evaluations,
+        r.iterations,
+        r.termination
+    );
 }
 
 /// Start marker of the instruction-counted identification region (its address is read with `nm`).

@@ -204,7 +204,7 @@ impl MonitorModel {
         let mut kp = self.phase_k[p];
         let mut kq = self.phase_k[q];
         if self.eccentricity > 0.0 {
-            let (sin_t, cos_t) = libm::sincosf(s.motor_angle_wrapped_rad);
+            let (sin_t, cos_t) = crate::trig::sin_cos(s.motor_angle_wrapped_rad);
             // cos(θ − (φ+ψ)) = cos θ cos(φ+ψ) + sin θ sin(φ+ψ)
             let (cp, sp) = self.ecc_phase[p];
             let (cq, sq) = self.ecc_phase[q];

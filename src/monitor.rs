@@ -5,6 +5,7 @@
 //! cycles, or call [`Identification::run`] to finish at once. Configuration is checked once in
 //! [`Identification::new`]; after that nothing in the loop can fail or panic.
 
+use crate::acquisition::{AcquisitionError, PhaseCurrents};
 use crate::conditioning::{ConditioningError, MeasuredTrace, DECIMATION};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::CurrentFit;
@@ -14,6 +15,13 @@ use crate::optimizer::pso::{ParticleSwarm, PsoConfig};
 use crate::optimizer::{Bounds, ConfigError, Optimizer, Status};
 use crate::params::EmaParams;
 use crate::profile::Profile;
+
+/// Window capacity of the on-board identification: the standard 0.85 s manoeuvre is 2125 window
+/// samples at 2.5 kHz; 2200 leaves room for a slightly longer recording.
+pub const ONBOARD_WINDOW: usize = 2200;
+
+/// Swarm (population) size of the on-board identification: the paper's 50.
+pub const ONBOARD_POPULATION: usize = 50;
 
 /// Index of the eccentricity phase `k7`, the one periodic parameter.
 const PHASE_INDEX: usize = 6;
@@ -63,6 +71,13 @@ pub enum MonitorError {
     Params,
     /// The trace is longer than the command profile that drives the model.
     TraceLongerThanProfile,
+    /// A frame was refused by acquisition (sensor fault): `frame` is its index.
+    Acquisition {
+        /// What acquisition found.
+        error: AcquisitionError,
+        /// Index of the refused frame.
+        frame: u32,
+    },
 }
 
 impl core::fmt::Display for MonitorError {
@@ -72,6 +87,7 @@ impl core::fmt::Display for MonitorError {
             MonitorError::Optimizer(e) => write!(f, "optimizer settings refused: {e}"),
             MonitorError::Params => f.write_str("an actuator parameter is not finite or not physical"),
             MonitorError::TraceLongerThanProfile => f.write_str("the trace is longer than the command profile"),
+            MonitorError::Acquisition { error, frame } => write!(f, "frame {frame} refused by acquisition: {error}"),
         }
     }
 }
@@ -88,6 +104,25 @@ impl From<ConfigError> for MonitorError {
     fn from(e: ConfigError) -> Self {
         MonitorError::Optimizer(e)
     }
+}
+
+/// Reads every frame of `source` until it reports [`AcquisitionError::EndOfData`] into `trace`
+/// and closes the window. A refused frame stops the acquisition with [`MonitorError::Acquisition`]:
+/// an identification on data from a faulty sensor would diagnose the sensor, not the actuator.
+pub fn acquire<const W: usize, S: PhaseCurrents>(
+    source: &mut S,
+    trace: &mut MeasuredTrace<W>,
+) -> Result<(), MonitorError> {
+    let mut frame = 0u32;
+    loop {
+        match source.read_frame() {
+            Ok(f) => trace.push(f.ia_a, f.ib_a, f.ic_a)?,
+            Err(AcquisitionError::EndOfData) => break,
+            Err(error) => return Err(MonitorError::Acquisition { error, frame }),
+        }
+        frame = frame.wrapping_add(1);
+    }
+    Ok(trace.finish()?)
 }
 
 /// `true` when every parameter is finite and the physical ones are positive where they must be.
@@ -160,6 +195,9 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     ) -> Result<Self, MonitorError> {
         if !params_are_valid(&params) {
             return Err(MonitorError::Params);
+        }
+        if !trace.is_finished() {
+            return Err(MonitorError::Conditioning(ConditioningError::Finished));
         }
         let trace_s = (trace.len() * DECIMATION) as f32 * params.control_period_s;
         if trace_s > profile.duration_s() + params.control_period_s {

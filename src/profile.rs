@@ -57,7 +57,7 @@ impl Segment {
             Segment::Hold { value_rad, .. } => value_rad,
             Segment::Ramp { start_s, start_rad, rate_rad_per_s } => start_rad + rate_rad_per_s * (t_s - start_s),
             Segment::Sine { start_s, offset_rad, amplitude_rad, frequency_hz } => {
-                offset_rad + amplitude_rad * libm::sinf(2.0 * PI * frequency_hz * (t_s - start_s))
+                offset_rad + amplitude_rad * crate::trig::sin(2.0 * PI * frequency_hz * (t_s - start_s))
             }
         }
     }
