@@ -17,9 +17,9 @@ pub const MAX_ERROR: f32 = 2.0e-6;
 
 const FRAC_2_PI: f32 = core::f32::consts::FRAC_2_PI;
 // π/2 = DP1 + DP2 + DP3 (Cephes: 12-bit-exact leading parts).
-const DP1: f32 = 1.570_312_5;
-const DP2: f32 = 4.837_512_969_970_703_125e-4;
-const DP3: f32 = 7.549_789_954_891_882e-8;
+const DP1: f32 = f32::from_bits(0x3fc9_0000); // 1.5703125
+const DP2: f32 = f32::from_bits(0x39fd_a000); // 4.837512969970703125e-4
+const DP3: f32 = f32::from_bits(0x33a2_2169); // 7.54978995489e-8
 
 /// `(sin x, cos x)`.
 pub fn sin_cos(x: f32) -> (f32, f32) {
