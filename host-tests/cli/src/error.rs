@@ -1,0 +1,78 @@
+//! The command line's error type: one line, printed by `main` after `error: `, exit status 2.
+
+use std::fmt;
+use std::path::PathBuf;
+
+use crate::profile_file::ProfileFileError;
+use crate::recording_io::RecordingError;
+
+/// Exit status of every failed command (bad input or failed I/O).
+pub const EXIT_FAILURE: u8 = 2;
+
+/// Anything that stops a subcommand.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum CliError {
+    /// A flag's value is wrong: names the flag and what is expected.
+    Flag {
+        /// The flag, e.g. `--faults`.
+        flag: &'static str,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A profile file could not be used (names the file and line).
+    Profile(ProfileFileError),
+    /// A recording could not be read or written (names the file, line and field).
+    Recording(RecordingError),
+    /// A file could not be created or written.
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The operating system's reason.
+        source: std::io::Error,
+    },
+    /// The simulator refused its configuration.
+    Simulation(String),
+}
+
+impl CliError {
+    /// A flag error.
+    pub fn flag(flag: &'static str, message: impl Into<String>) -> Self {
+        CliError::Flag { flag, message: message.into() }
+    }
+}
+
+impl fmt::Display for CliError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CliError::Flag { flag, message } => write!(f, "{flag}: {message}"),
+            CliError::Profile(e) => write!(f, "{e}"),
+            CliError::Recording(e) => write!(f, "{e}"),
+            CliError::Io { path, source } => write!(f, "cannot write '{}': {source}", path.display()),
+            CliError::Simulation(m) => write!(f, "simulation refused: {m}"),
+        }
+    }
+}
+
+impl std::error::Error for CliError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            CliError::Io { source, .. } => Some(source),
+            CliError::Profile(e) => Some(e),
+            CliError::Recording(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+impl From<ProfileFileError> for CliError {
+    fn from(e: ProfileFileError) -> Self {
+        CliError::Profile(e)
+    }
+}
+
+impl From<RecordingError> for CliError {
+    fn from(e: RecordingError) -> Self {
+        CliError::Recording(e)
+    }
+}

@@ -1,0 +1,77 @@
+//! `ema`: host tools of ema-monitor. Subcommands: `simulate` (reference model → recording CSV).
+
+use std::process::ExitCode;
+
+use clap::error::ErrorKind;
+use clap::{Parser, Subcommand};
+use ema_cli::error::{CliError, EXIT_FAILURE};
+use ema_cli::simulate::{self, SimulateArgs};
+
+/// Host tools of the EMA on-board health monitor.
+#[derive(Parser, Debug)]
+#[command(name = "ema", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Simulate the reference model (the "real" actuator) and write a 10 kHz recording CSV.
+    Simulate(SimulateArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return clap_error(&e),
+    };
+    let result: Result<String, CliError> = match &cli.command {
+        Command::Simulate(args) => simulate::run(args),
+    };
+    match result {
+        Ok(summary) => {
+            println!("{summary}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(EXIT_FAILURE)
+        }
+    }
+}
+
+/// Help and version go to stdout with success; every other parse error becomes one `error:` line.
+fn clap_error(e: &clap::Error) -> ExitCode {
+    match e.kind() {
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+            print!("{e}");
+            ExitCode::SUCCESS
+        }
+        ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            eprintln!("error: a subcommand is required (simulate); try 'ema --help'");
+            ExitCode::from(EXIT_FAILURE)
+        }
+        _ => {
+            let text = e.to_string();
+            let parts: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .filter(|l| !l.is_empty() && !l.starts_with("Usage:") && !l.starts_with("For more information"))
+                .collect();
+            let mut line = String::new();
+            for p in parts {
+                if !line.is_empty() {
+                    line.push_str(if line.ends_with(':') { " " } else { "; " });
+                }
+                line.push_str(p);
+            }
+            if line.starts_with("error:") {
+                eprintln!("{line}");
+            } else {
+                eprintln!("error: {line}");
+            }
+            ExitCode::from(EXIT_FAILURE)
+        }
+    }
+}

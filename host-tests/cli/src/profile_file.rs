@@ -1,0 +1,197 @@
+//! Command profiles in a small text format, validated by [`ema_monitor::Profile::new`].
+//!
+//! ```text
+//! # standard-like manoeuvre (surface angles in rad, times in s, frequencies in Hz)
+//! hold 0     0            # hold START VALUE
+//! hold 0.01  0.05
+//! ramp 0.30  -0.05 0.2    # ramp START START_RAD RATE_RAD_PER_S
+//! sine 0.60  0.01 0.01 4  # sine START OFFSET_RAD AMPLITUDE_RAD FREQUENCY_HZ
+//! end  0.85               # end DURATION
+//! ```
+//! One segment per line, from its start time until the next segment's; `#` starts a comment;
+//! blank lines are ignored. The first segment starts at 0, start times increase, `end` comes last
+//! and exactly once, at most 16 segments, every commanded value stays inside the end stops.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use ema_monitor::profile::{Segment, MAX_SEGMENTS};
+use ema_monitor::{EmaParams, Profile};
+
+/// Why a profile file was refused: names the file and, where it applies, the line.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProfileFileError {
+    /// The file.
+    pub path: PathBuf,
+    /// 1-based line, when one line is at fault.
+    pub line: Option<usize>,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl fmt::Display for ProfileFileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line {
+            Some(l) => write!(f, "profile file '{}' line {l}: {}", self.path.display(), self.message),
+            None => write!(f, "profile file '{}': {}", self.path.display(), self.message),
+        }
+    }
+}
+
+impl std::error::Error for ProfileFileError {}
+
+/// Reads and validates a profile file against the nominal end stops.
+pub fn read_profile(path: &Path) -> Result<Profile, ProfileFileError> {
+    let text = std::fs::read_to_string(path).map_err(|e| ProfileFileError {
+        path: path.to_owned(),
+        line: None,
+        message: format!("cannot read: {e}"),
+    })?;
+    parse_profile(&text, path, EmaParams::NOMINAL.end_stop_rad)
+}
+
+/// Parses profile text; `path` only names the source in errors.
+pub fn parse_profile(text: &str, path: &Path, end_stop_rad: f32) -> Result<Profile, ProfileFileError> {
+    let err = |line: Option<usize>, message: String| ProfileFileError { path: path.to_owned(), line, message };
+    let mut segments: Vec<(Segment, usize)> = Vec::new();
+    let mut end: Option<(f32, usize)> = None;
+    for (idx, raw) in text.lines().enumerate() {
+        let line = idx + 1;
+        let content = raw.split('#').next().unwrap_or("").trim();
+        if content.is_empty() {
+            continue;
+        }
+        let mut words = content.split_whitespace();
+        let keyword = words.next().unwrap_or("");
+        let args: Vec<&str> = words.collect();
+        if end.is_some() {
+            return Err(err(Some(line), format!("'{keyword}' after 'end': 'end DURATION' must be the last line")));
+        }
+        let names: &[&str] = match keyword {
+            "hold" => &["START", "VALUE"],
+            "ramp" => &["START", "START_RAD", "RATE"],
+            "sine" => &["START", "OFFSET", "AMPLITUDE", "FREQUENCY"],
+            "end" => &["DURATION"],
+            other => {
+                return Err(err(Some(line), format!("unknown keyword '{other}'; expected hold, ramp, sine or end")))
+            }
+        };
+        if args.len() != names.len() {
+            return Err(err(
+                Some(line),
+                format!(
+                    "'{keyword}' takes {} values ({keyword} {}), found {}",
+                    names.len(),
+                    names.join(" "),
+                    args.len()
+                ),
+            ));
+        }
+        let mut v = [0.0f32; 4];
+        for (i, (a, name)) in args.iter().zip(names).enumerate() {
+            v[i] = match a.parse::<f32>() {
+                Ok(x) if x.is_finite() => x,
+                Ok(_) => return Err(err(Some(line), format!("{name} '{a}' is not a finite number"))),
+                Err(_) => return Err(err(Some(line), format!("{name} '{a}' is not a number"))),
+            };
+        }
+        let seg = match keyword {
+            "hold" => Segment::Hold { start_s: v[0], value_rad: v[1] },
+            "ramp" => Segment::Ramp { start_s: v[0], start_rad: v[1], rate_rad_per_s: v[2] },
+            "sine" => Segment::Sine { start_s: v[0], offset_rad: v[1], amplitude_rad: v[2], frequency_hz: v[3] },
+            _ => {
+                end = Some((v[0], line));
+                continue;
+            }
+        };
+        if segments.len() == MAX_SEGMENTS {
+            return Err(err(Some(line), format!("more than {MAX_SEGMENTS} segments")));
+        }
+        let start = seg.start_s();
+        match segments.last() {
+            None if start != 0.0 => {
+                return Err(err(Some(line), format!("the first segment must start at 0, not {start}")))
+            }
+            Some((prev, _)) if start <= prev.start_s() => {
+                return Err(err(
+                    Some(line),
+                    format!("start time {start} s does not come after the previous segment's {} s", prev.start_s()),
+                ))
+            }
+            _ => {}
+        }
+        if let Segment::Sine { frequency_hz, .. } = seg {
+            if frequency_hz < 0.0 {
+                return Err(err(Some(line), format!("FREQUENCY {frequency_hz} Hz is negative")));
+            }
+        }
+        segments.push((seg, line));
+    }
+    let Some((duration, end_line)) = end else {
+        return Err(err(None, "no 'end DURATION' line".into()));
+    };
+    let Some((last, _)) = segments.last() else {
+        return Err(err(Some(end_line), "no segment before 'end'".into()));
+    };
+    if duration <= last.start_s() {
+        return Err(err(
+            Some(end_line),
+            format!("duration {duration} s does not come after the last segment's start {} s", last.start_s()),
+        ));
+    }
+    let segs: Vec<Segment> = segments.iter().map(|s| s.0).collect();
+    match Profile::new(&segs, duration, end_stop_rad) {
+        Ok(p) => Ok(p),
+        Err(e) => {
+            // Find the first segment that the shared validation refuses, to name its line.
+            for i in 0..segs.len() {
+                let stop = segs.get(i + 1).map_or(duration, Segment::start_s);
+                if Profile::new(&segs[..=i], stop, end_stop_rad).is_err() {
+                    return Err(err(
+                        Some(segments[i].1),
+                        format!("{e} (end stops ±{end_stop_rad} rad, the value must stay strictly inside)"),
+                    ));
+                }
+            }
+            Err(err(None, e.to_string()))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<Profile, ProfileFileError> {
+        parse_profile(text, Path::new("p.txt"), 0.6)
+    }
+
+    #[test]
+    fn the_standard_profile_in_text_form() {
+        let text = "# standard\nhold 0 0\nhold 0.01 0.05\nhold 0.15 -0.05\n\nramp 0.30 -0.05 0.2\nsine 0.60 0.01 0.01 4 # 4 Hz\nend 0.85\n";
+        assert_eq!(parse(text), Ok(Profile::STANDARD));
+    }
+
+    #[test]
+    fn errors_name_the_line() {
+        let cases = [
+            ("hold 0 0\nstep 1 2\nend 1", 2, "unknown keyword 'step'"),
+            ("hold 0 0\nramp 0.1 0\nend 1", 2, "takes 3 values"),
+            ("hold 0 abc\nend 1", 1, "VALUE 'abc' is not a number"),
+            ("hold 0 inf\nend 1", 1, "not a finite number"),
+            ("hold 0.1 0\nend 1", 1, "must start at 0"),
+            ("hold 0 0\nhold 0.5 0.1\nhold 0.4 0\nend 1", 3, "does not come after"),
+            ("hold 0 0\nend 1\nhold 2 0", 3, "after 'end'"),
+            ("hold 0 0\nhold 0.5 0.7\nend 1", 2, "beyond the end stops"),
+            ("hold 0 0\nramp 0.1 0 10\nend 1", 2, "beyond the end stops"),
+            ("hold 0 0\nend 0", 2, "duration 0 s"),
+            ("end 1", 1, "no segment"),
+        ];
+        for (text, line, msg) in cases {
+            let e = parse(text).expect_err(text);
+            assert_eq!(e.line, Some(line), "{text}: {e}");
+            assert!(e.to_string().contains(msg) && e.to_string().contains("p.txt"), "{text}: {e}");
+        }
+        assert!(parse("hold 0 0").expect_err("no end").to_string().contains("no 'end DURATION'"));
+    }
+}

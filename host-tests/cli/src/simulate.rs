@@ -1,0 +1,177 @@
+//! `ema simulate`: runs the reference model and writes a recording.
+//!
+//! ```text
+//! ema simulate --faults k1,…,k8 [--effect ID=S]… [--profile standard|FILE] [--noise on|off] [--seed N] --out FILE.csv
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use clap::{Args, ValueEnum};
+use ema_monitor::{FaultVector, Profile, FAULT_COUNT};
+use ema_reference::{simulate, Effect, Effects, SimConfig};
+
+use crate::error::CliError;
+use crate::profile_file::read_profile;
+use crate::recording_io::{write_recording, Recording};
+
+/// Sensor noise switch.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Noise {
+    /// Seeded white noise on the position and current sensors.
+    On,
+    /// No noise (lags and quantization stay).
+    Off,
+}
+
+/// Arguments of `ema simulate`.
+#[derive(Args, Debug, Clone)]
+pub struct SimulateArgs {
+    /// Fault vector k1..k8 in [0, 1]: friction, backlash, short_a, short_b, short_c, eccentricity,
+    /// ecc_phase, gain (healthy: 0,0,0,0,0,0,0.5,0.5).
+    #[arg(long, value_name = "K1,...,K8", default_value = "0,0,0,0,0,0,0.5,0.5", allow_hyphen_values = true)]
+    pub faults: String,
+    /// Unmodelled effect at severity S in [0, 1], repeatable (IDs: cogging, stribeck, viscous,
+    /// winding_temperature, emf_harmonics, dead_time, sensor_offset, hinge_stiffness, saturation,
+    /// hall_misalignment, compliance, bus_sag).
+    #[arg(long = "effect", value_name = "ID=S", allow_hyphen_values = true)]
+    pub effects: Vec<String>,
+    /// Command profile: `standard` or a profile file (lines `hold START VALUE`, `ramp START START_RAD RATE`,
+    /// `sine START OFFSET AMP FREQ`, `end DURATION`; `#` comments).
+    #[arg(long, value_name = "NAME|FILE", default_value = "standard")]
+    pub profile: String,
+    /// Sensor noise.
+    #[arg(long, value_enum, default_value_t = Noise::On)]
+    pub noise: Noise,
+    /// Seed of the noise generator (same seed, same file).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub seed: u64,
+    /// Output CSV file.
+    #[arg(long, value_name = "FILE.csv")]
+    pub out: PathBuf,
+}
+
+/// Parses `k1,…,k8`: exactly eight numbers in `[0, 1]`.
+pub fn parse_faults(text: &str) -> Result<FaultVector, CliError> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() != FAULT_COUNT {
+        return Err(CliError::flag(
+            "--faults",
+            format!("need {FAULT_COUNT} comma-separated values k1,...,k8, found {} in '{text}'", parts.len()),
+        ));
+    }
+    let mut k = [0.0f32; FAULT_COUNT];
+    for (i, p) in parts.iter().enumerate() {
+        let v: f32 =
+            p.parse().map_err(|_| CliError::flag("--faults", format!("k{} = '{p}' is not a number", i + 1)))?;
+        if !(0.0..=1.0).contains(&v) {
+            return Err(CliError::flag("--faults", format!("k{} = {p} is outside [0, 1]", i + 1)));
+        }
+        k[i] = v;
+    }
+    Ok(FaultVector(k))
+}
+
+/// Parses the `--effect ID=S` list: known IDs, each once, severities in `[0, 1]`.
+pub fn parse_effects(list: &[String]) -> Result<Effects, CliError> {
+    let mut fx = Effects::NONE;
+    let mut seen: Vec<Effect> = Vec::new();
+    for item in list {
+        let Some((id, sev)) = item.split_once('=') else {
+            return Err(CliError::flag("--effect", format!("'{item}' is not ID=S (e.g. cogging=0.5)")));
+        };
+        let effect: Effect =
+            id.trim().parse().map_err(|e: ema_reference::UnknownEffect| CliError::flag("--effect", e.to_string()))?;
+        if seen.contains(&effect) {
+            return Err(CliError::flag("--effect", format!("effect '{effect}' given more than once")));
+        }
+        seen.push(effect);
+        let s: f64 = sev
+            .trim()
+            .parse()
+            .map_err(|_| CliError::flag("--effect", format!("{id}: severity '{sev}' is not a number")))?;
+        fx.set(effect, s).map_err(|e| CliError::flag("--effect", e.to_string()))?;
+    }
+    Ok(fx)
+}
+
+/// `standard` or a profile file.
+pub fn resolve_profile(name: &str) -> Result<Profile, CliError> {
+    if name == "standard" {
+        return Ok(Profile::STANDARD);
+    }
+    let path = Path::new(name);
+    if !path.exists() {
+        return Err(CliError::flag("--profile", format!("'{name}' is neither 'standard' nor an existing file")));
+    }
+    Ok(read_profile(path)?)
+}
+
+/// The simulation configuration the arguments describe.
+pub fn config(args: &SimulateArgs) -> Result<SimConfig, CliError> {
+    Ok(SimConfig {
+        faults: parse_faults(&args.faults)?,
+        effects: parse_effects(&args.effects)?,
+        profile: resolve_profile(&args.profile)?,
+        noise: args.noise == Noise::On,
+        seed: args.seed,
+        ..SimConfig::default()
+    })
+}
+
+/// Runs `ema simulate`; returns the one-line summary printed on success.
+pub fn run(args: &SimulateArgs) -> Result<String, CliError> {
+    let cfg = config(args)?;
+    let result = simulate(&cfg).map_err(|e| CliError::Simulation(e.to_string()))?;
+    let k = cfg.faults.0.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(",");
+    let fx: Vec<String> = cfg.effects.active().map(|(e, s)| format!("{e}={s}")).collect();
+    let comments = vec![
+        format!("ema simulate: reference model (ema-reference {})", env!("CARGO_PKG_VERSION")),
+        format!("faults: {k}"),
+        format!("effects: {}", if fx.is_empty() { "none".to_owned() } else { fx.join(",") }),
+        format!("profile: {}", args.profile),
+        format!("noise: {}, seed: {}", if cfg.noise { "on" } else { "off" }, cfg.seed),
+        format!("sample_rate_hz: {}", ema_monitor::trace::SAMPLE_RATE_HZ),
+    ];
+    let rec = Recording::from_reference(&result, comments);
+    write_recording(&args.out, &rec)?;
+    Ok(format!(
+        "wrote {} samples ({} s at {} Hz) to {}",
+        rec.len(),
+        cfg.profile.duration_s(),
+        ema_monitor::trace::SAMPLE_RATE_HZ,
+        args.out.display()
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn faults_and_effects_parse() {
+        assert_eq!(parse_faults("0,0,0,0,0,0,0.5,0.5").ok(), Some(FaultVector::HEALTHY));
+        for (bad, msg) in [
+            ("0,0,0", "need 8"),
+            ("0,0,0,0,0,0,0.5,1.5", "k8 = 1.5 is outside"),
+            ("0,0,0,0,0,0,0.5,NaN", "k8 = NaN is outside"),
+            ("0,0,x,0,0,0,0.5,0.5", "k3 = 'x' is not a number"),
+            ("-0.1,0,0,0,0,0,0.5,0.5", "k1 = -0.1 is outside"),
+        ] {
+            let e = parse_faults(bad).expect_err(bad).to_string();
+            assert!(e.contains(msg) && e.starts_with("--faults"), "{e}");
+        }
+        let fx = parse_effects(&["cogging=0.5".into(), "bus_sag=1".into()]).expect("valid");
+        assert_eq!(fx.get(Effect::Cogging), 0.5);
+        for (bad, msg) in [
+            (vec!["cog=0.5"], "unknown effect 'cog'"),
+            (vec!["cogging=1.5"], "outside [0, 1]"),
+            (vec!["cogging=NaN"], "outside [0, 1]"),
+            (vec!["cogging"], "not ID=S"),
+            (vec!["cogging=0.1", "cogging=0.2"], "more than once"),
+        ] {
+            let list: Vec<String> = bad.iter().map(|s| s.to_string()).collect();
+            let e = parse_effects(&list).expect_err("refused").to_string();
+            assert!(e.contains(msg), "{e}");
+        }
+    }
+}

@@ -1,0 +1,253 @@
+//! `ema simulate` end to end on the built binary, and the recording reader's refusals.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use ema_cli::recording_io::{read_recording, RecordingErrorKind, HEADER};
+use ema_monitor::FaultVector;
+use ema_reference::{simulate, Effect, Effects, SimConfig};
+
+/// A fresh scratch directory for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("ema-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir is writable");
+    dir
+}
+
+fn ema(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ema")).args(args).output().expect("the binary runs")
+}
+
+/// Runs `ema` expecting failure: exit status 2 and exactly one stderr line starting with `error:`
+/// that contains every `needle`; no panic, no backtrace.
+fn refused(args: &[&str], needles: &[&str]) -> String {
+    let out = ema(args);
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+    assert_eq!(err.lines().count(), 1, "{args:?}: one line expected, got {err:?}");
+    assert!(err.starts_with("error: "), "{args:?}: {err}");
+    assert!(!err.contains("panicked") && !err.contains("backtrace"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "{args:?}: '{n}' missing from {err:?}");
+    }
+    err
+}
+
+#[test]
+fn bad_flags_are_refused_with_one_line() {
+    let dir = scratch("flags");
+    let out = dir.join("out.csv");
+    let out = out.to_str().expect("utf-8 temp path");
+    refused(&["simulate", "--faults", "0,0,0", "--out", out], &["--faults", "need 8", "found 3"]);
+    refused(&["simulate", "--faults", "0,0,0,0,0,0,0,0,0", "--out", out], &["need 8", "found 9"]);
+    refused(&["simulate", "--faults", "0,0,0,0,0,0,0.5,1.5", "--out", out], &["k8 = 1.5", "outside [0, 1]"]);
+    refused(&["simulate", "--faults", "-0.2,0,0,0,0,0,0.5,0.5", "--out", out], &["k1 = -0.2", "outside"]);
+    refused(&["simulate", "--faults", "0,0,0,NaN,0,0,0.5,0.5", "--out", out], &["k4 = NaN"]);
+    refused(&["simulate", "--faults", "0,abc,0,0,0,0,0.5,0.5", "--out", out], &["k2 = 'abc' is not a number"]);
+    refused(&["simulate", "--effect", "cogging=1.5", "--out", out], &["--effect", "severity 1.5", "cogging", "[0, 1]"]);
+    refused(&["simulate", "--effect", "cogging=-0.5", "--out", out], &["severity -0.5"]);
+    refused(&["simulate", "--effect", "stribeck=NaN", "--out", out], &["severity NaN"]);
+    refused(&["simulate", "--effect", "stribeck=lots", "--out", out], &["severity 'lots' is not a number"]);
+    refused(
+        &["simulate", "--effect", "coggin=0.5", "--out", out],
+        &["unknown effect 'coggin'", "cogging", "bus_sag", "compliance"],
+    );
+    refused(&["simulate", "--effect", "cogging", "--out", out], &["'cogging' is not ID=S"]);
+    refused(
+        &["simulate", "--effect", "viscous=0.1", "--effect", "viscous=0.2", "--out", out],
+        &["effect 'viscous' given more than once"],
+    );
+    refused(&["simulate", "--noise", "loud", "--out", out], &["'loud'", "--noise", "on, off"]);
+    refused(&["simulate", "--seed", "x", "--out", out], &["'x'", "--seed"]);
+    refused(&["simulate"], &["--out"]);
+    refused(&["simulate", "--out", out, "--bogus"], &["--bogus"]);
+    refused(&[], &["subcommand"]);
+    refused(&["simulate", "--profile", "no-such-profile", "--out", out], &["--profile", "no-such-profile", "neither"]);
+    let missing_dir = dir.join("missing").join("out.csv");
+    refused(&["simulate", "--out", missing_dir.to_str().expect("utf-8")], &["cannot write", "missing"]);
+    assert!(!Path::new(out).exists(), "no output on refusal");
+}
+
+#[test]
+fn bad_profile_files_name_file_and_line() {
+    let dir = scratch("profiles");
+    let out = dir.join("out.csv");
+    let cases = [
+        ("keyword.txt", "hold 0 0\n# fine\nstep 0.1 0.05\nend 0.2\n", "line 3", "unknown keyword 'step'"),
+        ("count.txt", "hold 0 0\nramp 0.1 0.05\nend 0.2\n", "line 2", "takes 3 values"),
+        ("number.txt", "hold 0 0\nhold 0.1 fast\nend 0.2\n", "line 2", "VALUE 'fast' is not a number"),
+        ("order.txt", "hold 0 0\nhold 0.1 0.01\nhold 0.05 0\nend 0.2\n", "line 3", "does not come after"),
+        ("stops.txt", "hold 0 0\n\nsine 0.1 0.3 0.4 2\nend 0.2\n", "line 3", "end stops"),
+        ("noend.txt", "hold 0 0\n", "noend.txt", "no 'end DURATION'"),
+        ("duration.txt", "hold 0 0\nhold 0.1 0\nend 0.1\n", "line 3", "duration 0.1 s"),
+    ];
+    for (name, text, line, msg) in cases {
+        let p = dir.join(name);
+        std::fs::write(&p, text).expect("writable");
+        let err = refused(
+            &["simulate", "--profile", p.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8")],
+            &[name, line, msg],
+        );
+        assert!(err.contains("profile file"), "{err}");
+    }
+}
+
+#[test]
+fn simulate_round_trips_through_the_reader() {
+    let dir = scratch("roundtrip");
+    let out = dir.join("rec.csv");
+    let faults = "0.2,0.1,0.3,0,0,0.4,0.25,0.6";
+    let run = || {
+        let o = ema(&[
+            "simulate",
+            "--faults",
+            faults,
+            "--effect",
+            "cogging=0.3",
+            "--effect",
+            "dead_time=0.5",
+            "--seed",
+            "7",
+            "--out",
+            out.to_str().expect("utf-8"),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(String::from_utf8_lossy(&o.stdout).contains("wrote 8500 samples"));
+        std::fs::read(&out).expect("written")
+    };
+    let first = run();
+    assert_eq!(first, run(), "same seed, same file");
+    let rec = read_recording(&out).expect("valid recording");
+    let cfg = SimConfig {
+        faults: FaultVector([0.2, 0.1, 0.3, 0.0, 0.0, 0.4, 0.25, 0.6]),
+        effects: Effects::NONE.with(Effect::Cogging, 0.3).and_then(|e| e.with(Effect::DeadTime, 0.5)).expect("valid"),
+        seed: 7,
+        ..SimConfig::default()
+    };
+    let truth = simulate(&cfg).expect("valid");
+    assert_eq!(rec.len(), truth.samples.len());
+    for (k, s) in truth.samples.iter().enumerate() {
+        let row = [rec.time_s[k], rec.command_rad[k], rec.position_rad[k], rec.ia_a[k], rec.ib_a[k], rec.ic_a[k]];
+        let want =
+            [s.time_s, s.command_rad, s.position_rad, s.phase_current_a[0], s.phase_current_a[1], s.phase_current_a[2]];
+        assert_eq!(row, want, "row {k}");
+    }
+    assert_eq!(rec.sample_period_s(), 1e-4);
+    assert!(
+        rec.comments.iter().any(|c| c.contains("cogging=0.3") && c.contains("dead_time=0.5")),
+        "{:?}",
+        rec.comments
+    );
+    assert!(rec.comments.iter().any(|c| c.contains(faults)), "{:?}", rec.comments);
+}
+
+#[test]
+fn profile_file_drives_the_command() {
+    let dir = scratch("profile");
+    let p = dir.join("p.txt");
+    std::fs::write(&p, "# test\nhold 0 0\nramp 0.01 0 0.5   # up\nsine 0.05 0.02 0.01 10\nend 0.1\n")
+        .expect("writable");
+    let out = dir.join("rec.csv");
+    let o = ema(&[
+        "simulate",
+        "--profile",
+        p.to_str().expect("utf-8"),
+        "--noise",
+        "off",
+        "--out",
+        out.to_str().expect("utf-8"),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rec = read_recording(&out).expect("valid");
+    assert_eq!(rec.len(), 1000);
+    assert_eq!(rec.command_rad[50], 0.0);
+    assert!((rec.command_rad[300] - 0.01).abs() < 1e-6, "{}", rec.command_rad[300]);
+    assert!((rec.command_rad[750] - 0.03).abs() < 1e-6, "{}", rec.command_rad[750]);
+    // quarter period of 10 Hz
+}
+
+/// The reader refuses every malformed file with its name, the line and the field.
+#[test]
+fn reader_refuses_bad_files_naming_file_line_and_field() {
+    let dir = scratch("reader");
+    let header = HEADER.join(",");
+    let good_rows = "0,0,0,0,0,0\n0.0001,0,0,0,0,0\n0.0002,0,0,0,0,0\n";
+    // (file, content, expected line, expected field, expected message)
+    type Case<'a> = (&'a str, String, Option<usize>, Option<&'a str>, &'a str);
+    let cases: Vec<Case> = vec![
+        ("empty.csv", String::new(), None, None, "empty file"),
+        ("comments.csv", "# only a comment\n\n".into(), None, None, "empty file"),
+        (
+            "header.csv",
+            format!("# c\ntime,cmd,pos,ia,ib,ic\n{good_rows}"),
+            Some(2),
+            None,
+            "expected 'time_s,command_rad",
+        ),
+        ("fields.csv", format!("{header}\n0,0,0,0,0,0\n0.0001,0,0,0,0\n"), Some(3), None, "expected 6 fields, found 5"),
+        (
+            "text.csv",
+            format!("{header}\n0,0,0,0,0,0\n0.0001,0,0,zero,0,0\n"),
+            Some(3),
+            Some("ia_A"),
+            "'zero' is not a number",
+        ),
+        (
+            "nan.csv",
+            format!("{header}\n0,0,NaN,0,0,0\n0.0001,0,0,0,0,0\n"),
+            Some(2),
+            Some("position_rad"),
+            "'NaN' is not a finite",
+        ),
+        (
+            "inf.csv",
+            format!("{header}\n0,0,0,0,0,inf\n0.0001,0,0,0,0,0\n"),
+            Some(2),
+            Some("ic_A"),
+            "'inf' is not a finite",
+        ),
+        (
+            "back.csv",
+            format!("{header}\n0,0,0,0,0,0\n0.0001,0,0,0,0,0\n0.0001,0,0,0,0,0\n"),
+            Some(4),
+            Some("time_s"),
+            "does not increase",
+        ),
+        (
+            "gap.csv",
+            format!("{header}\n0,0,0,0,0,0\n0.0001,0,0,0,0,0\n0.0003,0,0,0,0,0\n"),
+            Some(4),
+            Some("time_s"),
+            "non-uniform",
+        ),
+        ("short.csv", format!("{header}\n0,0,0,0,0,0\n"), None, None, "too few rows: 1"),
+        ("norows.csv", format!("{header}\n"), None, None, "too few rows: 0"),
+    ];
+    for (name, text, line, field, msg) in cases {
+        let p = dir.join(name);
+        std::fs::write(&p, &text).expect("writable");
+        let e = read_recording(&p).expect_err(name);
+        let shown = e.to_string();
+        assert_eq!(e.line, line, "{shown}");
+        assert_eq!(e.field, field, "{shown}");
+        assert!(shown.contains(name) && shown.contains(msg), "{shown}");
+        if let Some(l) = line {
+            assert!(shown.contains(&format!("line {l}")), "{shown}");
+        }
+        if let Some(f) = field {
+            assert!(shown.contains(&format!("field '{f}'")), "{shown}");
+        }
+    }
+    let missing = read_recording(dir.join("nope.csv")).expect_err("missing file");
+    assert!(matches!(missing.kind, RecordingErrorKind::Io(_)));
+    assert!(missing.to_string().contains("nope.csv") && missing.to_string().contains("cannot open"), "{missing}");
+    // Wrong header shows both what was expected and what was found.
+    let e = read_recording(dir.join("header.csv")).expect_err("bad header").to_string();
+    assert!(e.contains("found 'time,cmd,pos,ia,ib,ic'"), "{e}");
+    // A good file with comments and blank lines reads.
+    let p = dir.join("good.csv");
+    std::fs::write(&p, format!("# a\n\n{header}\n{good_rows}\n")).expect("writable");
+    let r = read_recording(&p).expect("valid");
+    assert_eq!((r.len(), r.comments.clone()), (3, vec!["a".to_owned()]));
+}

@@ -1,0 +1,89 @@
+//! Transducers (physics.md §3.8): first-order lags, white noise, quantization.
+//!
+//! | channel | model |
+//! |---|---|
+//! | surface position | lag `τ = 0.2 ms`, noise `σ = 1e-5 rad`, 16-bit quantization over ±0.6 rad |
+//! | phase currents | sensor error `(1 + g_j)·i_j + o_j` (effect `sensor_offset`), 20 kHz first-order bandwidth, noise `σ = 0.02 A`, 12-bit ADC [`ema_monitor::trace::amps_to_counts`] |
+//!
+//! The lags are integrated at every step of the model (exact discretization `y += (1 − e^{−dt/τ})·(x − y)`);
+//! noise and quantization are applied when the ACE samples.
+
+use ema_monitor::trace;
+
+/// Position transducer lag.
+pub const POSITION_LAG_S: f64 = 2.0e-4;
+/// Position transducer white noise (standard deviation).
+pub const POSITION_NOISE_RAD: f64 = 1.0e-5;
+/// Position transducer resolution.
+pub const POSITION_BITS: u32 = 16;
+/// Position transducer range `±POSITION_RANGE_RAD`.
+pub const POSITION_RANGE_RAD: f64 = 0.6;
+/// Current sensor bandwidth.
+pub const CURRENT_BANDWIDTH_HZ: f64 = 20.0e3;
+/// Current sensor white noise (standard deviation).
+pub const CURRENT_NOISE_A: f64 = 0.02;
+
+/// One position code: `2·POSITION_RANGE_RAD / 2^16`.
+pub fn position_lsb_rad() -> f64 {
+    2.0 * POSITION_RANGE_RAD / f64::from(1u32 << POSITION_BITS)
+}
+
+/// Quantizes a position to the 16-bit transducer code grid (saturating at the range ends).
+pub fn quantize_position(theta_rad: f64) -> f64 {
+    let lsb = position_lsb_rad();
+    let half = f64::from(1u32 << (POSITION_BITS - 1));
+    let code = (theta_rad / lsb).round().clamp(-half, half - 1.0);
+    code * lsb + 0.0 // + 0.0 turns −0 into +0
+}
+
+/// Current ADC: `(counts, amps)` of a current through the shared 12-bit format.
+pub fn adc_current(i_a: f64) -> (u16, f64) {
+    let counts = trace::amps_to_counts(i_a as f32);
+    (counts, f64::from(trace::counts_to_amps(counts)))
+}
+
+/// First-order lag `τ·dy/dt = x − y`, discretized exactly for a fixed step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lag {
+    /// Output `y`.
+    pub value: f64,
+    alpha: f64,
+}
+
+impl Lag {
+    /// Lag of time constant `tau_s` stepped every `dt_s`, starting at 0.
+    pub fn new(tau_s: f64, dt_s: f64) -> Self {
+        Self { value: 0.0, alpha: 1.0 - (-dt_s / tau_s).exp() }
+    }
+
+    /// Advances one step towards `x`.
+    pub fn update(&mut self, x: f64) {
+        self.value += self.alpha * (x - self.value);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantizers() {
+        let lsb = position_lsb_rad();
+        assert!((lsb - 1.2 / 65536.0).abs() < 1e-18);
+        assert_eq!(quantize_position(0.4 * lsb), 0.0);
+        assert_eq!(quantize_position(0.6 * lsb), lsb);
+        assert_eq!(quantize_position(1.0), 32767.0 * lsb);
+        let (c, a) = adc_current(1.0);
+        assert_eq!(c, 2048 + 102);
+        assert!((a - 102.0 * 40.0 / 4096.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn lag_step_response() {
+        let mut l = Lag::new(1e-3, 1e-6);
+        for _ in 0..1000 {
+            l.update(1.0);
+        }
+        assert!((l.value - (1.0 - (-1.0f64).exp())).abs() < 1e-9);
+    }
+}
