@@ -20,13 +20,14 @@ use crate::params::EmaParams;
 use crate::profile::Profile;
 
 /// Runs the monitor model with faults `k` under `profile` for `samples` window samples and hands
-/// each block-averaged `|I|` to `sink(index, value)`; `sink` returns `false` to stop early.
+/// each block-averaged `|I|`, with the model state at the block's end, to `sink(index, value,
+/// state)`; `sink` returns `false` to stop early.
 pub fn simulate_window(
     params: &EmaParams,
     profile: &Profile,
     k: &FaultVector,
     samples: usize,
-    mut sink: impl FnMut(usize, f32) -> bool,
+    mut sink: impl FnMut(usize, f32, &ModelState) -> bool,
 ) {
     let model = MonitorModel::new(params, k);
     let dt = model.dt_s();
@@ -39,7 +40,7 @@ pub fn simulate_window(
             model.step(&mut state, profile.command_rad(step as f32 * dt));
             step += 1;
         }
-        if !sink(i, block * (1.0 / DECIMATION as f32)) {
+        if !sink(i, block * (1.0 / DECIMATION as f32), &state) {
             return;
         }
     }
@@ -77,7 +78,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
         // Stop when sum·inv_n > abandon_above; compare sums to avoid a multiply per sample.
         let limit = if abandon_above.is_finite() { abandon_above * n as f32 } else { f32::INFINITY };
         let mut sum = 0.0f32;
-        simulate_window(&self.params, &self.profile, k, n, |i, model_a| {
+        simulate_window(&self.params, &self.profile, k, n, |i, model_a, _| {
             let r = y[i] - model_a;
             sum += w[i] * r * r;
             sum <= limit
@@ -106,7 +107,7 @@ mod tests {
         let (p, profile) = (EmaParams::NOMINAL, Profile::STANDARD);
         let mut c = MeasuredTrace::new();
         let n = (profile.duration_s() / p.control_period_s) as usize / DECIMATION;
-        simulate_window(&p, &profile, k, n, |_, i| {
+        simulate_window(&p, &profile, k, n, |_, i, _| {
             // feed DECIMATION identical frames whose I_3eq is the block value
             for _ in 0..DECIMATION {
                 c.push(i, -i, 0.0).unwrap();

@@ -33,6 +33,13 @@ pub enum CliError {
     },
     /// The simulator refused its configuration.
     Simulation(String),
+    /// An input file is unusable for the monitor (names the file and what is wrong).
+    Input {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, naming the line and field where there is one.
+        message: String,
+    },
 }
 
 impl CliError {
@@ -50,6 +57,7 @@ impl fmt::Display for CliError {
             CliError::Recording(e) => write!(f, "{e}"),
             CliError::Io { path, source } => write!(f, "cannot write '{}': {source}", path.display()),
             CliError::Simulation(m) => write!(f, "simulation refused: {m}"),
+            CliError::Input { path, message } => write!(f, "{}: {message}", path.display()),
         }
     }
 }

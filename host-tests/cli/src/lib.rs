@@ -8,6 +8,7 @@
 #![forbid(unsafe_code)]
 
 pub mod error;
+pub mod identify;
 pub mod profile_file;
 pub mod recording_io;
 pub mod simulate;

@@ -1,10 +1,11 @@
-//! `ema`: host tools of ema-monitor. Subcommands: `simulate` (reference model → recording CSV).
+//! `ema`: host tools of ema-monitor. Subcommands: `simulate` (reference model → recording CSV), `identify` (core → health report).
 
 use std::process::ExitCode;
 
 use clap::error::ErrorKind;
 use clap::{Parser, Subcommand};
 use ema_cli::error::{CliError, EXIT_FAILURE};
+use ema_cli::identify::{self, IdentifyArgs};
 use ema_cli::simulate::{self, SimulateArgs};
 
 /// Host tools of the EMA on-board health monitor.
@@ -19,6 +20,8 @@ struct Cli {
 enum Command {
     /// Simulate the reference model (the "real" actuator) and write a 10 kHz recording CSV.
     Simulate(SimulateArgs),
+    /// Identify the faults behind a recording with the on-board core (monitor model + PSO/GA).
+    Identify(IdentifyArgs),
 }
 
 fn main() -> ExitCode {
@@ -28,6 +31,7 @@ fn main() -> ExitCode {
     };
     let result: Result<String, CliError> = match &cli.command {
         Command::Simulate(args) => simulate::run(args),
+        Command::Identify(args) => identify::run(args),
     };
     match result {
         Ok(summary) => {
@@ -49,7 +53,7 @@ fn clap_error(e: &clap::Error) -> ExitCode {
             ExitCode::SUCCESS
         }
         ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
-            eprintln!("error: a subcommand is required (simulate); try 'ema --help'");
+            eprintln!("error: a subcommand is required (simulate, identify); try 'ema --help'");
             ExitCode::from(EXIT_FAILURE)
         }
         _ => {

@@ -1,0 +1,229 @@
+//! `ema identify`: the `no_std` core built for the host — the same code as the firmware —
+//! identifies the faults behind a recording and prints the health report.
+//!
+//! Two inputs:
+//! - a recording CSV (`ema simulate`'s format, 10 kHz): phase currents in amperes go straight to
+//!   conditioning; the command column must match the command profile (`--profile`, default
+//!   `standard`), because the monitor model is driven by the profile, as on board;
+//! - `--firmware-trace FILE`: the firmware's packed 12-bit trace, read through the same replay ADC,
+//!   `OneShot` reader and fixed-point calibration as on the MCU, with the on-board window, swarm
+//!   and settings — its fault vector is bit-identical to the firmware's (`--bits` prints the bits;
+//!   `scripts/parity` compares them).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::{Args, ValueEnum};
+use ema_monitor::acquisition::{AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
+use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::health::HealthReport;
+use ema_monitor::monitor::{self, Algorithm, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
+use ema_monitor::trace::PackedTrace;
+use ema_monitor::{EmaParams, Profile};
+use serde_json::json;
+
+use crate::error::CliError;
+use crate::recording_io::{read_recording, Recording};
+use crate::simulate::resolve_profile;
+
+/// Window capacity for host identifications from CSV: 3.2 s of recording at the 2.5 kHz fitness rate.
+pub const HOST_WINDOW: usize = 8192;
+
+/// Largest difference between the recorded command and the profile before the file is refused.
+pub const COMMAND_TOLERANCE_RAD: f64 = 1e-6;
+
+/// Optimizer choice on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum AlgorithmArg {
+    /// Particle swarm (default, as on board).
+    Pso,
+    /// Genetic algorithm.
+    Ga,
+}
+
+impl From<AlgorithmArg> for Algorithm {
+    fn from(a: AlgorithmArg) -> Self {
+        match a {
+            AlgorithmArg::Pso => Algorithm::Pso,
+            AlgorithmArg::Ga => Algorithm::Ga,
+        }
+    }
+}
+
+/// Arguments of `ema identify`.
+#[derive(Args, Debug, Clone)]
+pub struct IdentifyArgs {
+    /// Recording CSV to identify (time_s, command_rad, position_rad, ia_A, ib_A, ic_A at 10 kHz).
+    #[arg(required_unless_present = "firmware_trace", conflicts_with = "firmware_trace")]
+    pub file: Option<PathBuf>,
+    /// Identify the firmware's packed trace instead, exactly as the firmware does.
+    #[arg(long, value_name = "FILE")]
+    pub firmware_trace: Option<PathBuf>,
+    /// Optimizer.
+    #[arg(long, value_enum, default_value = "pso")]
+    pub algorithm: AlgorithmArg,
+    /// Seed of the optimizer's random generator.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Iteration limit (the paper: 200).
+    #[arg(long, default_value_t = 200)]
+    pub max_iterations: u32,
+    /// Command profile the recording was made with: `standard` or a profile file.
+    #[arg(long, default_value = "standard")]
+    pub profile: String,
+    /// Print JSON instead of the readable report.
+    #[arg(long)]
+    pub json: bool,
+    /// Also print the fault vector's f32 bit patterns (for the host/target parity check).
+    #[arg(long)]
+    pub bits: bool,
+}
+
+/// Outcome of one identification.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// The report of the core.
+    pub report: HealthReport,
+    /// Wall time of the identification alone (acquisition and file reading excluded).
+    pub seconds: f64,
+}
+
+/// Runs `ema identify`.
+pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
+    let config = IdentifyConfig {
+        algorithm: args.algorithm.into(),
+        seed: args.seed,
+        max_iterations: args.max_iterations,
+        ..IdentifyConfig::default()
+    };
+    let outcome = match (&args.firmware_trace, &args.file) {
+        (Some(path), _) => identify_firmware_trace(path, &config)?,
+        (None, Some(path)) => {
+            let profile = resolve_profile(&args.profile)?;
+            let recording = read_recording(path).map_err(CliError::Recording)?;
+            identify_recording(&recording, path, &profile, &config)?
+        }
+        (None, None) => return Err(CliError::flag("FILE", "give a recording CSV or --firmware-trace FILE")),
+    };
+    Ok(render(&outcome, args))
+}
+
+/// Identifies a recording read from `path` (used for messages), driven by `profile`.
+pub fn identify_recording(
+    recording: &Recording,
+    path: &Path,
+    profile: &Profile,
+    config: &IdentifyConfig,
+) -> Result<Outcome, CliError> {
+    let params = EmaParams::NOMINAL;
+    check_recording(recording, path, profile, &params)?;
+    let mut trace = Box::new(MeasuredTrace::<HOST_WINDOW>::new());
+    for k in 0..recording.len() {
+        trace
+            .push(recording.ia_a[k] as f32, recording.ib_a[k] as f32, recording.ic_a[k] as f32)
+            .map_err(|e| input_error(path, &format!("row {}: {e}", k + 1)))?;
+    }
+    trace.finish().map_err(|e| input_error(path, &e.to_string()))?;
+    identify_trace(&trace, profile, config, path)
+}
+
+/// Identifies a conditioned trace (any window size); `path` names the input in messages.
+pub fn identify_trace<const W: usize>(
+    trace: &MeasuredTrace<W>,
+    profile: &Profile,
+    config: &IdentifyConfig,
+    path: &Path,
+) -> Result<Outcome, CliError> {
+    let start = Instant::now();
+    let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> = Box::new(
+        Identification::new(trace, EmaParams::NOMINAL, *profile, config)
+            .map_err(|e| input_error(path, &e.to_string()))?,
+    );
+    id.run(u32::MAX);
+    Ok(Outcome { report: id.report(), seconds: start.elapsed().as_secs_f64() })
+}
+
+/// Identifies the firmware's packed trace through the replay ADC, exactly as `src/main.rs` does.
+pub fn identify_firmware_trace(path: &Path, config: &IdentifyConfig) -> Result<Outcome, CliError> {
+    let bytes = std::fs::read(path).map_err(|e| input_error(path, &format!("cannot read: {e}")))?;
+    let packed = PackedTrace::parse(&bytes).map_err(|e| input_error(path, &e.to_string()))?;
+    let adc = ReplayAdc::new(packed);
+    let mut reader =
+        PhaseCurrentReader::new(adc, (PhaseA, PhaseB, PhaseC), Calibration::NOMINAL, AcquisitionConfig::DEFAULT)
+            .map_err(|e| input_error(path, &e.to_string()))?;
+    let mut trace = Box::new(MeasuredTrace::<ONBOARD_WINDOW>::new());
+    monitor::acquire(&mut reader, &mut trace).map_err(|e| input_error(path, &e.to_string()))?;
+    identify_trace(&trace, &Profile::STANDARD, config, path)
+}
+
+/// Refuses a recording the monitor cannot use: wrong sample rate, or a command that is not `profile`.
+fn check_recording(r: &Recording, path: &Path, profile: &Profile, params: &EmaParams) -> Result<(), CliError> {
+    let period = f64::from(params.control_period_s);
+    let measured = r.sample_period_s();
+    if (measured - period).abs() > 1e-3 * period {
+        return Err(input_error(
+            path,
+            &format!("field time_s: sample period {measured} s, the monitor needs {period} s (10 kHz)"),
+        ));
+    }
+    for k in 0..r.len() {
+        let expected = f64::from(profile.command_rad(k as f32 * params.control_period_s));
+        if (r.command_rad[k] - expected).abs() > COMMAND_TOLERANCE_RAD {
+            return Err(input_error(
+                path,
+                &format!(
+                    "data row {}, field command_rad: {} but the profile commands {expected}; pass the profile the recording was made with (--profile)",
+                    k + 1,
+                    r.command_rad[k]
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn input_error(path: &Path, message: &str) -> CliError {
+    CliError::Input { path: path.to_path_buf(), message: message.to_string() }
+}
+
+/// `fault vector bits: xxxxxxxx …` (8 lower-case hex words), the parity line.
+pub fn bits_line(report: &HealthReport) -> String {
+    let words: Vec<String> = report.faults.0.iter().map(|k| format!("{:08x}", k.to_bits())).collect();
+    format!("fault vector bits: {}", words.join(" "))
+}
+
+/// The report as JSON (`k`, `fitness`, `evaluations`, `seconds` and more).
+pub fn to_json(outcome: &Outcome) -> serde_json::Value {
+    let r = &outcome.report;
+    let modes: Vec<serde_json::Value> = r
+        .modes
+        .iter()
+        .map(|m| {
+            json!({"mode": m.mode.name(), "severity": m.severity, "condition": m.condition.label(),
+                   "value": m.value, "unit": m.unit()})
+        })
+        .collect();
+    json!({
+        "k": r.faults.0,
+        "fitness": r.fitness,
+        "evaluations": r.evaluations,
+        "iterations": r.iterations,
+        "termination": r.termination.map(|t| format!("{t:?}")),
+        "seconds": outcome.seconds,
+        "overall": r.overall().label(),
+        "modes": modes,
+    })
+}
+
+fn render(outcome: &Outcome, args: &IdentifyArgs) -> String {
+    let mut out = if args.json {
+        to_json(outcome).to_string()
+    } else {
+        format!("{}\n  identification took {:.3} s", outcome.report, outcome.seconds)
+    };
+    if args.bits {
+        out.push('\n');
+        out.push_str(&bits_line(&outcome.report));
+    }
+    out
+}
