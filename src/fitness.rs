@@ -36,7 +36,7 @@ pub fn simulate_window(
     for i in 0..samples {
         let mut block = 0.0f32;
         for _ in 0..DECIMATION {
-            block += libm::fabsf(state.current_a);
+            block += libm::fabsf(state.output_current_a);
             model.step(&mut state, profile.command_rad(step as f32 * dt));
             step += 1;
         }

@@ -16,11 +16,23 @@
 //!         K_eq = k_p + k_q,  R_eq = R_0(2 − s_p − s_q),  L_eq = L_0((1−s_p)² + (1−s_q)²)
 //! current I⁺ = I_ref + (I − I_ref)·e^{−T/τ_c}, its change clamped to the available voltage:
 //!         T·(−V_dc − R_eq·I − K_eq·ω)/L_eq ≤ ΔI ≤ T·(V_dc − R_eq·I − K_eq·ω)/L_eq
-//! torque  T_m = K_eq·I;  T_R = −K_h·θ_u/N (hinge load at the motor)
+//! dip     commutation dip above ω = V_dc/(4k): I_out = I − ΔĪ (sector mean, see below)
+//! torque  T_m = K_eq·I_out;  T_R = −K_h·θ_u/N (hinge load at the motor)
 //! motion  Borello dry friction (stick/slip, load-dependent), viscous C_m, semi-implicit Euler:
 //!         ω⁺ from the friction step; θ_m += ω⁺·T
 //! play    θ_u = clamp(θ_u, θ_m/N − BL/2, θ_m/N + BL/2); end stops ±θ_max
 //! ```
+//!
+//! **Commutation dip** (Carlson, Lajoie-Mazenc, Fagundes, "Analysis of torque ripple due to phase
+//! commutation in brushless dc machines", IEEE T-IA 28(3), 1992): at each of the 6 commutations per
+//! electrical turn the outgoing phase decays through its diode while the incoming one rises; with
+//! per-phase EMF `E = K_eq·|ω|/2` and inductance `L = L_eq/2`, when `4E > V_dc` the current of the
+//! third (non-commutated) phase — the one `I_3eq` and the torque follow — falls during the
+//! commutation time `t_c = 3L·I/(V_dc + 2E)` by `ΔI = I·(4E − V_dc)/(V_dc + 2E)`, then recovers at
+//! `(V_dc − 2E − R_eq I)/(2L)` in `t_r`. The monitor keeps `I` (what the current loop regulates)
+//! and outputs the sector mean `I_out = I − ½ΔI·min(t_c + t_r, T_s)/T_s`, `T_s = (π/3)/(p|ω|)`.
+//! It was the dominant healthy RM–MM mismatch (the fast reversal of the standard profile; `ema
+//! compare` shows it before and after in the README).
 //!
 //! The electrical and mechanical time constants (4 ms, 2.2 ms) are ≥ 20 T, so explicit steps at
 //! the control period are accurate; the current loop lag (0.2 ms) is integrated exactly.
@@ -41,8 +53,11 @@ const PHASE_SHIFT: [(f32, f32); 3] = [(1.0, 0.0), (-0.5, 0.866_025_4), (-0.5, -0
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ModelState {
-    /// Equivalent (conducting-pair) current `I`.
+    /// Equivalent (conducting-pair) current `I` regulated by the current loop.
     pub current_a: f32,
+    /// Sector-mean equivalent current after the commutation dip, `I_out`: what produces torque and
+    /// what the measured `I_3eq` is compared with.
+    pub output_current_a: f32,
     /// Motor speed `ω_m`.
     pub motor_speed_rad_s: f32,
     /// Motor angle `θ_m` (unwrapped).
@@ -235,9 +250,10 @@ impl MonitorModel {
         let up = dt_over_l * (self.supply_voltage_v - back);
         let down = dt_over_l * (-self.supply_voltage_v - back);
         s.current_a = i + clamp(wanted, down, up);
+        s.output_current_a = s.current_a - self.commutation_dip(s.current_a, w, k_eq, sector);
 
         // Mechanical: torque balance at the motor shaft with Borello dry friction.
-        let torque_motor = k_eq * s.current_a;
+        let torque_motor = k_eq * s.output_current_a;
         let torque_load = -self.hinge_at_motor_n_m_per_rad * s.surface_angle_rad;
         let torque_active = torque_motor - self.viscous_n_m_s * w;
         let w_new = self.friction_step(w, torque_active, torque_load);
@@ -262,6 +278,31 @@ impl MonitorModel {
             if s.motor_speed_rad_s < 0.0 {
                 s.motor_speed_rad_s = 0.0;
             }
+        }
+    }
+
+    /// Sector-mean current deficit of the commutation dip (module doc), signed like `i`.
+    fn commutation_dip(&self, i: f32, w: f32, k_eq: f32, sector: usize) -> f32 {
+        let v = self.supply_voltage_v;
+        let speed = libm::fabsf(w);
+        let e = 0.5 * k_eq * speed;
+        let excess = 4.0 * e - v;
+        let i_abs = libm::fabsf(i);
+        if excess <= 0.0 || i_abs == 0.0 {
+            return 0.0;
+        }
+        let l_phase = 0.5 * self.pair_l[sector];
+        let t_c = 3.0 * l_phase * i_abs / (v + 2.0 * e);
+        let drop = i_abs * excess / (v + 2.0 * e);
+        let t_s = FRAC_PI_3 / (self.pole_pairs * speed);
+        let headroom = v - 2.0 * e - self.pair_r[sector] * i_abs;
+        let t_r = if headroom > 0.0 { drop * 2.0 * l_phase / headroom } else { t_s };
+        let dip_time = if t_c + t_r < t_s { t_c + t_r } else { t_s };
+        let deficit = 0.5 * drop * dip_time / t_s;
+        if i > 0.0 {
+            deficit
+        } else {
+            -deficit
         }
     }
 

@@ -7,7 +7,9 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod compare;
 pub mod error;
+pub mod firmware_trace;
 pub mod identify;
 pub mod profile_file;
 pub mod recording_io;

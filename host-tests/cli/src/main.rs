@@ -4,7 +4,9 @@ use std::process::ExitCode;
 
 use clap::error::ErrorKind;
 use clap::{Parser, Subcommand};
+use ema_cli::compare::{self, CompareArgs};
 use ema_cli::error::{CliError, EXIT_FAILURE};
+use ema_cli::firmware_trace::{self, FirmwareTraceArgs};
 use ema_cli::identify::{self, IdentifyArgs};
 use ema_cli::simulate::{self, SimulateArgs};
 
@@ -22,6 +24,10 @@ enum Command {
     Simulate(SimulateArgs),
     /// Identify the faults behind a recording with the on-board core (monitor model + PSO/GA).
     Identify(IdentifyArgs),
+    /// Regenerate the firmware's built-in trace (traces/standard.ematrace) from the reference model.
+    FirmwareTrace(FirmwareTraceArgs),
+    /// Reference model vs monitor model with the true faults: the mismatch floor, per segment.
+    Compare(CompareArgs),
 }
 
 fn main() -> ExitCode {
@@ -32,6 +38,8 @@ fn main() -> ExitCode {
     let result: Result<String, CliError> = match &cli.command {
         Command::Simulate(args) => simulate::run(args),
         Command::Identify(args) => identify::run(args),
+        Command::FirmwareTrace(args) => firmware_trace::run(args),
+        Command::Compare(args) => compare::run(args),
     };
     match result {
         Ok(summary) => {
