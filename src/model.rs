@@ -524,4 +524,18 @@ mod tests {
             assert!((s.surface_angle_rad - profile.command_rad(profile.duration_s())).abs() < 0.01);
         }
     }
+
+    #[test]
+    fn commutation_dip_starts_at_a_quarter_of_the_bus_voltage() {
+        let m = model(FaultVector::HEALTHY.0);
+        let onset = 270.0 / (4.0 * 0.13); // 4E = V_dc, E = k_0 ω
+        assert_eq!(m.commutation_dip(15.0, 0.98 * onset, 0.26, 0), 0.0);
+        assert!(m.commutation_dip(15.0, 1.05 * onset, 0.26, 0) > 0.0);
+        // Worked example (the reference model reads 13.6 A, i.e. a 1.4 A dip, at 686 rad/s):
+        // E = 89.18 V, t_c = 0.2007 ms, ΔI = 2.901 A, t_r = 2.901·4 mH/(270 − 178.4 − 15) V = 0.1514 ms,
+        // T_s = 0.3816 ms → ½·2.901·0.3521/0.3816 = 1.338 A.
+        let d = m.commutation_dip(15.0, 686.0, 0.26, 0);
+        assert!((d - 1.338).abs() < 0.002, "{d}");
+        assert!((m.commutation_dip(-15.0, -686.0, 0.26, 0) + d).abs() < 1e-6, "odd in the current");
+    }
 }

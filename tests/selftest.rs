@@ -22,6 +22,12 @@ use ema_monitor::acquisition::{
     AcquisitionConfig, AcquisitionError, Calibration, Phase, PhaseA, PhaseB, PhaseC, PhaseCalibration,
     PhaseCurrentReader, PhasePin, ReplayAdc,
 };
+use ema_monitor::conditioning::{ConditioningError, MeasuredTrace, DECIMATION};
+use ema_monitor::fitness::{simulate_window, CurrentFit};
+use ema_monitor::model::{ModelState, MonitorModel};
+use ema_monitor::monitor::{Identification, IdentifyConfig, MonitorError};
+use ema_monitor::optimizer::pso::{ParticleSwarm, PsoConfig};
+use ema_monitor::optimizer::{run, Bounds, Objective, Optimizer};
 use ema_monitor::trace::{self, pack, packed_len, PackedTrace, TraceError, ADC_MAX, ADC_MIDSCALE};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use embedded_hal::adc::{Channel, OneShot};
@@ -43,6 +49,12 @@ const TESTS: &[(&str, Test)] = &[
     ("fault_vector_physical_mapping", fault_vector_physical_mapping),
     ("fault_vector_paper_error", fault_vector_paper_error),
     ("profile_standard_values", profile_standard_values),
+    ("model_step_response_settles", model_step_response_settles),
+    ("model_short_circuit_shape_function", model_short_circuit_shape_function),
+    ("conditioning_refuses_bad_input", conditioning_refuses_bad_input),
+    ("fitness_zero_at_the_true_vector", fitness_zero_at_the_true_vector),
+    ("pso_minimises_a_sphere", pso_minimises_a_sphere),
+    ("identification_refuses_impossible_config", identification_refuses_impossible_config),
 ];
 
 #[entry]
@@ -288,4 +300,91 @@ fn profile_standard_values() -> Result<(), &'static str> {
     ensure(close(p.command_rad(0.45), -0.05 + 0.2 * 0.15, 1e-6), "ramp")?;
     ensure(close(p.command_rad(0.6625), 0.02, 1e-5), "sine peak")?;
     ensure(p.duration_s() == 0.85, "duration")
+}
+
+// ---- model, conditioning, fitness, optimizer (the identification stages, on the MCU) ----------
+
+fn model_step_response_settles() -> Result<(), &'static str> {
+    let m = MonitorModel::new(&EmaParams::NOMINAL, &FaultVector::HEALTHY);
+    let mut s = ModelState::at_rest();
+    let mut peak = 0.0f32;
+    for _ in 0..3000 {
+        m.step(&mut s, 0.05);
+        peak = if s.surface_angle_rad > peak { s.surface_angle_rad } else { peak };
+    }
+    ensure(peak < 0.055, "overshoot above 10 %")?;
+    ensure(close(s.surface_angle_rad, 0.05, 0.003), "does not settle on the command")
+}
+
+fn model_short_circuit_shape_function() -> Result<(), &'static str> {
+    let m = MonitorModel::new(&EmaParams::NOMINAL, &FaultVector([0.0, 0.0, 0.4, 0.0, 0.0, 0.0, 0.5, 0.5]));
+    let mut s = ModelState::at_rest();
+    s.hall_angle_rad = 0.5; // sector 0: phases A and B conduct
+    let (k, r, _) = m.shape(&s);
+    ensure(close(k, 0.13 * 1.8, 1e-6) && close(r, 0.9, 1e-6), "pair with the shorted phase")?;
+    s.hall_angle_rad = 2.6; // sector 2: phases B and C
+    let (k, r, _) = m.shape(&s);
+    ensure(close(k, 0.26, 1e-6) && close(r, 1.0, 1e-6), "healthy pair")
+}
+
+fn conditioning_refuses_bad_input() -> Result<(), &'static str> {
+    let mut t = MeasuredTrace::<60>::new();
+    ensure(t.push(f32::NAN, 0.0, 0.0) == Err(ConditioningError::NonFinite), "NaN accepted")?;
+    ensure(t.finish() == Err(ConditioningError::TooShort), "empty trace accepted")?;
+    for _ in 0..60 * DECIMATION {
+        t.push(1.0, -1.0, 0.0).map_err(|_| "push")?;
+    }
+    ensure(t.finish() == Err(ConditioningError::NoExcitation), "flat trace accepted")
+}
+
+/// A noise-free "measurement" made by the monitor model itself.
+fn self_trace(k: &FaultVector, t: &mut MeasuredTrace<600>) -> Result<(), &'static str> {
+    let mut ok = true;
+    simulate_window(&EmaParams::NOMINAL, &Profile::STANDARD, k, 600, |_, i, _| {
+        for _ in 0..DECIMATION {
+            ok &= t.push(i, -i, 0.0).is_ok();
+        }
+        true
+    });
+    ensure(ok, "push")?;
+    t.finish().map_err(|_| "finish")
+}
+
+fn fitness_zero_at_the_true_vector() -> Result<(), &'static str> {
+    let truth = FaultVector([0.3, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.4]);
+    let mut t = MeasuredTrace::new();
+    self_trace(&truth, &mut t)?;
+    let fit = CurrentFit::new(&t, EmaParams::NOMINAL, Profile::STANDARD);
+    ensure(fit.error(&truth) == 0.0, "nonzero at the truth")?;
+    let mut other = truth;
+    other.0[7] = 0.6;
+    ensure(fit.error(&other) > 1e-6, "gain change invisible")
+}
+
+struct Sphere;
+impl Objective<3> for Sphere {
+    fn cost(&mut self, x: &[f32; 3], _abandon_above: f32) -> f32 {
+        (x[0] - 0.3) * (x[0] - 0.3) + (x[1] - 0.7) * (x[1] - 0.7) + (x[2] - 0.1) * (x[2] - 0.1)
+    }
+}
+
+fn pso_minimises_a_sphere() -> Result<(), &'static str> {
+    let mut pso: ParticleSwarm<16, 3> =
+        ParticleSwarm::new(Bounds::unit(), PsoConfig::default(), 7).map_err(|_| "config refused")?;
+    run(&mut pso, &mut Sphere, 3000);
+    let (x, cost) = pso.best();
+    ensure(cost < 1e-6, "not converged")?;
+    ensure(close(x[0], 0.3, 1e-3) && close(x[1], 0.7, 1e-3) && close(x[2], 0.1, 1e-3), "wrong minimum")
+}
+
+fn identification_refuses_impossible_config() -> Result<(), &'static str> {
+    let mut t = MeasuredTrace::new();
+    self_trace(&FaultVector::HEALTHY, &mut t)?;
+    let mut params = EmaParams::NOMINAL;
+    params.motor_inertia_kg_m2 = -1.0;
+    let r = Identification::<600, 8>::new(&t, params, Profile::STANDARD, &IdentifyConfig::default());
+    ensure(matches!(r, Err(MonitorError::Params)), "negative inertia accepted")?;
+    let config = IdentifyConfig { max_iterations: 0, ..IdentifyConfig::default() };
+    let r = Identification::<600, 8>::new(&t, EmaParams::NOMINAL, Profile::STANDARD, &config);
+    ensure(matches!(r, Err(MonitorError::Optimizer(_))), "zero iterations accepted")
 }
