@@ -31,6 +31,11 @@
 //! commutation time `t_c = 3L·I/(V_dc + 2E)` by `ΔI = I·(4E − V_dc)/(V_dc + 2E)`, then recovers at
 //! `(V_dc − 2E − R_eq I)/(2L)` in `t_r`. The monitor keeps `I` (what the current loop regulates)
 //! and outputs the sector mean `I_out = I − ½ΔI·min(t_c + t_r, T_s)/T_s`, `T_s = (π/3)/(p|ω|)`.
+//! The outgoing phase's back-EMF is already on its 30° ramp while its current decays over `t_c`,
+//! so commutation also costs torque beyond the current dip: `∫(1 − f_out)·i_out dt` over `t_c`
+//! averages, per sector and in equivalent current, to `1.5·(p·ω·t_c)²·I/π²` (at every speed,
+//! ∝ ω²), which the torque (not `I_out`, which follows the third phase) loses.
+//! Motoring only: when braking (`I·ω < 0`) the EMF helps the incoming phase and there is no dip.
 //! It was the dominant healthy RM–MM mismatch (the fast reversal of the standard profile; `ema
 //! compare` shows it before and after in the README).
 //!
@@ -250,10 +255,11 @@ impl MonitorModel {
         let up = dt_over_l * (self.supply_voltage_v - back);
         let down = dt_over_l * (-self.supply_voltage_v - back);
         s.current_a = i + clamp(wanted, down, up);
-        s.output_current_a = s.current_a - self.commutation_dip(s.current_a, w, k_eq, sector);
+        let (dip_a, torque_loss_a) = self.commutation_losses(s.current_a, w, k_eq, sector);
+        s.output_current_a = s.current_a - dip_a;
 
         // Mechanical: torque balance at the motor shaft with Borello dry friction.
-        let torque_motor = k_eq * s.output_current_a;
+        let torque_motor = k_eq * (s.output_current_a - torque_loss_a);
         let torque_load = -self.hinge_at_motor_n_m_per_rad * s.surface_angle_rad;
         let torque_active = torque_motor - self.viscous_n_m_s * w;
         let w_new = self.friction_step(w, torque_active, torque_load);
@@ -281,28 +287,36 @@ impl MonitorModel {
         }
     }
 
-    /// Sector-mean current deficit of the commutation dip (module doc), signed like `i`.
-    fn commutation_dip(&self, i: f32, w: f32, k_eq: f32, sector: usize) -> f32 {
+    /// Sector means of the commutation dip of `I_out` and of the extra torque loss (both as
+    /// equivalent currents, signed like `i`; module doc). Zero when braking or at rest.
+    fn commutation_losses(&self, i: f32, w: f32, k_eq: f32, sector: usize) -> (f32, f32) {
+        if i * w <= 0.0 {
+            return (0.0, 0.0);
+        }
         let v = self.supply_voltage_v;
         let speed = libm::fabsf(w);
-        let e = 0.5 * k_eq * speed;
-        let excess = 4.0 * e - v;
         let i_abs = libm::fabsf(i);
-        if excess <= 0.0 || i_abs == 0.0 {
-            return 0.0;
-        }
+        let e = 0.5 * k_eq * speed;
         let l_phase = 0.5 * self.pair_l[sector];
         let t_c = 3.0 * l_phase * i_abs / (v + 2.0 * e);
-        let drop = i_abs * excess / (v + 2.0 * e);
-        let t_s = FRAC_PI_3 / (self.pole_pairs * speed);
-        let headroom = v - 2.0 * e - self.pair_r[sector] * i_abs;
-        let t_r = if headroom > 0.0 { drop * 2.0 * l_phase / headroom } else { t_s };
-        let dip_time = if t_c + t_r < t_s { t_c + t_r } else { t_s };
-        let deficit = 0.5 * drop * dip_time / t_s;
-        if i > 0.0 {
-            deficit
+        let angle = self.pole_pairs * speed * t_c;
+        let ramp_loss = 1.5 * angle * angle * i_abs * (1.0 / (PI * PI));
+        let torque_loss = if ramp_loss < 0.5 * i_abs { ramp_loss } else { 0.5 * i_abs };
+        let excess = 4.0 * e - v;
+        let dip = if excess > 0.0 {
+            let drop = i_abs * excess / (v + 2.0 * e);
+            let t_s = FRAC_PI_3 / (self.pole_pairs * speed);
+            let headroom = v - 2.0 * e - self.pair_r[sector] * i_abs;
+            let t_r = if headroom > 0.0 { drop * 2.0 * l_phase / headroom } else { t_s };
+            let dip_time = if t_c + t_r < t_s { t_c + t_r } else { t_s };
+            0.5 * drop * dip_time / t_s
         } else {
-            -deficit
+            0.0
+        };
+        if i > 0.0 {
+            (dip, torque_loss)
+        } else {
+            (-dip, -torque_loss)
         }
     }
 
@@ -529,13 +543,17 @@ mod tests {
     fn commutation_dip_starts_at_a_quarter_of_the_bus_voltage() {
         let m = model(FaultVector::HEALTHY.0);
         let onset = 270.0 / (4.0 * 0.13); // 4E = V_dc, E = k_0 ω
-        assert_eq!(m.commutation_dip(15.0, 0.98 * onset, 0.26, 0), 0.0);
-        assert!(m.commutation_dip(15.0, 1.05 * onset, 0.26, 0) > 0.0);
+        assert_eq!(m.commutation_losses(15.0, 0.98 * onset, 0.26, 0).0, 0.0);
+        assert!(m.commutation_losses(15.0, 1.05 * onset, 0.26, 0).0 > 0.0);
         // Worked example (the reference model reads 13.6 A, i.e. a 1.4 A dip, at 686 rad/s):
         // E = 89.18 V, t_c = 0.2007 ms, ΔI = 2.901 A, t_r = 2.901·4 mH/(270 − 178.4 − 15) V = 0.1514 ms,
         // T_s = 0.3816 ms → ½·2.901·0.3521/0.3816 = 1.338 A.
-        let d = m.commutation_dip(15.0, 686.0, 0.26, 0);
+        let (d, torque) = m.commutation_losses(15.0, 686.0, 0.26, 0);
         assert!((d - 1.338).abs() < 0.002, "{d}");
-        assert!((m.commutation_dip(-15.0, -686.0, 0.26, 0) + d).abs() < 1e-6, "odd in the current");
+        // ramp loss: p·ω·t_c = 4·686·0.2007 ms = 0.5507 rad → 1.5·0.5507²·15/π² = 0.691 A
+        assert!((torque - 0.691).abs() < 0.002, "{torque}");
+        let (dn, tn) = m.commutation_losses(-15.0, -686.0, 0.26, 0);
+        assert!((dn + d).abs() < 1e-6 && (tn + torque).abs() < 1e-6, "odd in the current");
+        assert_eq!(m.commutation_losses(15.0, -686.0, 0.26, 0), (0.0, 0.0), "nothing when braking");
     }
 }
