@@ -97,10 +97,10 @@ fn main() -> ! {
     exit(ok)
 }
 
-/// The on-board identification: monitor model + PSO with the paper's settings, run to its end.
+/// The on-board identification: monitor model + PSO (`IdentifyConfig::onboard`), run to its end.
 #[inline(never)]
 fn identify(trace: &MeasuredTrace<ONBOARD_WINDOW>) -> Result<HealthReport, monitor::MonitorError> {
-    let config = IdentifyConfig::default();
+    let config = IdentifyConfig::onboard();
     let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
         Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &config)?;
     id.run(u32::MAX);

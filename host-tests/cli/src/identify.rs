@@ -65,9 +65,9 @@ pub struct IdentifyArgs {
     /// Seed of the optimizer's random generator.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Iteration limit (the paper: 200).
-    #[arg(long, default_value_t = 200)]
-    pub max_iterations: u32,
+    /// Iteration limit [default: 200 (the paper) for a CSV, the on-board 40 for --firmware-trace].
+    #[arg(long)]
+    pub max_iterations: Option<u32>,
     /// Command profile the recording was made with: `standard` or a profile file.
     #[arg(long, default_value = "standard")]
     pub profile: String,
@@ -90,11 +90,12 @@ pub struct Outcome {
 
 /// Runs `ema identify`.
 pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
+    let base = if args.firmware_trace.is_some() { IdentifyConfig::onboard() } else { IdentifyConfig::default() };
     let config = IdentifyConfig {
         algorithm: args.algorithm.into(),
         seed: args.seed,
-        max_iterations: args.max_iterations,
-        ..IdentifyConfig::default()
+        max_iterations: args.max_iterations.unwrap_or(base.max_iterations),
+        ..base
     };
     let outcome = match (&args.firmware_trace, &args.file) {
         (Some(path), _) => identify_firmware_trace(path, &config)?,
