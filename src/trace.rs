@@ -236,7 +236,7 @@ pub fn pack(frames: &[[u16; 3]], rate_hz: u32, out: &mut [u8]) -> Result<usize, 
     Ok(len)
 }
 
-/// Synthetic waveforms for tests (host only): the placeholder built-in trace and acquisition tests.
+/// Synthetic waveforms for tests (host only): trace-format and acquisition tests.
 #[cfg(test)]
 pub(crate) mod synthetic {
     use super::amps_to_counts;
@@ -265,8 +265,8 @@ pub(crate) mod synthetic {
         i
     }
 
-    /// The placeholder built-in trace (`traces/standard.ematrace`), 10 kHz, 2400 frames, noiseless:
-    /// 30 ms at rest with zero current (all codes constant), 30 ms at standstill holding 3 A in
+    /// A synthetic six-step recording (the placeholder built-in trace before the reference model
+    /// wrote `traces/standard.ematrace`), 10 kHz, 2400 frames, noiseless: 30 ms at rest with zero current (all codes constant), 30 ms at standstill holding 3 A in
     /// sector 0 (phase C off for the whole segment), then 180 ms of six-step accelerating from 5 Hz
     /// to 100 Hz electrical at 5 A, with a ±0.15 A hysteresis ripple on the conducting pair.
     pub fn placeholder_frames() -> std::vec::Vec<[u16; 3]> {
@@ -440,7 +440,7 @@ mod tests {
     }
 
     #[test]
-    fn placeholder_waveform_is_a_balanced_six_step() {
+    fn synthetic_waveform_is_a_balanced_six_step() {
         let frames = synthetic::placeholder_frames();
         assert_eq!(frames.len(), 2400);
         for f in &frames {
@@ -450,23 +450,24 @@ mod tests {
         }
     }
 
-    /// The checked-in built-in trace decodes (whatever produced it: placeholder or reference model).
+    /// The checked-in built-in trace is the reference model's recording of the standard profile
+    /// (`ema firmware-trace`, traces/README.md): 0.85 s at 10 kHz, three phases of an isolated star
+    /// (the currents sum to zero within the sensor noise, as acquisition checks).
     #[test]
-    fn built_in_trace_parses() {
+    fn built_in_trace_is_the_standard_recording() {
         let bytes = include_bytes!("../traces/standard.ematrace");
         let t = PackedTrace::parse(bytes).expect("traces/standard.ematrace is a valid packed trace");
-        assert!(t.frames() > 0);
+        assert_eq!(t.sample_rate_hz(), SAMPLE_RATE_HZ);
+        let expected = libm::roundf(crate::Profile::STANDARD.duration_s() * SAMPLE_RATE_HZ as f32) as usize;
+        assert_eq!((t.frames(), expected), (8500, 8500));
+        assert_eq!(bytes.len(), packed_len(8500));
         assert_eq!(t.iter().count(), t.frames());
-    }
-
-    /// Regenerates the placeholder `traces/standard.ematrace` (until the reference model writes the
-    /// real one): `cargo host-test -- --ignored write_placeholder_trace`.
-    #[test]
-    #[ignore = "writes traces/standard.ematrace"]
-    fn write_placeholder_trace() {
-        let frames = synthetic::placeholder_frames();
-        let buf = packed(&frames, SAMPLE_RATE_HZ);
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("traces/standard.ematrace");
-        std::fs::write(&path, &buf).expect("writes the placeholder trace");
+        for (i, f) in t.iter().enumerate() {
+            let sum: f32 = f.iter().map(|&c| counts_to_amps(c)).sum();
+            assert!(sum.abs() < 0.3, "frame {i}: {f:?} sums to {sum} A");
+        }
+        // a real recording: the currents vary (noise, commutation), unlike a constant fill
+        let first = t.frame(0).expect("frame 0");
+        assert!(t.iter().any(|f| f != first));
     }
 }

@@ -1,0 +1,237 @@
+//! `ema identify` end to end on the built binary: every bad input is one `error:` line naming the
+//! file (and the line and field where there is one), exit status 2; good inputs give a report.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+use ema_monitor::monitor::ONBOARD_POPULATION;
+use ema_monitor::FAULT_COUNT;
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("ema-identify-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir is writable");
+    dir
+}
+
+fn ema(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ema")).args(args).output().expect("the binary runs")
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 temp path")
+}
+
+/// Runs `ema` expecting failure: exit status 2, nothing on stdout and exactly one stderr line
+/// starting with `error:` that contains every `needle`; no panic.
+fn refused(args: &[&str], needles: &[&str]) -> String {
+    let out = ema(args);
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+    assert_eq!(err.lines().count(), 1, "{args:?}: one line expected, got {err:?}");
+    assert!(err.starts_with("error: "), "{args:?}: {err}");
+    assert!(out.stdout.is_empty(), "{args:?}: {}", String::from_utf8_lossy(&out.stdout));
+    assert!(!err.contains("panicked"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "{args:?}: '{n}' missing from {err:?}");
+    }
+    err
+}
+
+/// Runs `ema` expecting success; returns stdout.
+fn accepted(args: &[&str]) -> String {
+    let out = ema(args);
+    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout).expect("utf-8 stdout")
+}
+
+/// A recording CSV split into its lines: comments and header (kept as they are) and data rows.
+struct Csv {
+    head: Vec<String>,
+    rows: Vec<String>,
+}
+
+impl Csv {
+    fn read(path: &Path) -> Self {
+        let text = std::fs::read_to_string(path).expect("readable recording");
+        let lines: Vec<String> = text.lines().map(str::to_owned).collect();
+        let header = lines.iter().position(|l| l.starts_with("time_s,")).expect("header line");
+        Self { head: lines[..=header].to_vec(), rows: lines[header + 1..].to_vec() }
+    }
+
+    /// 1-based line number in the file of data row `r` (0-based).
+    fn line_of(&self, r: usize) -> usize {
+        self.head.len() + r + 1
+    }
+
+    fn write(&self, path: &Path, rows: &[String]) {
+        let mut text = self.head.join("\n");
+        for r in rows {
+            text.push('\n');
+            text.push_str(r);
+        }
+        text.push('\n');
+        std::fs::write(path, text).expect("writable");
+    }
+
+    /// Rows `0..n` with field `field` of row `r` replaced by `value`.
+    fn with_field(&self, n: usize, r: usize, field: usize, value: &str) -> Vec<String> {
+        let mut rows = self.rows[..n].to_vec();
+        let mut f: Vec<&str> = rows[r].split(',').collect();
+        f[field] = value;
+        rows[r] = f.join(",");
+        rows
+    }
+}
+
+/// One healthy recording of the standard profile (`ema simulate`, noise on, seed 3), shared by the tests.
+fn standard_csv() -> &'static Path {
+    static PATH: OnceLock<PathBuf> = OnceLock::new();
+    PATH.get_or_init(|| {
+        let p = scratch("standard").join("standard.csv");
+        accepted(&["simulate", "--seed", "3", "--out", s(&p)]);
+        p
+    })
+}
+
+#[test]
+fn bad_recordings_are_refused_naming_file_line_and_field() {
+    let dir = scratch("bad-csv");
+    let csv = Csv::read(standard_csv());
+    assert_eq!(csv.rows.len(), 8500);
+
+    // missing file
+    let missing = dir.join("nope.csv");
+    refused(&["identify", s(&missing)], &["nope.csv", "cannot open"]);
+
+    // wrong header
+    let p = dir.join("header.csv");
+    std::fs::write(&p, "# a comment\ntime,cmd,pos,ia,ib,ic\n0,0,0,0,0,0\n0.0001,0,0,0,0,0\n").expect("writable");
+    refused(&["identify", s(&p)], &["header.csv", "line 2", "wrong header", "time_s,command_rad"]);
+
+    // NaN in a current, text in a number, time going backwards: line and field named
+    let cases = [
+        ("nan.csv", 20, 3, "NaN", "field 'ia_A'", "'NaN' is not a finite number"),
+        ("text.csv", 7, 4, "three", "field 'ib_A'", "'three' is not a number"),
+        ("inf.csv", 30, 5, "-inf", "field 'ic_A'", "'-inf' is not a finite number"),
+    ];
+    for (name, row, field, value, field_msg, msg) in cases {
+        let p = dir.join(name);
+        csv.write(&p, &csv.with_field(100, row, field, value));
+        let line = format!("line {}", csv.line_of(row));
+        refused(&["identify", s(&p)], &[name, &line, field_msg, msg]);
+    }
+    let p = dir.join("backwards.csv");
+    let previous_time = csv.rows[11].split(',').next().expect("time field").to_owned();
+    csv.write(&p, &csv.with_field(100, 12, 0, &previous_time));
+    let line = format!("line {}", csv.line_of(12));
+    refused(&["identify", s(&p)], &["backwards.csv", &line, "field 'time_s'", "does not increase"]);
+
+    // every other row: a valid 5 kHz recording, but the monitor needs 10 kHz
+    let p = dir.join("5khz.csv");
+    let half: Vec<String> = csv.rows.iter().step_by(2).cloned().collect();
+    csv.write(&p, &half);
+    refused(&["identify", s(&p)], &["5khz.csv", "time_s", "sample period 0.0002 s", "10 kHz"]);
+
+    // 100 rows of the standard profile: the command matches, but 25 window samples are too few
+    let p = dir.join("short.csv");
+    csv.write(&p, &csv.rows[..100]);
+    refused(&["identify", s(&p)], &["short.csv", "too short"]);
+}
+
+#[test]
+fn command_column_must_match_the_profile() {
+    let dir = scratch("profile");
+    let profile = dir.join("step.txt");
+    std::fs::write(&profile, "hold 0 0\nhold 0.01 0.02\nend 0.05\n").expect("writable");
+    let rec = dir.join("step.csv");
+    accepted(&["simulate", "--profile", s(&profile), "--out", s(&rec)]);
+    // the standard profile steps to 0.05 rad at 10 ms, this file's profile to 0.02 rad (f32 values)
+    let err = refused(
+        &["identify", s(&rec)],
+        &["step.csv", "field command_rad", "0.01999999", "commands 0.0500000", "--profile"],
+    );
+    let row: usize = err
+        .split("data row ")
+        .nth(1)
+        .and_then(|t| t.split(',').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no data row in {err}"));
+    assert!((100..=102).contains(&row), "{err}");
+    // positive control: the same file with the profile it was made with is identified
+    let out = accepted(&["identify", s(&rec), "--profile", s(&profile), "--max-iterations", "2", "--json"]);
+    let v: serde_json::Value = serde_json::from_str(out.trim()).expect("JSON");
+    assert_eq!(v["k"].as_array().map(Vec::len), Some(FAULT_COUNT), "{v}");
+}
+
+fn committed_trace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../traces/standard.ematrace")
+}
+
+#[test]
+fn bad_firmware_traces_are_refused_naming_the_file() {
+    let dir = scratch("bad-trace");
+    let good = std::fs::read(committed_trace()).expect("committed trace");
+    let missing = dir.join("nope.ematrace");
+    refused(&["identify", "--firmware-trace", s(&missing)], &["nope.ematrace", "cannot read"]);
+    let mut bytes = good.clone();
+    bytes[0] = b'X';
+    let p = dir.join("magic.ematrace");
+    std::fs::write(&p, &bytes).expect("writable");
+    refused(&["identify", "--firmware-trace", s(&p)], &["magic.ematrace", "does not start with EMA1"]);
+    let p = dir.join("truncated.ematrace");
+    std::fs::write(&p, &good[..good.len() - 100]).expect("writable");
+    refused(&["identify", "--firmware-trace", s(&p)], &["truncated.ematrace", "length does not match its frame count"]);
+    let p = dir.join("header.ematrace");
+    std::fs::write(&p, &good[..7]).expect("writable");
+    refused(&["identify", "--firmware-trace", s(&p)], &["header.ematrace", "shorter than its 12-byte header"]);
+}
+
+#[test]
+fn bad_flags_are_refused() {
+    let trace = committed_trace();
+    refused(&["identify", "--firmware-trace", s(&trace), "--algorithm", "annealing"], &["'annealing'", "--algorithm"]);
+    refused(&["identify", "--firmware-trace", s(&trace), "--max-iterations", "many"], &["'many'", "--max-iterations"]);
+    refused(&["identify"], &["<FILE>"]);
+    refused(&["identify", s(standard_csv()), "--firmware-trace", s(&trace)], &["--firmware-trace", "cannot be used"]);
+}
+
+/// The JSON report: `k` (8 numbers in [0, 1]), `fitness`, `evaluations`, `seconds`.
+fn check_json(out: &str, max_iterations: u64) -> serde_json::Value {
+    assert_eq!(out.trim().lines().count(), 1, "{out}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).expect("valid JSON");
+    let k = v["k"].as_array().unwrap_or_else(|| panic!("no k in {v}"));
+    assert_eq!(k.len(), FAULT_COUNT, "{v}");
+    assert!(k.iter().all(|x| x.as_f64().is_some_and(|x| (0.0..=1.0).contains(&x))), "{v}");
+    let fitness = v["fitness"].as_f64().unwrap_or_else(|| panic!("no fitness in {v}"));
+    assert!(fitness.is_finite() && fitness > 0.0, "{v}");
+    let seconds = v["seconds"].as_f64().unwrap_or_else(|| panic!("no seconds in {v}"));
+    assert!(seconds.is_finite() && seconds >= 0.0, "{v}");
+    let iterations = v["iterations"].as_u64().unwrap_or_else(|| panic!("no iterations in {v}"));
+    assert!((1..=max_iterations).contains(&iterations), "{v}");
+    let evaluations = v["evaluations"].as_u64().unwrap_or_else(|| panic!("no evaluations in {v}"));
+    assert_eq!(evaluations, ONBOARD_POPULATION as u64 * iterations, "{v}");
+    v
+}
+
+#[test]
+fn firmware_trace_identifies_to_json() {
+    let trace = committed_trace();
+    let args = ["identify", "--firmware-trace", s(&trace), "--json", "--max-iterations", "5"];
+    let v = check_json(&accepted(&args), 5);
+    // same seed, same answer (the parity check relies on it)
+    let again = check_json(&accepted(&args), 5);
+    assert_eq!((&v["k"], &v["fitness"]), (&again["k"], &again["fitness"]));
+}
+
+#[test]
+fn short_recording_identifies_to_json() {
+    let dir = scratch("good-csv");
+    let csv = Csv::read(standard_csv());
+    let p = dir.join("first-0.2s.csv");
+    csv.write(&p, &csv.rows[..2000]);
+    check_json(&accepted(&["identify", s(&p), "--json", "--max-iterations", "5"]), 5);
+    let text = accepted(&["identify", s(&p), "--max-iterations", "3", "--algorithm", "ga"]);
+    assert!(text.starts_with("EMA health:") && text.contains("identification took"), "{text}");
+}
