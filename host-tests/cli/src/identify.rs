@@ -122,7 +122,7 @@ pub fn identify_recording(
     for k in 0..recording.len() {
         trace
             .push(recording.ia_a[k] as f32, recording.ib_a[k] as f32, recording.ic_a[k] as f32)
-            .map_err(|e| input_error(path, &format!("row {}: {e}", k + 1)))?;
+            .map_err(|e| input_error(path, &format!("line {}: {e}", line_of(recording, k))))?;
     }
     trace.finish().map_err(|e| input_error(path, &e.to_string()))?;
     identify_trace(&trace, profile, config, path)
@@ -173,14 +173,19 @@ fn check_recording(r: &Recording, path: &Path, profile: &Profile, params: &EmaPa
             return Err(input_error(
                 path,
                 &format!(
-                    "data row {}, field command_rad: {} but the profile commands {expected}; pass the profile the recording was made with (--profile)",
-                    k + 1,
+                    "line {}, field command_rad: {} but the profile commands {expected}; pass the profile the recording was made with (--profile)",
+                    line_of(r, k),
                     r.command_rad[k]
                 ),
             ));
         }
     }
     Ok(())
+}
+
+/// The file line of row `k` (its index + 1 when the recording was not read from a file).
+fn line_of(r: &Recording, k: usize) -> usize {
+    r.row_line.get(k).copied().unwrap_or(k + 1)
 }
 
 fn input_error(path: &Path, message: &str) -> CliError {

@@ -61,7 +61,9 @@ fn clap_error(e: &clap::Error) -> ExitCode {
             ExitCode::SUCCESS
         }
         ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
-            eprintln!("error: a subcommand is required (simulate, identify); try 'ema --help'");
+            eprintln!(
+                "error: a subcommand is required (simulate, identify, compare, firmware-trace); try 'ema --help'"
+            );
             ExitCode::from(EXIT_FAILURE)
         }
         _ => {

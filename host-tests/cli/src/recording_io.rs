@@ -42,6 +42,8 @@ pub struct Recording {
     pub ib_a: Vec<f64>,
     /// Measured phase current c.
     pub ic_a: Vec<f64>,
+    /// Line of each row in its file (1-based), for messages that name the line.
+    pub row_line: Vec<usize>,
 }
 
 impl Recording {
@@ -65,15 +67,18 @@ impl Recording {
 
     /// The recorded channels of a reference-model run.
     pub fn from_reference(r: &ema_reference::Recording, comments: Vec<String>) -> Self {
+        let comments_len = comments.len();
         let col = |f: &dyn Fn(&ema_reference::Sample) -> f64| r.samples.iter().map(f).collect::<Vec<f64>>();
         Self {
-            comments,
             time_s: col(&|s| s.time_s),
             command_rad: col(&|s| s.command_rad),
             position_rad: col(&|s| s.position_rad),
             ia_a: col(&|s| s.phase_current_a[0]),
             ib_a: col(&|s| s.phase_current_a[1]),
             ic_a: col(&|s| s.phase_current_a[2]),
+            // as `write_csv` lays the file out: comments, header, then one line per row
+            row_line: (0..r.samples.len()).map(|k| comments_len + 2 + k).collect(),
+            comments,
         }
     }
 }
@@ -228,6 +233,7 @@ pub fn read_recording(path: impl AsRef<Path>) -> Result<Recording, RecordingErro
         rec.ia_a.push(v[3]);
         rec.ib_a.push(v[4]);
         rec.ic_a.push(v[5]);
+        rec.row_line.push(n);
     }
     if !header_seen {
         return Err(err(None, None, RecordingErrorKind::Empty));
@@ -282,6 +288,7 @@ mod tests {
             ia_a: vec![-0.009765625, 19.990234375, -20.0, 0.1],
             ib_a: vec![0.0; 4],
             ic_a: vec![1e-300, -1e300, 5e-324, 0.0],
+            row_line: vec![3, 4, 5, 6], // one comment line, the header, then the rows
         };
         let path = std::env::temp_dir().join(format!("ema-rt-{}.csv", std::process::id()));
         write_recording(&path, &rec).expect("writable temp dir");
