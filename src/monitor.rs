@@ -286,3 +286,59 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         HealthReport::new(FaultVector(best), &self.params, cost, evaluations, iterations, termination)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::conditioning::DECIMATION;
+    use crate::fitness::simulate_window;
+
+    /// A noise-free "measurement" of the monitor model with faults `k`, through conditioning.
+    fn self_trace(k: &FaultVector) -> MeasuredTrace<ONBOARD_WINDOW> {
+        let mut t = MeasuredTrace::new();
+        let n = (Profile::STANDARD.duration_s() / EmaParams::NOMINAL.control_period_s) as usize / DECIMATION;
+        simulate_window(&EmaParams::NOMINAL, &Profile::STANDARD, k, n, |_, i, _| {
+            for _ in 0..DECIMATION {
+                t.push(i, -i, 0.0).unwrap();
+            }
+            true
+        });
+        t.finish().unwrap();
+        t
+    }
+
+    #[test]
+    fn pso_recovers_a_synthetic_fault_vector_from_the_model_itself() {
+        // Known answer: friction, a phase-B short and gain drift at once; the on-board budget.
+        let truth = FaultVector([0.3, 0.0, 0.0, 0.2, 0.0, 0.0, 0.5, 0.35]);
+        let trace = self_trace(&truth);
+        let config = IdentifyConfig::onboard();
+        let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
+            Identification::new(&trace, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap();
+        id.run(u32::MAX);
+        let r = id.report();
+        let err = r.faults.paper_error_percent(&truth);
+        assert!(err < 1.0, "Err% {err}: {:?}", r.faults.0);
+        assert_eq!(r.evaluations, ONBOARD_MAX_ITERATIONS * ONBOARD_POPULATION as u32);
+    }
+
+    #[test]
+    fn impossible_configurations_are_refused() {
+        let trace = self_trace(&FaultVector::HEALTHY);
+        let mut bad = EmaParams::NOMINAL;
+        bad.control_period_s = f32::NAN;
+        let r = Identification::<ONBOARD_WINDOW, 8>::new(&trace, bad, Profile::STANDARD, &IdentifyConfig::default());
+        assert!(matches!(r, Err(MonitorError::Params)));
+        let short = Profile::new(&[crate::profile::Segment::Hold { start_s: 0.0, value_rad: 0.0 }], 0.1, 0.6).unwrap();
+        let r = Identification::<ONBOARD_WINDOW, 8>::new(&trace, EmaParams::NOMINAL, short, &IdentifyConfig::default());
+        assert!(matches!(r, Err(MonitorError::TraceLongerThanProfile)));
+        let unfinished = MeasuredTrace::<ONBOARD_WINDOW>::new();
+        let r = Identification::<ONBOARD_WINDOW, 8>::new(
+            &unfinished,
+            EmaParams::NOMINAL,
+            Profile::STANDARD,
+            &IdentifyConfig::default(),
+        );
+        assert!(matches!(r, Err(MonitorError::Conditioning(ConditioningError::Finished))));
+    }
+}
