@@ -55,6 +55,13 @@ impl<const D: usize> Bounds<D> {
         }
     }
 
+    /// Brings every coordinate of `x` into the box (see [`Bounds::enforce`]).
+    pub fn enforce_point(&self, x: &mut [f32; D]) {
+        for (i, xi) in x.iter_mut().enumerate() {
+            self.enforce(i, xi);
+        }
+    }
+
     /// Brings `x[i]` back into the box: wraps periodic parameters, clamps the others.
     /// Returns `true` when the value was clamped (not wrapped), so the caller can damp its velocity.
     pub fn enforce(&self, i: usize, x: &mut f32) -> bool {

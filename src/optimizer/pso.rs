@@ -297,9 +297,7 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
     pub fn with_initial_guess(mut self, x: [f32; D]) -> Self {
         if self.evaluations == 0 {
             let mut x = x;
-            for (d, xd) in x.iter_mut().enumerate() {
-                self.bounds.enforce(d, xd);
-            }
+            self.bounds.enforce_point(&mut x);
             if let Some(p) = self.position.first_mut() {
                 *p = x;
             }
