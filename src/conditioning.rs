@@ -17,6 +17,11 @@
 
 use heapless::Vec;
 
+use crate::params::EmaParams;
+
+/// Intervals of the [`MeasuredEnvelope`] table over `[0, 4σ]`.
+const ENVELOPE_TABLE_LEN: usize = 32;
+
 /// Frames averaged into one window sample (10 kHz control rate → 2.5 kHz fitness rate).
 pub const DECIMATION: usize = 4;
 
@@ -26,6 +31,89 @@ pub const MIN_SAMPLES: usize = 50;
 /// Equivalent single-phase current `I_3eq = ½(|i_a| + |i_b| + |i_c|)`.
 pub fn equivalent_current_a(ia_a: f32, ib_a: f32, ic_a: f32) -> f32 {
     0.5 * (libm::fabsf(ia_a) + libm::fabsf(ib_a) + libm::fabsf(ic_a))
+}
+
+/// What the measured `I_3eq` is expected to read for a true (noise-free) pair current `I`.
+///
+/// Rectification biases `½Σ|i_j|` upward wherever the current is small against its noise:
+/// - the conducting pair carries `±(I + j)` plus sensor noise, where `j` is the jitter the
+///   controller puts on the current from the position transducer's noise (the derivative on
+///   measurement amplifies it): `σ_j = Kd·(α/T)·σ_θ·√(2/(2−α))`, `α = T/τ_D`,
+///   `σ_θ² = σ_pos² + q²/12` (noise and resolution `q`); the pair reads `F_{σ_pair}(|I|)` each, with
+///   `σ_pair² = σ_j² + σ_s²` (the proportional path adds `Kp·σ_θ` ≈ 0.008 A, neglected);
+/// - the open phase reads sensor noise only, `F_{σ_s}(0)`;
+///
+/// so `E[I_3eq] = F_{σ_pair}(|I|) + ½F_{σ_s}(0)`, where `F_σ(μ) = μ·erf(μ/(σ√2)) + σ√(2/π)e^{−μ²/(2σ²)}`
+/// is the folded-normal mean. Nominal sensors: `σ_j = 0.29 A`, `σ_s = 0.02 A`. Without it the monitor
+/// read the bias as extra friction (k1 ≈ 0.05 on a healthy actuator; README, "accuracy").
+/// `F_σ(μ) − μ` is tabulated once over `[0, 4σ_pair]` (beyond, below 1e-5·σ: taken as 0) and
+/// interpolated linearly: f32 only in the hot loop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeasuredEnvelope {
+    /// `F(μ) − μ` at `μ = k·4σ_pair/ENVELOPE_TABLE_LEN`, `k = 0..=ENVELOPE_TABLE_LEN`.
+    excess_a: [f32; ENVELOPE_TABLE_LEN + 1],
+    /// `ENVELOPE_TABLE_LEN/(4σ_pair)`, 0 when `σ_pair = 0`.
+    index_per_a: f32,
+    /// `½F_{σ_s}(0) = ½σ_s√(2/π)`, the open phase's share.
+    open_phase_a: f32,
+}
+
+/// `σ` if finite and positive, else 0.
+fn noise_or_zero(sigma: f32) -> f32 {
+    if sigma.is_finite() && sigma > 0.0 {
+        sigma
+    } else {
+        0.0
+    }
+}
+
+impl MeasuredEnvelope {
+    /// The envelope for pair-current noise `pair_noise_a` and open-phase sensor noise
+    /// `open_noise_a` (RMS; a non-finite or negative value counts as 0).
+    pub fn new(pair_noise_a: f32, open_noise_a: f32) -> Self {
+        let sigma = noise_or_zero(pair_noise_a);
+        let open_phase_a = 0.5 * noise_or_zero(open_noise_a) * libm::sqrtf(2.0 / core::f32::consts::PI);
+        let mut excess_a = [0.0; ENVELOPE_TABLE_LEN + 1];
+        if sigma == 0.0 {
+            return Self { excess_a, index_per_a: 0.0, open_phase_a };
+        }
+        let f0 = sigma * libm::sqrtf(2.0 / core::f32::consts::PI);
+        let step = 4.0 * sigma / ENVELOPE_TABLE_LEN as f32;
+        for (k, e) in excess_a.iter_mut().enumerate() {
+            let mu = k as f32 * step;
+            let z = mu / (sigma * core::f32::consts::SQRT_2);
+            // F(μ) − μ = σ√(2/π)e^{−z²} − μ·erfc(z)
+            *e = f0 * libm::expf(-z * z) - mu * libm::erfcf(z);
+        }
+        Self { excess_a, index_per_a: 1.0 / step, open_phase_a }
+    }
+
+    /// The envelope of the actuator's sensors and controller (formulas above).
+    pub fn of(params: &EmaParams) -> Self {
+        let q = params.position_resolution_rad;
+        let sigma_theta = libm::sqrtf(params.position_noise_rad * params.position_noise_rad + q * q * (1.0 / 12.0));
+        let alpha = params.control_period_s / params.derivative_filter_s;
+        let jitter =
+            params.kd_a_s_per_rad * (alpha / params.control_period_s) * sigma_theta * libm::sqrtf(2.0 / (2.0 - alpha));
+        let sensor = params.current_noise_a;
+        Self::new(libm::sqrtf(jitter * jitter + sensor * sensor), sensor)
+    }
+
+    /// Expected measured `I_3eq` for a true pair current `current_a`.
+    pub fn expected_a(&self, current_a: f32) -> f32 {
+        let mu = libm::fabsf(current_a);
+        let x = mu * self.index_per_a;
+        let excess = if x < ENVELOPE_TABLE_LEN as f32 {
+            let k = x as usize; // x ≥ 0 and below the table length: a valid index
+            let frac = x - k as f32;
+            let lo = self.excess_a[k];
+            let hi = self.excess_a[if k < ENVELOPE_TABLE_LEN { k + 1 } else { k }];
+            lo + (hi - lo) * frac
+        } else {
+            0.0
+        };
+        mu + excess + self.open_phase_a
+    }
 }
 
 /// Why conditioning refused its input.
@@ -194,6 +282,70 @@ mod tests {
             let e = equivalent_current_a(ia, ib, ic);
             assert!(e <= a + 1e-5 && e >= 0.866 * a - 1e-5, "{e} at {k}°");
         }
+    }
+
+    /// Seeded standard normal draws (xorshift + Box–Muller), for the Monte Carlo checks.
+    struct Normal(u64);
+    impl Normal {
+        fn uniform(&mut self) -> f32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            ((self.0 >> 40) as f32 + 0.5) / (1u64 << 24) as f32
+        }
+        fn draw(&mut self) -> f32 {
+            let (u1, u2) = (self.uniform(), self.uniform());
+            libm::sqrtf(-2.0 * libm::logf(u1)) * libm::cosf(2.0 * PI * u2)
+        }
+    }
+
+    #[test]
+    fn measured_envelope_is_the_mean_of_rectified_noisy_currents() {
+        // Monte Carlo: pair jitter j common to the pair, independent sensor noise on each phase.
+        let (pair_jitter, sensor) = (0.29f32, 0.02f32);
+        let env = MeasuredEnvelope::new(libm::sqrtf(pair_jitter * pair_jitter + sensor * sensor), sensor);
+        let mut normal = Normal(0x9E37_79B9_7F4A_7C15);
+        for current in [0.0f32, 0.1, 0.3, 0.6, 1.0, 5.0] {
+            let n = 200_000;
+            let mut sum = 0.0f64;
+            for _ in 0..n {
+                let j = pair_jitter * normal.draw();
+                let (na, nb, nc) = (sensor * normal.draw(), sensor * normal.draw(), sensor * normal.draw());
+                sum += f64::from(equivalent_current_a(current + j + na, -(current + j) + nb, nc));
+            }
+            let mc = (sum / n as f64) as f32;
+            // Monte Carlo standard error ≈ 0.29/√n ≈ 7e-4 A; interpolation < 1e-4 A.
+            assert!((env.expected_a(current) - mc).abs() < 3e-3, "I = {current}: {} vs {mc}", env.expected_a(current));
+        }
+        assert!((env.expected_a(5.0) - (5.0 + 0.5 * sensor * libm::sqrtf(2.0 / PI))).abs() < 1e-5);
+        assert_eq!(MeasuredEnvelope::new(0.0, 0.0).expected_a(-1.5), 1.5);
+        assert_eq!(MeasuredEnvelope::new(f32::NAN, -1.0).expected_a(0.0), 0.0);
+    }
+
+    #[test]
+    fn controller_jitter_matches_the_derivative_path_formula() {
+        // Drive the real controller with a noisy, quantized position at rest and measure the RMS
+        // of its derivative action Kd·D: the σ_j of `MeasuredEnvelope::of`.
+        let p = EmaParams::NOMINAL;
+        let model = crate::model::MonitorModel::new(&p, &crate::faults::FaultVector::HEALTHY);
+        let mut state = crate::model::ModelState::at_rest();
+        let mut normal = Normal(42);
+        let q = p.position_resolution_rad;
+        let (mut sum_sq, n) = (0.0f64, 200_000);
+        for k in 0..n + 1000 {
+            let measured = libm::roundf(p.position_noise_rad * normal.draw() / q) * q;
+            model.control(&mut state, 0.0, measured);
+            if k >= 1000 {
+                let d = p.kd_a_s_per_rad * state.derivative_rad_per_s;
+                sum_sq += f64::from(d * d);
+            }
+        }
+        let rms = (sum_sq / n as f64).sqrt() as f32;
+        let alpha = p.control_period_s / p.derivative_filter_s;
+        let sigma_theta = libm::sqrtf(p.position_noise_rad * p.position_noise_rad + q * q / 12.0);
+        let formula = p.kd_a_s_per_rad * (alpha / p.control_period_s) * sigma_theta * libm::sqrtf(2.0 / (2.0 - alpha));
+        assert!((rms - formula).abs() < 0.03 * formula, "{rms} vs {formula}");
+        assert!((formula - 0.29).abs() < 0.01, "{formula}");
     }
 
     #[test]

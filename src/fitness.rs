@@ -6,13 +6,14 @@
 //! E(k) = (1/n)·Σ_i w_i·(I_3eq,i − Ĩ_MM,i(k))²,     w_i = 1 / (1 + (İ_3eq,i / C)²)
 //! ```
 //!
-//! where `Ĩ_MM` is the monitor model's `|I|` through the same block mean as the measurement
+//! where `Ĩ_MM` is the monitor model's expected measured envelope (its current `I_out` through the
+//! sensors' rectified noise, [`crate::conditioning::MeasuredEnvelope`]) through the same block mean as the measurement
 //! ([`crate::conditioning`]) and `C` the RMS of the measured derivative. The mean (not the sum)
 //! keeps `E` in A², independent of the trace length. Every term is ≥ 0, so the running partial sum
 //! only grows: an evaluation can stop as soon as it exceeds the value it must beat
 //! (early abandoning, see [`crate::optimizer::Objective`]).
 
-use crate::conditioning::{MeasuredTrace, DECIMATION};
+use crate::conditioning::{MeasuredEnvelope, MeasuredTrace, DECIMATION};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::model::{ModelState, MonitorModel};
 use crate::optimizer::Objective;
@@ -20,8 +21,9 @@ use crate::params::EmaParams;
 use crate::profile::Profile;
 
 /// Runs the monitor model with faults `k` under `profile` for `samples` window samples and hands
-/// each block-averaged `|I|`, with the model state at the block's end, to `sink(index, value,
-/// state)`; `sink` returns `false` to stop early.
+/// each block mean of the expected measured envelope ([`MeasuredEnvelope`] of `I_out`, with the
+/// sensors' and controller's noise), with the model state at the block's end, to
+/// `sink(index, value, state)`; `sink` returns `false` to stop early.
 pub fn simulate_window(
     params: &EmaParams,
     profile: &Profile,
@@ -30,13 +32,14 @@ pub fn simulate_window(
     mut sink: impl FnMut(usize, f32, &ModelState) -> bool,
 ) {
     let model = MonitorModel::new(params, k);
+    let envelope = MeasuredEnvelope::of(params);
     let dt = model.dt_s();
     let mut state = ModelState::at_rest();
     let mut step = 0u32;
     for i in 0..samples {
         let mut block = 0.0f32;
         for _ in 0..DECIMATION {
-            block += libm::fabsf(state.output_current_a);
+            block += envelope.expected_a(state.output_current_a);
             model.step(&mut state, profile.command_rad(step as f32 * dt));
             step += 1;
         }

@@ -166,6 +166,9 @@ pub fn params_are_valid(p: &EmaParams) -> bool {
         p.kp_a_per_rad,
         p.ki_a_per_rad_s,
         p.kd_a_s_per_rad,
+        p.current_noise_a,
+        p.position_noise_rad,
+        p.position_resolution_rad,
     ];
     positive.iter().all(|x| x.is_finite() && *x > 0.0)
         && non_negative.iter().all(|x| x.is_finite() && *x >= 0.0)
@@ -173,6 +176,7 @@ pub fn params_are_valid(p: &EmaParams) -> bool {
         && p.efficiency_aiding <= 1.0
         && p.efficiency_opposing <= 1.0
         && p.dynamic_friction_n_m <= p.static_friction_n_m
+        && p.control_period_s < p.derivative_filter_s
 }
 
 /// The search space: the unit box, the eccentricity phase periodic.

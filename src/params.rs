@@ -61,6 +61,14 @@ pub struct EmaParams {
     pub derivative_filter_s: f32,
     /// Equivalent closed current-loop lag `τ_c` of the monitor model.
     pub current_loop_lag_s: f32,
+    /// RMS white noise `σ` of each phase-current sensor (datasheet or bench calibration). The
+    /// monitor uses it to predict the rectification bias of the measured `I_3eq`
+    /// ([`crate::conditioning::MeasuredEnvelope`]); the reference model uses it to add the noise.
+    pub current_noise_a: f32,
+    /// RMS white noise of the surface position transducer.
+    pub position_noise_rad: f32,
+    /// Resolution (one code) of the surface position transducer: 16 bits over ±0.6 rad.
+    pub position_resolution_rad: f32,
 }
 
 impl EmaParams {
@@ -90,6 +98,9 @@ impl EmaParams {
         control_period_s: 1.0e-4,
         derivative_filter_s: 1.0e-3,
         current_loop_lag_s: 2.0e-4,
+        current_noise_a: 0.02,
+        position_noise_rad: 1.0e-5,
+        position_resolution_rad: 1.2 / 65536.0,
     };
 
     /// Inertia referred to the motor shaft, `J_eq = J_m + J_u/N²`.

@@ -2,8 +2,8 @@
 //!
 //! | channel | model |
 //! |---|---|
-//! | surface position | lag `τ = 0.2 ms`, noise `σ = 1e-5 rad`, 16-bit quantization over ±0.6 rad |
-//! | phase currents | sensor error `(1 + g_j)·i_j + o_j` (effect `sensor_offset`), 20 kHz first-order bandwidth, noise `σ = 0.02 A`, 12-bit ADC [`ema_monitor::trace::amps_to_counts`] |
+//! | surface position | lag `τ = 0.2 ms`, noise `σ = EmaParams::position_noise_rad` (1e-5 rad), 16-bit quantization over ±0.6 rad |
+//! | phase currents | sensor error `(1 + g_j)·i_j + o_j` (effect `sensor_offset`), 20 kHz first-order bandwidth, noise `σ = EmaParams::current_noise_a` (0.02 A), 12-bit ADC [`ema_monitor::trace::amps_to_counts`] |
 //!
 //! The lags are integrated at every step of the model (exact discretization `y += (1 − e^{−dt/τ})·(x − y)`);
 //! noise and quantization are applied when the ACE samples.
@@ -12,16 +12,12 @@ use ema_monitor::trace;
 
 /// Position transducer lag.
 pub const POSITION_LAG_S: f64 = 2.0e-4;
-/// Position transducer white noise (standard deviation).
-pub const POSITION_NOISE_RAD: f64 = 1.0e-5;
 /// Position transducer resolution.
 pub const POSITION_BITS: u32 = 16;
 /// Position transducer range `±POSITION_RANGE_RAD`.
 pub const POSITION_RANGE_RAD: f64 = 0.6;
 /// Current sensor bandwidth.
 pub const CURRENT_BANDWIDTH_HZ: f64 = 20.0e3;
-/// Current sensor white noise (standard deviation).
-pub const CURRENT_NOISE_A: f64 = 0.02;
 
 /// One position code: `2·POSITION_RANGE_RAD / 2^16`.
 pub fn position_lsb_rad() -> f64 {
@@ -85,5 +81,11 @@ mod tests {
             l.update(1.0);
         }
         assert!((l.value - (1.0 - (-1.0f64).exp())).abs() < 1e-9);
+    }
+
+    #[test]
+    fn position_resolution_is_the_shared_parameter() {
+        let shared = f64::from(ema_monitor::EmaParams::NOMINAL.position_resolution_rad);
+        assert!((position_lsb_rad() - shared).abs() < 1e-12, "{} vs {shared}", position_lsb_rad());
     }
 }

@@ -217,6 +217,10 @@ pub struct Simulator {
     dt: f64,
     period: f64,
     period_f32: f32,
+    /// Phase-current sensor noise σ (`EmaParams::current_noise_a`).
+    current_noise_a: f64,
+    /// Position transducer noise σ (`EmaParams::position_noise_rad`).
+    position_noise_rad: f64,
     steps_per_sample: u32,
     inverter: Inverter,
     mech: Mechanics,
@@ -273,6 +277,8 @@ impl Simulator {
             dt,
             period,
             period_f32: cfg.params.control_period_s,
+            current_noise_a: crate::params::widen(cfg.params.current_noise_a),
+            position_noise_rad: crate::params::widen(cfg.params.position_noise_rad),
             steps_per_sample: steps as u32,
             inverter: Inverter::new(),
             mech: Mechanics::new(),
@@ -335,10 +341,11 @@ impl Simulator {
         let rate = 1.0 / self.period;
         let time_s =
             if (rate - rate.round()).abs() < 1e-9 * rate { k as f64 / rate.round() } else { k as f64 * self.period };
+        let (current_noise_a, position_noise_rad) = (self.current_noise_a, self.position_noise_rad);
         let (pos_noise, cur_noise) = match self.rng.as_mut() {
             Some(r) => (
-                sensors::POSITION_NOISE_RAD * r.gaussian(),
-                [r.gaussian(), r.gaussian(), r.gaussian()].map(|z| sensors::CURRENT_NOISE_A * z),
+                position_noise_rad * r.gaussian(),
+                [r.gaussian(), r.gaussian(), r.gaussian()].map(|z| current_noise_a * z),
             ),
             None => (0.0, [0.0; 3]),
         };
