@@ -7,6 +7,7 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod campaign;
 pub mod compare;
 pub mod error;
 pub mod firmware_trace;

@@ -4,6 +4,7 @@ use std::process::ExitCode;
 
 use clap::error::ErrorKind;
 use clap::{Parser, Subcommand};
+use ema_cli::campaign::{self, CampaignArgs};
 use ema_cli::compare::{self, CompareArgs};
 use ema_cli::error::{CliError, EXIT_FAILURE};
 use ema_cli::firmware_trace::{self, FirmwareTraceArgs};
@@ -28,6 +29,8 @@ enum Command {
     FirmwareTrace(FirmwareTraceArgs),
     /// Reference model vs monitor model with the true faults: the mismatch floor, per segment.
     Compare(CompareArgs),
+    /// The paper's Table II protocol: many reference-model runs identified by the core, scored.
+    Campaign(CampaignArgs),
 }
 
 fn main() -> ExitCode {
@@ -40,6 +43,7 @@ fn main() -> ExitCode {
         Command::Identify(args) => identify::run(args),
         Command::FirmwareTrace(args) => firmware_trace::run(args),
         Command::Compare(args) => compare::run(args),
+        Command::Campaign(args) => campaign::run(args),
     };
     match result {
         Ok(summary) => {
@@ -62,7 +66,7 @@ fn clap_error(e: &clap::Error) -> ExitCode {
         }
         ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
             eprintln!(
-                "error: a subcommand is required (simulate, identify, compare, firmware-trace); try 'ema --help'"
+                "error: a subcommand is required (simulate, identify, compare, campaign, firmware-trace); try 'ema --help'"
             );
             ExitCode::from(EXIT_FAILURE)
         }

@@ -1,0 +1,519 @@
+//! `ema campaign`: the paper's Table II protocol with our reference model and the on-board core.
+//!
+//! Protocol (ICSRS 2018 §VII, `shared/seed/`): 5 single-fault modes × {low, high} × `--runs` runs ×
+//! algorithms. Each run draws a fault with a seeded generator, lets the reference model record the
+//! standard manoeuvre with sensor noise on, identifies it with the `no_std` core (the firmware's
+//! code, built for the host) and scores it with the paper's error
+//! `Err% = 100·sqrt(Σ_{i≤6}(k_i − k̂_i)² + k̂6 (k7 − k̂7)² + (k8 − k̂8)²)`.
+//!
+//! Draws (all from `SplitMix64(seed ⊕ run-key)`, so a run does not depend on the thread count):
+//! - low severity uniform in [0.05, 0.25], high in [0.70, 0.95] (the paper: k̂ ≤ 0.25, k̂ ≥ 0.7);
+//! - short circuit: the phase uniformly among A, B, C; eccentricity: the phase k7 uniform in [0, 1);
+//!   gain drift: `k8 = 0.5 ± severity/2`, the sign drawn;
+//! - `--multi N`: N extra runs with 2 or 3 distinct modes at severities uniform in [0.05, 0.95];
+//! - the sensor-noise seed of the reference model and the optimizer's seed come from the same draw.
+//!
+//! Outputs: a Markdown table with the paper's Table II beside ours; `--out DIR` writes `runs.csv`,
+//! `summary.csv`, `summary.json`, `error.svg` and `time.svg` (grouped bars like the paper's
+//! Figures 4–5); `--json` prints the summary JSON.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+use clap::Args;
+use ema_monitor::monitor::{Algorithm, IdentifyConfig};
+use ema_monitor::{FaultVector, Profile};
+use ema_reference::{simulate, SimConfig};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+
+use crate::error::CliError;
+use crate::identify::{identify_recording, AlgorithmArg};
+use crate::recording_io::Recording;
+
+/// The five fault modes, in the paper's order.
+pub const MODES: [&str; 5] = ["friction", "backlash", "short-circuit", "eccentricity", "gain"];
+
+/// The paper's Table II: `(algorithm, level, [mean Err% per mode], total Err%, [time s per mode])`.
+/// Source: Dalla Vedova, Berri, Re, ICSRS 2018, Table II (Matlab, Core i5-6200U, 2 cores).
+pub const PAPER_TABLE_II: [(&str, &str, [f64; 5], f64, [f64; 5]); 4] = [
+    ("ga", "low", [2.093, 1.678, 5.042, 3.323, 1.928], 2.813, [2633.0, 2336.0, 1644.0, 2502.0, 2492.0]),
+    ("ga", "high", [4.491, 2.247, 6.253, 1.778, 0.950], 3.144, [2501.0, 2524.0, 2559.0, 2453.0, 2527.0]),
+    ("pso", "low", [0.930, 0.294, 0.863, 1.013, 0.452], 0.711, [1662.0, 1242.0, 2152.0, 2099.0, 1395.0]),
+    ("pso", "high", [2.773, 1.629, 2.734, 1.465, 0.205], 1.761, [1875.0, 1634.0, 1474.0, 1506.0, 1078.0]),
+];
+
+/// Arguments of `ema campaign`.
+#[derive(Args, Debug, Clone)]
+pub struct CampaignArgs {
+    /// Runs per fault mode, level and algorithm (the paper: 10).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..))]
+    pub runs: u32,
+    /// Algorithms, comma-separated.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "pso,ga")]
+    pub algorithms: Vec<AlgorithmArg>,
+    /// Extra multi-fault runs (2–3 simultaneous faults) per algorithm, reported separately.
+    #[arg(long, default_value_t = 0)]
+    pub multi: u32,
+    /// Iteration limit of each identification (the paper: 200).
+    #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_iterations: u32,
+    /// Master seed of every draw.
+    #[arg(long, default_value_t = 2018)]
+    pub seed: u64,
+    /// Worker threads (default: the available cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Only these modes (comma-separated), e.g. for a quick look.
+    #[arg(long, value_delimiter = ',')]
+    pub modes: Vec<String>,
+    /// Print the summary as JSON instead of the Markdown table.
+    #[arg(long)]
+    pub json: bool,
+    /// Write runs.csv, summary.csv, summary.json, error.svg and time.svg here.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+}
+
+/// One planned run.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    /// Algorithm.
+    pub algorithm: AlgorithmArg,
+    /// Fault mode name (`MODES`) or `multi`.
+    pub mode: String,
+    /// `low`, `high` or `multi`.
+    pub level: &'static str,
+    /// Run index within its cell.
+    pub run: u32,
+    /// Seed of the reference model's noise and of the optimizer.
+    pub seed: u64,
+    /// The injected fault vector.
+    pub truth: FaultVector,
+}
+
+/// One finished run.
+#[derive(Clone, Debug)]
+pub struct RunResult {
+    /// What was run.
+    pub plan: Plan,
+    /// The identified vector.
+    pub estimate: FaultVector,
+    /// The paper's error, percent.
+    pub err_percent: f64,
+    /// Identification wall time.
+    pub seconds: f64,
+    /// Objective evaluations.
+    pub evaluations: u32,
+}
+
+/// SplitMix64: the campaign's seeded generator (one stream per run key).
+struct SplitMix(u64);
+
+impl SplitMix {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    fn unit(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.unit()
+    }
+}
+
+/// Sets mode `mode` to `severity` in `k` (drawing the phase/direction it needs from `rng`).
+fn inject(k: &mut FaultVector, mode: usize, severity: f32, rng: &mut SplitMix) {
+    match mode {
+        0 => k.0[0] = severity,
+        1 => k.0[1] = severity,
+        2 => k.0[2 + (rng.next_u64() % 3) as usize] = severity,
+        3 => {
+            k.0[5] = severity;
+            k.0[6] = rng.unit();
+        }
+        _ => k.0[7] = if rng.next_u64() % 2 == 0 { 0.5 - 0.5 * severity } else { 0.5 + 0.5 * severity },
+    }
+}
+
+/// The planned runs of a campaign, in a fixed order.
+pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
+    let modes: Vec<usize> = if args.modes.is_empty() {
+        (0..MODES.len()).collect()
+    } else {
+        args.modes
+            .iter()
+            .map(|m| {
+                MODES.iter().position(|x| x == m).ok_or_else(|| {
+                    CliError::flag("--modes", format!("unknown mode '{m}' (expected one of {})", MODES.join(", ")))
+                })
+            })
+            .collect::<Result<_, _>>()?
+    };
+    let mut out = Vec::new();
+    for &algorithm in &args.algorithms {
+        let alg_key = match algorithm {
+            AlgorithmArg::Pso => 1u64,
+            AlgorithmArg::Ga => 2,
+        };
+        for &mode in &modes {
+            for (level_key, level, lo, hi) in [(1u64, "low", 0.05f32, 0.25f32), (2, "high", 0.70, 0.95)] {
+                for run in 0..args.runs {
+                    // The fault and noise depend on (mode, level, run) only, so every algorithm sees
+                    // the same recordings; the key for the optimizer adds the algorithm.
+                    let key = (mode as u64 + 1) << 40 | level_key << 32 | u64::from(run);
+                    let mut rng = SplitMix(args.seed ^ key.wrapping_mul(0xD1B5_4A32_D192_ED03));
+                    let mut truth = FaultVector::HEALTHY;
+                    let severity = rng.range(lo, hi);
+                    inject(&mut truth, mode, severity, &mut rng);
+                    let seed = rng.next_u64() ^ alg_key;
+                    out.push(Plan { algorithm, mode: MODES[mode].to_string(), level, run, seed, truth });
+                }
+            }
+        }
+        for run in 0..args.multi {
+            let key = 7u64 << 40 | u64::from(run);
+            let mut rng = SplitMix(args.seed ^ key.wrapping_mul(0xD1B5_4A32_D192_ED03));
+            let count = 2 + (rng.next_u64() % 2) as usize;
+            let mut chosen: Vec<usize> = Vec::new();
+            while chosen.len() < count {
+                let m = (rng.next_u64() % MODES.len() as u64) as usize;
+                if !chosen.contains(&m) {
+                    chosen.push(m);
+                }
+            }
+            chosen.sort_unstable();
+            let mut truth = FaultVector::HEALTHY;
+            for &m in &chosen {
+                let severity = rng.range(0.05, 0.95);
+                inject(&mut truth, m, severity, &mut rng);
+            }
+            let names: Vec<&str> = chosen.iter().map(|&m| MODES[m]).collect();
+            let seed = rng.next_u64() ^ alg_key;
+            out.push(Plan { algorithm, mode: names.join("+"), level: "multi", run, seed, truth });
+        }
+    }
+    Ok(out)
+}
+
+/// Simulates and identifies one planned run.
+pub fn execute(p: &Plan, max_iterations: u32) -> Result<RunResult, CliError> {
+    let config = SimConfig { faults: p.truth, seed: p.seed, ..SimConfig::default() };
+    let rec = simulate(&config).map_err(|e| CliError::Simulation(e.to_string()))?;
+    let recording = Recording::from_reference(&rec, Vec::new());
+    let identify = IdentifyConfig {
+        algorithm: Algorithm::from(p.algorithm),
+        seed: p.seed,
+        max_iterations,
+        ..IdentifyConfig::default()
+    };
+    let label = PathBuf::from(format!("campaign run {} {} {} #{}", alg_name(p.algorithm), p.mode, p.level, p.run));
+    let outcome = identify_recording(&recording, &label, &Profile::STANDARD, &identify)?;
+    let estimate = outcome.report.faults;
+    Ok(RunResult {
+        plan: p.clone(),
+        estimate,
+        err_percent: f64::from(estimate.paper_error_percent(&p.truth)),
+        seconds: outcome.seconds,
+        evaluations: outcome.report.evaluations,
+    })
+}
+
+fn alg_name(a: AlgorithmArg) -> &'static str {
+    match a {
+        AlgorithmArg::Pso => "pso",
+        AlgorithmArg::Ga => "ga",
+    }
+}
+
+/// Runs every planned run on `threads` workers; results in plan order.
+pub fn run_all(
+    plans: &[Plan],
+    max_iterations: u32,
+    threads: usize,
+    progress: bool,
+) -> Result<Vec<RunResult>, CliError> {
+    let bar = if progress {
+        let b = ProgressBar::new(plans.len() as u64);
+        b.set_style(
+            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} runs, eta {eta}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    let next = AtomicUsize::new(0);
+    let results: Mutex<Vec<Option<Result<RunResult, CliError>>>> = Mutex::new((0..plans.len()).map(|_| None).collect());
+    std::thread::scope(|scope| {
+        for _ in 0..threads.max(1) {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, Ordering::Relaxed);
+                let Some(p) = plans.get(i) else { break };
+                let r = execute(p, max_iterations);
+                if let Ok(mut all) = results.lock() {
+                    all[i] = Some(r);
+                }
+                bar.inc(1);
+            });
+        }
+    });
+    bar.finish_and_clear();
+    let all = results.into_inner().map_err(|_| CliError::Simulation("a campaign worker panicked".into()))?;
+    all.into_iter()
+        .map(|r| r.unwrap_or_else(|| Err(CliError::Simulation("a campaign run did not finish".into()))))
+        .collect()
+}
+
+/// Mean error and time per (algorithm, mode, level).
+#[derive(Clone, Debug, Default)]
+pub struct Cell {
+    /// Runs in the cell.
+    pub runs: usize,
+    /// Mean Err%.
+    pub mean_err_percent: f64,
+    /// Mean identification time.
+    pub mean_seconds: f64,
+    /// Mean evaluations.
+    pub mean_evaluations: f64,
+}
+
+/// Groups results by `(algorithm, mode, level)` (mode `total` pools the single-fault modes).
+pub fn summarize(results: &[RunResult]) -> BTreeMap<(String, String, String), Cell> {
+    let mut sums: BTreeMap<(String, String, String), (usize, f64, f64, f64)> = BTreeMap::new();
+    for r in results {
+        let alg = alg_name(r.plan.algorithm).to_string();
+        let mut keys = vec![(alg.clone(), r.plan.mode.clone(), r.plan.level.to_string())];
+        if r.plan.level != "multi" {
+            keys.push((alg.clone(), "total".to_string(), r.plan.level.to_string()));
+        } else {
+            keys = vec![(alg.clone(), "multi".to_string(), "multi".to_string())];
+        }
+        for key in keys {
+            let e = sums.entry(key).or_default();
+            e.0 += 1;
+            e.1 += r.err_percent;
+            e.2 += r.seconds;
+            e.3 += f64::from(r.evaluations);
+        }
+    }
+    sums.into_iter()
+        .map(|(k, (n, err, s, ev))| {
+            let n_f = n as f64;
+            (k, Cell { runs: n, mean_err_percent: err / n_f, mean_seconds: s / n_f, mean_evaluations: ev / n_f })
+        })
+        .collect()
+}
+
+fn table(summary: &BTreeMap<(String, String, String), Cell>, args: &CampaignArgs) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "| algorithm | level | {} | total | mean time (s) | paper total | paper time (s) |",
+        MODES.join(" | ")
+    );
+    let _ = writeln!(out, "|{}", "---|".repeat(MODES.len() + 6));
+    let order = ["pso", "ga"].into_iter().flat_map(|a| ["low", "high"].map(move |l| (a, l)));
+    for (alg, level, _, paper_total, paper_time) in
+        order.filter_map(|(a, l)| PAPER_TABLE_II.iter().find(|row| row.0 == a && row.1 == l))
+    {
+        if !args.algorithms.iter().any(|a| alg_name(*a) == *alg) {
+            continue;
+        }
+        let cell = |mode: &str| summary.get(&(alg.to_string(), mode.to_string(), level.to_string()));
+        let errs: Vec<String> =
+            MODES.iter().map(|m| cell(m).map_or("–".into(), |c| format!("{:.2}", c.mean_err_percent))).collect();
+        let total = cell("total");
+        let _ = writeln!(
+            out,
+            "| {alg} | {level} | {} | {} | {} | {paper_total:.3} | {:.0} |",
+            errs.join(" | "),
+            total.map_or("–".into(), |c| format!("{:.2}", c.mean_err_percent)),
+            total.map_or("–".into(), |c| format!("{:.2}", c.mean_seconds)),
+            paper_time.iter().sum::<f64>() / 5.0,
+        );
+    }
+    for (alg, _, _, _, _) in PAPER_TABLE_II.iter().step_by(2) {
+        if let Some(c) = summary.get(&(alg.to_string(), "multi".to_string(), "multi".to_string())) {
+            let _ = writeln!(
+                out,
+                "\nmulti-fault ({alg}): {} runs, mean Err% {:.2}, mean time {:.2} s",
+                c.runs, c.mean_err_percent, c.mean_seconds
+            );
+        }
+    }
+    let _ = write!(
+        out,
+        "\nErr% by the paper's formula; ours: {} runs per cell, reference model with noise, max {} iterations, seed {}.",
+        args.runs, args.max_iterations, args.seed
+    );
+    out
+}
+
+fn summary_json(summary: &BTreeMap<(String, String, String), Cell>, args: &CampaignArgs) -> serde_json::Value {
+    let cells: Vec<serde_json::Value> = summary
+        .iter()
+        .map(|((alg, mode, level), c)| {
+            json!({"algorithm": alg, "mode": mode, "level": level, "runs": c.runs,
+                   "mean_err_percent": c.mean_err_percent, "mean_seconds": c.mean_seconds,
+                   "mean_evaluations": c.mean_evaluations})
+        })
+        .collect();
+    let paper: Vec<serde_json::Value> = PAPER_TABLE_II
+        .iter()
+        .map(|(alg, level, errs, total, times)| {
+            json!({"algorithm": alg, "level": level, "err_percent": errs, "total_err_percent": total, "seconds": times})
+        })
+        .collect();
+    json!({"runs_per_cell": args.runs, "max_iterations": args.max_iterations, "seed": args.seed,
+           "cells": cells, "paper_table_ii": paper})
+}
+
+fn write_file(path: &Path, text: &str) -> Result<(), CliError> {
+    std::fs::write(path, text).map_err(|source| CliError::Io { path: path.to_path_buf(), source })
+}
+
+/// `runs.csv`: one row per run, units in the header.
+pub fn runs_csv(results: &[RunResult]) -> String {
+    let mut out = String::from("algorithm,mode,level,run,seed");
+    for prefix in ["true", "est"] {
+        for i in 1..=8 {
+            let _ = write!(out, ",k{i}_{prefix}");
+        }
+    }
+    out.push_str(",err_percent,identification_s,evaluations\n");
+    for r in results {
+        let p = &r.plan;
+        let _ = write!(out, "{},{},{},{},{}", alg_name(p.algorithm), p.mode, p.level, p.run, p.seed);
+        for k in p.truth.0.iter().chain(r.estimate.0.iter()) {
+            let _ = write!(out, ",{k}");
+        }
+        let _ = writeln!(out, ",{},{},{}", r.err_percent, r.seconds, r.evaluations);
+    }
+    out
+}
+
+/// Grouped bar chart (SVG): one group per fault mode, one bar per (algorithm, level).
+pub fn bar_chart(
+    title: &str,
+    unit: &str,
+    summary: &BTreeMap<(String, String, String), Cell>,
+    value: fn(&Cell) -> f64,
+) -> String {
+    let series: Vec<(String, String)> = summary
+        .keys()
+        .filter(|(_, mode, level)| mode != "total" && level != "multi")
+        .map(|(a, _, l)| (a.clone(), l.clone()))
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    let max = summary.values().map(value).fold(0.0f64, f64::max).max(1e-9);
+    let (w, h, left, bottom, top) = (760.0, 360.0, 60.0, 50.0, 40.0);
+    let group_w = (w - left - 20.0) / MODES.len() as f64;
+    let bar_w = group_w * 0.8 / series.len().max(1) as f64;
+    let colors = ["#1f77b4", "#aec7e8", "#d62728", "#ff9896"];
+    let mut svg = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n\
+         <rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n<text x=\"{}\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">{title}</text>\n",
+        w / 2.0
+    );
+    let plot_h = h - top - bottom;
+    for t in 0..=4 {
+        let v = max * f64::from(t) / 4.0;
+        let y = top + plot_h * (1.0 - f64::from(t) / 4.0);
+        let _ = writeln!(
+            svg,
+            "<line x1=\"{left}\" y1=\"{y:.1}\" x2=\"{:.1}\" y2=\"{y:.1}\" stroke=\"#ddd\"/><text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{v:.2}</text>",
+            w - 20.0,
+            left - 6.0,
+            y + 4.0
+        );
+    }
+    let _ = writeln!(
+        svg,
+        "<text x=\"14\" y=\"{:.1}\" transform=\"rotate(-90 14 {:.1})\" text-anchor=\"middle\">{unit}</text>",
+        top + plot_h / 2.0,
+        top + plot_h / 2.0
+    );
+    for (g, mode) in MODES.iter().enumerate() {
+        let x0 = left + group_w * g as f64 + group_w * 0.1;
+        for (s, (alg, level)) in series.iter().enumerate() {
+            if let Some(c) = summary.get(&(alg.clone(), mode.to_string(), level.clone())) {
+                let bh = plot_h * value(c) / max;
+                let _ = writeln!(
+                    svg,
+                    "<rect x=\"{:.1}\" y=\"{:.1}\" width=\"{:.1}\" height=\"{bh:.1}\" fill=\"{}\"><title>{alg} {level} {mode}: {:.3}</title></rect>",
+                    x0 + bar_w * s as f64,
+                    top + plot_h - bh,
+                    bar_w * 0.95,
+                    colors[s % colors.len()],
+                    value(c)
+                );
+            }
+        }
+        let _ = writeln!(
+            svg,
+            "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{mode}</text>",
+            x0 + group_w * 0.4,
+            h - bottom + 18.0
+        );
+    }
+    for (s, (alg, level)) in series.iter().enumerate() {
+        let x = left + 10.0 + 130.0 * s as f64;
+        let _ = writeln!(
+            svg,
+            "<rect x=\"{x:.1}\" y=\"{:.1}\" width=\"12\" height=\"12\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{:.1}\">{alg} {level}</text>",
+            h - 18.0,
+            colors[s % colors.len()],
+            x + 16.0,
+            h - 8.0
+        );
+    }
+    svg.push_str("</svg>\n");
+    svg
+}
+
+/// Runs `ema campaign`.
+pub fn run(args: &CampaignArgs) -> Result<String, CliError> {
+    if args.algorithms.is_empty() {
+        return Err(CliError::flag("--algorithms", "give at least one of pso, ga"));
+    }
+    let plans = plan(args)?;
+    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    if threads == 0 {
+        return Err(CliError::flag("--threads", "must be at least 1"));
+    }
+    let results = run_all(&plans, args.max_iterations, threads, true)?;
+    let summary = summarize(&results);
+    if let Some(dir) = &args.out {
+        std::fs::create_dir_all(dir).map_err(|source| CliError::Io { path: dir.clone(), source })?;
+        write_file(&dir.join("runs.csv"), &runs_csv(&results))?;
+        let mut csv =
+            String::from("algorithm,mode,level,runs,mean_err_percent,mean_identification_s,mean_evaluations\n");
+        for ((alg, mode, level), c) in &summary {
+            let _ = writeln!(
+                csv,
+                "{alg},{mode},{level},{},{},{},{}",
+                c.runs, c.mean_err_percent, c.mean_seconds, c.mean_evaluations
+            );
+        }
+        write_file(&dir.join("summary.csv"), &csv)?;
+        write_file(&dir.join("summary.json"), &summary_json(&summary, args).to_string())?;
+        write_file(
+            &dir.join("error.svg"),
+            &bar_chart("Mean identification error per fault mode", "Err %", &summary, |c| c.mean_err_percent),
+        )?;
+        write_file(
+            &dir.join("time.svg"),
+            &bar_chart("Mean identification time per fault mode", "seconds", &summary, |c| c.mean_seconds),
+        )?;
+    }
+    Ok(if args.json { summary_json(&summary, args).to_string() } else { table(&summary, args) })
+}

@@ -1,0 +1,112 @@
+//! `ema campaign`: plan determinism, CSV contents, the paper's table, charts, bad flags.
+
+use std::process::Command;
+
+use ema_cli::campaign::{bar_chart, plan, run_all, runs_csv, summarize, CampaignArgs, PAPER_TABLE_II};
+use ema_cli::identify::AlgorithmArg;
+use ema_monitor::FaultVector;
+
+fn args(runs: u32, modes: &[&str]) -> CampaignArgs {
+    CampaignArgs {
+        runs,
+        algorithms: vec![AlgorithmArg::Pso],
+        multi: 0,
+        max_iterations: 2,
+        seed: 2018,
+        threads: Some(1),
+        modes: modes.iter().map(|m| m.to_string()).collect(),
+        json: false,
+        out: None,
+    }
+}
+
+#[test]
+fn the_paper_table_is_table_ii() {
+    let total =
+        |alg: &str, level: &str| PAPER_TABLE_II.iter().find(|r| r.0 == alg && r.1 == level).map(|r| r.3).expect("row");
+    assert_eq!(total("pso", "low"), 0.711);
+    assert_eq!(total("pso", "high"), 1.761);
+    assert_eq!(total("ga", "low"), 2.813);
+    assert_eq!(total("ga", "high"), 3.144);
+    // the paper's totals are the means of its five modes (to its 3 decimals)
+    for (alg, level, errs, total, _) in PAPER_TABLE_II {
+        let mean = errs.iter().sum::<f64>() / 5.0;
+        assert!((mean - total).abs() < 2e-3, "{alg} {level}: {mean} vs {total}");
+    }
+}
+
+#[test]
+fn plans_follow_the_protocol_and_are_deterministic() {
+    let a = args(3, &[]);
+    let p = plan(&a).expect("valid");
+    assert_eq!(p.len(), 5 * 2 * 3);
+    for run in &p {
+        let sev: Vec<f32> = match run.mode.as_str() {
+            "friction" => vec![run.truth.0[0]],
+            "backlash" => vec![run.truth.0[1]],
+            "short-circuit" => run.truth.0[2..5].iter().copied().filter(|k| *k > 0.0).collect(),
+            "eccentricity" => vec![run.truth.0[5]],
+            _ => vec![2.0 * (run.truth.0[7] - 0.5).abs()],
+        };
+        assert_eq!(sev.len(), 1, "one faulty parameter: {run:?}");
+        let (lo, hi) = if run.level == "low" { (0.05, 0.25) } else { (0.70, 0.95) };
+        assert!(sev[0] >= lo - 1e-6 && sev[0] <= hi + 1e-6, "{run:?}");
+    }
+    let again = plan(&a).expect("valid");
+    assert!(p.iter().zip(&again).all(|(x, y)| x.truth == y.truth && x.seed == y.seed));
+    let other = plan(&CampaignArgs { seed: 7, ..a.clone() }).expect("valid");
+    assert!(p.iter().zip(&other).any(|(x, y)| x.truth != y.truth));
+    let multi = plan(&CampaignArgs { multi: 4, ..a }).expect("valid");
+    for m in multi.iter().filter(|r| r.level == "multi") {
+        let faulty = m.mode.split('+').count();
+        assert!((2..=3).contains(&faulty), "{m:?}");
+    }
+}
+
+#[test]
+fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
+    let a = args(1, &["friction", "gain"]);
+    let plans = plan(&a).expect("valid");
+    let one = run_all(&plans, 2, 1, false).expect("runs");
+    let two = run_all(&plans, 2, 2, false).expect("runs");
+    let strip = |csv: String| -> Vec<String> {
+        csv.lines()
+            .map(|l| l.rsplitn(3, ',').skip(2).collect::<String>() + &l.rsplit(',').next().unwrap_or(""))
+            .collect()
+    };
+    assert_eq!(strip(runs_csv(&one)), strip(runs_csv(&two)), "same runs, any thread count (seconds aside)");
+    let csv = runs_csv(&one);
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    assert_eq!(header.len(), 5 + 16 + 3);
+    assert_eq!(header[header.len() - 3..], ["err_percent", "identification_s", "evaluations"]);
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(rows.len(), plans.len());
+    for row in rows {
+        let f: Vec<&str> = row.split(',').collect();
+        let k = |off: usize| -> [f32; 8] { std::array::from_fn(|i| f[off + i].parse().expect("number")) };
+        let (truth, est) = (FaultVector(k(5)), FaultVector(k(13)));
+        let err: f64 = f[21].parse().expect("number");
+        assert!((f64::from(est.paper_error_percent(&truth)) - err).abs() < 1e-6, "{row}");
+        assert_eq!(f[23], "100", "2 iterations × 50 particles");
+    }
+    let summary = summarize(&one);
+    let svg = bar_chart("t", "Err %", &summary, |c| c.mean_err_percent);
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>") && svg.contains("<rect"));
+    assert_eq!(svg.matches("<svg").count(), 1);
+}
+
+#[test]
+fn bad_flags_are_refused() {
+    for bad in [
+        vec!["campaign", "--runs", "0"],
+        vec!["campaign", "--algorithms", "sa"],
+        vec!["campaign", "--modes", "bogus", "--runs", "1"],
+        vec!["campaign", "--threads", "0", "--runs", "1", "--modes", "gain"],
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_ema")).args(&bad).output().expect("runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{bad:?}: {err}");
+        assert!(err.starts_with("error:") && err.trim().lines().count() == 1, "{bad:?}: {err}");
+    }
+}
