@@ -37,13 +37,32 @@ use crate::recording_io::Recording;
 /// The five fault modes, in the paper's order.
 pub const MODES: [&str; 5] = ["friction", "backlash", "short-circuit", "eccentricity", "gain"];
 
-/// The paper's Table II: `(algorithm, level, [mean Err% per mode], total Err%, [time s per mode])`.
-/// Source: Dalla Vedova, Berri, Re, ICSRS 2018, Table II (Matlab, Core i5-6200U, 2 cores).
-pub const PAPER_TABLE_II: [(&str, &str, [f64; 5], f64, [f64; 5]); 4] = [
-    ("ga", "low", [2.093, 1.678, 5.042, 3.323, 1.928], 2.813, [2633.0, 2336.0, 1644.0, 2502.0, 2492.0]),
-    ("ga", "high", [4.491, 2.247, 6.253, 1.778, 0.950], 3.144, [2501.0, 2524.0, 2559.0, 2453.0, 2527.0]),
-    ("pso", "low", [0.930, 0.294, 0.863, 1.013, 0.452], 0.711, [1662.0, 1242.0, 2152.0, 2099.0, 1395.0]),
-    ("pso", "high", [2.773, 1.629, 2.734, 1.465, 0.205], 1.761, [1875.0, 1634.0, 1474.0, 1506.0, 1078.0]),
+/// One row of the paper's Table II.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PaperRow {
+    /// `pso` or `ga`.
+    pub algorithm: &'static str,
+    /// `low` or `high`.
+    pub level: &'static str,
+    /// Mean Err% per mode, in [`MODES`] order.
+    pub err_percent: [f64; 5],
+    /// The row's total Err%.
+    pub total_err_percent: f64,
+    /// Mean time per mode (s).
+    pub seconds: [f64; 5],
+}
+
+const fn row(algorithm: &'static str, level: &'static str, err: [f64; 5], total: f64, seconds: [f64; 5]) -> PaperRow {
+    PaperRow { algorithm, level, err_percent: err, total_err_percent: total, seconds }
+}
+
+/// The paper's Table II. Source: Dalla Vedova, Berri, Re, ICSRS 2018, Table II (Matlab r2016a,
+/// Core i5-6200U, 2 cores).
+pub const PAPER_TABLE_II: [PaperRow; 4] = [
+    row("ga", "low", [2.093, 1.678, 5.042, 3.323, 1.928], 2.813, [2633.0, 2336.0, 1644.0, 2502.0, 2492.0]),
+    row("ga", "high", [4.491, 2.247, 6.253, 1.778, 0.950], 3.144, [2501.0, 2524.0, 2559.0, 2453.0, 2527.0]),
+    row("pso", "low", [0.930, 0.294, 0.863, 1.013, 0.452], 0.711, [1662.0, 1242.0, 2152.0, 2099.0, 1395.0]),
+    row("pso", "high", [2.773, 1.629, 2.734, 1.465, 0.205], 1.761, [1875.0, 1634.0, 1474.0, 1506.0, 1078.0]),
 ];
 
 /// Arguments of `ema campaign`.
@@ -139,7 +158,7 @@ fn inject(k: &mut FaultVector, mode: usize, severity: f32, rng: &mut SplitMix) {
             k.0[5] = severity;
             k.0[6] = rng.unit();
         }
-        _ => k.0[7] = if rng.next_u64() % 2 == 0 { 0.5 - 0.5 * severity } else { 0.5 + 0.5 * severity },
+        _ => k.0[7] = if rng.next_u64().is_multiple_of(2) { 0.5 - 0.5 * severity } else { 0.5 + 0.5 * severity },
     }
 }
 
@@ -251,7 +270,8 @@ pub fn run_all(
         ProgressBar::hidden()
     };
     let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<Result<RunResult, CliError>>>> = Mutex::new((0..plans.len()).map(|_| None).collect());
+    type Slot = Option<Result<RunResult, CliError>>;
+    let results: Mutex<Vec<Slot>> = Mutex::new((0..plans.len()).map(|_| None).collect());
     std::thread::scope(|scope| {
         for _ in 0..threads.max(1) {
             scope.spawn(|| loop {
@@ -285,9 +305,12 @@ pub struct Cell {
     pub mean_evaluations: f64,
 }
 
+/// `(algorithm, mode, level)` of a summary cell.
+pub type CellKey = (String, String, String);
+
 /// Groups results by `(algorithm, mode, level)` (mode `total` pools the single-fault modes).
-pub fn summarize(results: &[RunResult]) -> BTreeMap<(String, String, String), Cell> {
-    let mut sums: BTreeMap<(String, String, String), (usize, f64, f64, f64)> = BTreeMap::new();
+pub fn summarize(results: &[RunResult]) -> BTreeMap<CellKey, Cell> {
+    let mut sums: BTreeMap<CellKey, (usize, f64, f64, f64)> = BTreeMap::new();
     for r in results {
         let alg = alg_name(r.plan.algorithm).to_string();
         let mut keys = vec![(alg.clone(), r.plan.mode.clone(), r.plan.level.to_string())];
@@ -312,7 +335,7 @@ pub fn summarize(results: &[RunResult]) -> BTreeMap<(String, String, String), Ce
         .collect()
 }
 
-fn table(summary: &BTreeMap<(String, String, String), Cell>, args: &CampaignArgs) -> String {
+fn table(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -321,10 +344,10 @@ fn table(summary: &BTreeMap<(String, String, String), Cell>, args: &CampaignArgs
     );
     let _ = writeln!(out, "|{}", "---|".repeat(MODES.len() + 6));
     let order = ["pso", "ga"].into_iter().flat_map(|a| ["low", "high"].map(move |l| (a, l)));
-    for (alg, level, _, paper_total, paper_time) in
-        order.filter_map(|(a, l)| PAPER_TABLE_II.iter().find(|row| row.0 == a && row.1 == l))
-    {
-        if !args.algorithms.iter().any(|a| alg_name(*a) == *alg) {
+    for paper in order.filter_map(|(a, l)| PAPER_TABLE_II.iter().find(|r| r.algorithm == a && r.level == l)) {
+        let (alg, level, paper_total) = (paper.algorithm, paper.level, paper.total_err_percent);
+        let paper_time = paper.seconds;
+        if !args.algorithms.iter().any(|a| alg_name(*a) == alg) {
             continue;
         }
         let cell = |mode: &str| summary.get(&(alg.to_string(), mode.to_string(), level.to_string()));
@@ -340,7 +363,7 @@ fn table(summary: &BTreeMap<(String, String, String), Cell>, args: &CampaignArgs
             paper_time.iter().sum::<f64>() / 5.0,
         );
     }
-    for (alg, _, _, _, _) in PAPER_TABLE_II.iter().step_by(2) {
+    for alg in ["pso", "ga"] {
         if let Some(c) = summary.get(&(alg.to_string(), "multi".to_string(), "multi".to_string())) {
             let _ = writeln!(
                 out,
@@ -357,7 +380,7 @@ fn table(summary: &BTreeMap<(String, String, String), Cell>, args: &CampaignArgs
     out
 }
 
-fn summary_json(summary: &BTreeMap<(String, String, String), Cell>, args: &CampaignArgs) -> serde_json::Value {
+fn summary_json(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> serde_json::Value {
     let cells: Vec<serde_json::Value> = summary
         .iter()
         .map(|((alg, mode, level), c)| {
@@ -368,8 +391,9 @@ fn summary_json(summary: &BTreeMap<(String, String, String), Cell>, args: &Campa
         .collect();
     let paper: Vec<serde_json::Value> = PAPER_TABLE_II
         .iter()
-        .map(|(alg, level, errs, total, times)| {
-            json!({"algorithm": alg, "level": level, "err_percent": errs, "total_err_percent": total, "seconds": times})
+        .map(|r| {
+            json!({"algorithm": r.algorithm, "level": r.level, "err_percent": r.err_percent,
+                   "total_err_percent": r.total_err_percent, "seconds": r.seconds})
         })
         .collect();
     json!({"runs_per_cell": args.runs, "max_iterations": args.max_iterations, "seed": args.seed,
@@ -401,12 +425,7 @@ pub fn runs_csv(results: &[RunResult]) -> String {
 }
 
 /// Grouped bar chart (SVG): one group per fault mode, one bar per (algorithm, level).
-pub fn bar_chart(
-    title: &str,
-    unit: &str,
-    summary: &BTreeMap<(String, String, String), Cell>,
-    value: fn(&Cell) -> f64,
-) -> String {
+pub fn bar_chart(title: &str, unit: &str, summary: &BTreeMap<CellKey, Cell>, value: fn(&Cell) -> f64) -> String {
     let series: Vec<(String, String)> = summary
         .keys()
         .filter(|(_, mode, level)| mode != "total" && level != "multi")
