@@ -1,42 +1,17 @@
 //! `ema simulate` end to end on the built binary, and the recording reader's refusals.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+
+mod common;
+use common::{ema, refused, scratch};
 
 use ema_cli::recording_io::{read_recording, RecordingErrorKind, HEADER};
 use ema_monitor::FaultVector;
 use ema_reference::{simulate, Effect, Effects, SimConfig};
 
-/// A fresh scratch directory for one test.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("ema-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir is writable");
-    dir
-}
-
-fn ema(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ema")).args(args).output().expect("the binary runs")
-}
-
-/// Runs `ema` expecting failure: exit status 2 and exactly one stderr line starting with `error:`
-/// that contains every `needle`; no panic, no backtrace.
-fn refused(args: &[&str], needles: &[&str]) -> String {
-    let out = ema(args);
-    let err = String::from_utf8_lossy(&out.stderr).to_string();
-    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
-    assert_eq!(err.lines().count(), 1, "{args:?}: one line expected, got {err:?}");
-    assert!(err.starts_with("error: "), "{args:?}: {err}");
-    assert!(!err.contains("panicked") && !err.contains("backtrace"), "{err}");
-    for n in needles {
-        assert!(err.contains(n), "{args:?}: '{n}' missing from {err:?}");
-    }
-    err
-}
-
 #[test]
 fn bad_flags_are_refused_with_one_line() {
-    let dir = scratch("flags");
+    let dir = scratch("cli", "flags");
     let out = dir.join("out.csv");
     let out = out.to_str().expect("utf-8 temp path");
     refused(&["simulate", "--faults", "0,0,0", "--out", out], &["--faults", "need 8", "found 3"]);
@@ -71,7 +46,7 @@ fn bad_flags_are_refused_with_one_line() {
 
 #[test]
 fn bad_profile_files_name_file_and_line() {
-    let dir = scratch("profiles");
+    let dir = scratch("cli", "profiles");
     let out = dir.join("out.csv");
     let cases = [
         ("keyword.txt", "hold 0 0\n# fine\nstep 0.1 0.05\nend 0.2\n", "line 3", "unknown keyword 'step'"),
@@ -95,7 +70,7 @@ fn bad_profile_files_name_file_and_line() {
 
 #[test]
 fn simulate_round_trips_through_the_reader() {
-    let dir = scratch("roundtrip");
+    let dir = scratch("cli", "roundtrip");
     let out = dir.join("rec.csv");
     let faults = "0.2,0.1,0.3,0,0,0.4,0.25,0.6";
     let run = || {
@@ -144,7 +119,7 @@ fn simulate_round_trips_through_the_reader() {
 
 #[test]
 fn profile_file_drives_the_command() {
-    let dir = scratch("profile");
+    let dir = scratch("cli", "profile");
     let p = dir.join("p.txt");
     std::fs::write(&p, "# test\nhold 0 0\nramp 0.01 0 0.5   # up\nsine 0.05 0.02 0.01 10\nend 0.1\n")
         .expect("writable");
@@ -170,7 +145,7 @@ fn profile_file_drives_the_command() {
 /// The reader refuses every malformed file with its name, the line and the field.
 #[test]
 fn reader_refuses_bad_files_naming_file_line_and_field() {
-    let dir = scratch("reader");
+    let dir = scratch("cli", "reader");
     let header = HEADER.join(",");
     let good_rows = "0,0,0,0,0,0\n0.0001,0,0,0,0,0\n0.0002,0,0,0,0,0\n";
     // (file, content, expected line, expected field, expected message)

@@ -2,7 +2,9 @@
 //! records today, and the command writes it.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+mod common;
+use common::{ema, scratch};
 
 use ema_cli::firmware_trace::{default_out, firmware_trace_bytes, FIRMWARE_TRACE_FAULTS, FIRMWARE_TRACE_SEED};
 use ema_cli::recording_io::read_recording;
@@ -18,17 +20,6 @@ fn committed_path() -> PathBuf {
 fn committed() -> Vec<u8> {
     let path = committed_path();
     std::fs::read(&path).unwrap_or_else(|e| panic!("cannot read {}: {e}; regenerate it: {REGENERATE}", path.display()))
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("ema-fwtrace-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir is writable");
-    dir
-}
-
-fn ema(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ema")).args(args).output().expect("the binary runs")
 }
 
 fn faults_csv() -> String {
@@ -61,7 +52,7 @@ fn committed_trace_matches_the_reference_model() {
 /// same faults and seed) holds exactly `counts_to_amps` of them, row by row.
 #[test]
 fn trace_codes_are_the_recorded_adc_codes_of_the_same_run() {
-    let dir = scratch("csv");
+    let dir = scratch("fwtrace", "csv");
     let csv = dir.join("same-run.csv");
     let o = ema(&[
         "simulate",
@@ -93,7 +84,7 @@ fn trace_codes_are_the_recorded_adc_codes_of_the_same_run() {
 
 #[test]
 fn firmware_trace_command_writes_the_trace_and_one_summary_line() {
-    let dir = scratch("cmd");
+    let dir = scratch("fwtrace", "cmd");
     let out = dir.join("t.ematrace");
     let o = ema(&["firmware-trace", "--out", out.to_str().expect("utf-8")]);
     let stdout = String::from_utf8_lossy(&o.stdout);

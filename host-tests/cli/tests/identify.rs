@@ -2,49 +2,13 @@
 //! file (and the line and field where there is one), exit status 2; good inputs give a report.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+mod common;
+use common::{accepted, refused, s, scratch};
 use std::sync::OnceLock;
 
 use ema_monitor::monitor::ONBOARD_POPULATION;
 use ema_monitor::FAULT_COUNT;
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("ema-identify-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir is writable");
-    dir
-}
-
-fn ema(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ema")).args(args).output().expect("the binary runs")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 temp path")
-}
-
-/// Runs `ema` expecting failure: exit status 2, nothing on stdout and exactly one stderr line
-/// starting with `error:` that contains every `needle`; no panic.
-fn refused(args: &[&str], needles: &[&str]) -> String {
-    let out = ema(args);
-    let err = String::from_utf8_lossy(&out.stderr).to_string();
-    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
-    assert_eq!(err.lines().count(), 1, "{args:?}: one line expected, got {err:?}");
-    assert!(err.starts_with("error: "), "{args:?}: {err}");
-    assert!(out.stdout.is_empty(), "{args:?}: {}", String::from_utf8_lossy(&out.stdout));
-    assert!(!err.contains("panicked"), "{err}");
-    for n in needles {
-        assert!(err.contains(n), "{args:?}: '{n}' missing from {err:?}");
-    }
-    err
-}
-
-/// Runs `ema` expecting success; returns stdout.
-fn accepted(args: &[&str]) -> String {
-    let out = ema(args);
-    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8(out.stdout).expect("utf-8 stdout")
-}
 
 /// A recording CSV split into its lines: comments and header (kept as they are) and data rows.
 struct Csv {
@@ -89,7 +53,7 @@ impl Csv {
 fn standard_csv() -> &'static Path {
     static PATH: OnceLock<PathBuf> = OnceLock::new();
     PATH.get_or_init(|| {
-        let p = scratch("standard").join("standard.csv");
+        let p = scratch("identify", "standard").join("standard.csv");
         accepted(&["simulate", "--seed", "3", "--out", s(&p)]);
         p
     })
@@ -97,7 +61,7 @@ fn standard_csv() -> &'static Path {
 
 #[test]
 fn bad_recordings_are_refused_naming_file_line_and_field() {
-    let dir = scratch("bad-csv");
+    let dir = scratch("identify", "bad-csv");
     let csv = Csv::read(standard_csv());
     assert_eq!(csv.rows.len(), 8500);
 
@@ -142,7 +106,7 @@ fn bad_recordings_are_refused_naming_file_line_and_field() {
 
 #[test]
 fn command_column_must_match_the_profile() {
-    let dir = scratch("profile");
+    let dir = scratch("identify", "profile");
     let profile = dir.join("step.txt");
     std::fs::write(&profile, "hold 0 0\nhold 0.01 0.02\nend 0.05\n").expect("writable");
     let rec = dir.join("step.csv");
@@ -175,7 +139,7 @@ fn committed_trace() -> PathBuf {
 
 #[test]
 fn bad_firmware_traces_are_refused_naming_the_file() {
-    let dir = scratch("bad-trace");
+    let dir = scratch("identify", "bad-trace");
     let good = std::fs::read(committed_trace()).expect("committed trace");
     let missing = dir.join("nope.ematrace");
     refused(&["identify", "--firmware-trace", s(&missing)], &["nope.ematrace", "cannot read"]);
@@ -231,7 +195,7 @@ fn firmware_trace_identifies_to_json() {
 
 #[test]
 fn short_recording_identifies_to_json() {
-    let dir = scratch("good-csv");
+    let dir = scratch("identify", "good-csv");
     let csv = Csv::read(standard_csv());
     let p = dir.join("first-0.2s.csv");
     csv.write(&p, &csv.rows[..2000]);
