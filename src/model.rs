@@ -16,6 +16,7 @@
 //!         K_eq = k_p + k_q,  R_eq = R_0(2 − s_p − s_q),  L_eq = L_0((1−s_p)² + (1−s_q)²)
 //! current I⁺ = I_ref + (I − I_ref)·e^{−T/τ_c}, its change clamped to the available voltage:
 //!         T·(−V_dc − R_eq·I − K_eq·ω)/L_eq ≤ ΔI ≤ T·(V_dc − R_eq·I − K_eq·ω)/L_eq
+//!         and, motoring above ω = V_dc/(4k), the commutation-limited rise (see below)
 //! dip     commutation dip above ω = V_dc/(4k): I_out = I − ΔĪ (sector mean, see below)
 //! torque  T_m = K_eq·I_out;  T_R = −K_h·θ_u/N (hinge load at the motor)
 //! motion  Borello dry friction (stick/slip, load-dependent), viscous C_m, semi-implicit Euler:
@@ -36,6 +37,12 @@
 //! averages, per sector and in equivalent current, to `1.5·(p·ω·t_c)²·I/π²` (at every speed,
 //! ∝ ω²), which the torque (not `I_out`, which follows the third phase) loses.
 //! Motoring only: when braking (`I·ω < 0`) the EMF helps the incoming phase and there is no dip.
+//! **Commutation-limited current**: above the onset the current loses `ΔI` at every commutation
+//! and regains it only at `(V_dc − 2E − R_eq I)/(2L)` for the rest of the sector, so the current
+//! the loop can sustain falls with speed; the rise of `|I|` per step is capped at
+//! `T·[(V_dc − 2E − R_eq|I|)/(2L)·(T_s − t_c) − ΔI]/T_s` (negative: `|I|` decays to the
+//! sustainable level). Without it the model held 12–15 A at 800–950 rad/s where the reference
+//! model's current collapses (the fast reversal: healthy residual 0.183 A RMS, was 0.388).
 //! It was the dominant healthy RM–MM mismatch (the fast reversal of the standard profile; `ema
 //! compare` shows it before and after in the README).
 //!
@@ -123,6 +130,19 @@ pub struct MonitorModel {
     eccentricity: f32,
     /// `(cos, sin)` of `φ + ψ_j` per phase.
     ecc_phase: [(f32, f32); 3],
+}
+
+/// One commutation of a motoring current (see [`MonitorModel::commutation`]).
+#[derive(Clone, Copy, Debug)]
+struct Commutation {
+    /// `t_c`: the outgoing phase's decay time.
+    time_s: f32,
+    /// `ΔI`: the dip of the non-commutated phase (0 below the onset `4E = V_dc`).
+    drop_a: f32,
+    /// `T_s`: time spent in one sector.
+    sector_time_s: f32,
+    /// `(V_dc − 2E − R_eq|I|)/(2L)`: the slope at which the current recovers after `t_c`.
+    recovery_a_per_s: f32,
 }
 
 impl MonitorModel {
@@ -252,8 +272,15 @@ impl MonitorModel {
         let w = s.motor_speed_rad_s;
         let wanted = i_ref + (i - i_ref) * self.lag_factor - i;
         let back = self.pair_r[sector] * i + k_eq * w;
-        let up = dt_over_l * (self.supply_voltage_v - back);
-        let down = dt_over_l * (-self.supply_voltage_v - back);
+        let mut up = dt_over_l * (self.supply_voltage_v - back);
+        let mut down = dt_over_l * (-self.supply_voltage_v - back);
+        if let Some(limit) = self.commutation_rise_limit(i, w, k_eq, sector) {
+            if i > 0.0 {
+                up = up.min(limit);
+            } else {
+                down = down.max(-limit);
+            }
+        }
         s.current_a = i + clamp(wanted, down, up);
         let (dip_a, torque_loss_a) = self.commutation_losses(s.current_a, w, k_eq, sector);
         s.output_current_a = s.current_a - dip_a;
@@ -287,29 +314,54 @@ impl MonitorModel {
         }
     }
 
+    /// The commutation of a motoring current `|I| = i_abs` at `|ω| = speed` (module doc):
+    /// per-phase EMF `E = K_eq|ω|/2`, commutation time `t_c = 3L|I|/(V_dc + 2E)`, current drop
+    /// `ΔI = |I|(4E − V_dc)/(V_dc + 2E)` (0 below the onset), sector time `T_s = (π/3)/(p|ω|)` and
+    /// the recovery slope `(V_dc − 2E − R_eq|I|)/(2L)`.
+    fn commutation(&self, i_abs: f32, speed: f32, k_eq: f32, sector: usize) -> Commutation {
+        let v = self.supply_voltage_v;
+        let e = 0.5 * k_eq * speed;
+        let l_phase = 0.5 * self.pair_l[sector];
+        let excess = 4.0 * e - v;
+        Commutation {
+            time_s: 3.0 * l_phase * i_abs / (v + 2.0 * e),
+            drop_a: if excess > 0.0 { i_abs * excess / (v + 2.0 * e) } else { 0.0 },
+            sector_time_s: FRAC_PI_3 / (self.pole_pairs * speed),
+            recovery_a_per_s: (v - 2.0 * e - self.pair_r[sector] * i_abs) / (2.0 * l_phase),
+        }
+    }
+
+    /// Largest change of `|I|` over one step while motoring above the dip onset: per sector the
+    /// current loses `ΔI` during `t_c` and regains the recovery slope only during `T_s − t_c`, so
+    /// the sector-start current rises by at most `T·[slope·(T_s − t_c) − ΔI]/T_s` (negative: it
+    /// decays to the commutation-limited current). `None` when braking, at rest or below the onset.
+    fn commutation_rise_limit(&self, i: f32, w: f32, k_eq: f32, sector: usize) -> Option<f32> {
+        if i * w <= 0.0 {
+            return None;
+        }
+        let c = self.commutation(libm::fabsf(i), libm::fabsf(w), k_eq, sector);
+        if c.drop_a <= 0.0 {
+            return None;
+        }
+        let rise_time = if c.sector_time_s > c.time_s { c.sector_time_s - c.time_s } else { 0.0 };
+        Some(self.dt_s * (c.recovery_a_per_s * rise_time - c.drop_a) / c.sector_time_s)
+    }
+
     /// Sector means of the commutation dip of `I_out` and of the extra torque loss (both as
     /// equivalent currents, signed like `i`; module doc). Zero when braking or at rest.
     fn commutation_losses(&self, i: f32, w: f32, k_eq: f32, sector: usize) -> (f32, f32) {
         if i * w <= 0.0 {
             return (0.0, 0.0);
         }
-        let v = self.supply_voltage_v;
-        let speed = libm::fabsf(w);
         let i_abs = libm::fabsf(i);
-        let e = 0.5 * k_eq * speed;
-        let l_phase = 0.5 * self.pair_l[sector];
-        let t_c = 3.0 * l_phase * i_abs / (v + 2.0 * e);
-        let angle = self.pole_pairs * speed * t_c;
+        let c = self.commutation(i_abs, libm::fabsf(w), k_eq, sector);
+        let angle = self.pole_pairs * libm::fabsf(w) * c.time_s;
         let ramp_loss = 1.5 * angle * angle * i_abs * (1.0 / (PI * PI));
         let torque_loss = if ramp_loss < 0.5 * i_abs { ramp_loss } else { 0.5 * i_abs };
-        let excess = 4.0 * e - v;
-        let dip = if excess > 0.0 {
-            let drop = i_abs * excess / (v + 2.0 * e);
-            let t_s = FRAC_PI_3 / (self.pole_pairs * speed);
-            let headroom = v - 2.0 * e - self.pair_r[sector] * i_abs;
-            let t_r = if headroom > 0.0 { drop * 2.0 * l_phase / headroom } else { t_s };
-            let dip_time = if t_c + t_r < t_s { t_c + t_r } else { t_s };
-            0.5 * drop * dip_time / t_s
+        let dip = if c.drop_a > 0.0 {
+            let t_r = if c.recovery_a_per_s > 0.0 { c.drop_a / c.recovery_a_per_s } else { c.sector_time_s };
+            let dip_time = if c.time_s + t_r < c.sector_time_s { c.time_s + t_r } else { c.sector_time_s };
+            0.5 * c.drop_a * dip_time / c.sector_time_s
         } else {
             0.0
         };
@@ -552,6 +604,14 @@ mod tests {
         assert!((d - 1.338).abs() < 0.002, "{d}");
         // ramp loss: p·ω·t_c = 4·686·0.2007 ms = 0.5507 rad → 1.5·0.5507²·15/π² = 0.691 A
         assert!((torque - 0.691).abs() < 0.002, "{torque}");
+        // Rise limit at the same point: rate = (270 − 178.36 − 15)/4 mH = 19 160 A/s over
+        // T_s − t_c = 0.1809 ms regains 3.466 A against the 2.901 A lost: +0.565 A per sector,
+        // i.e. 0.565·T/T_s = 0.148 A per step; at 800 rad/s the sector loses more than it regains.
+        let limit = m.commutation_rise_limit(15.0, 686.0, 0.26, 0).unwrap();
+        assert!((limit - 0.148).abs() < 1e-3, "{limit}");
+        assert!(m.commutation_rise_limit(15.0, 800.0, 0.26, 0).unwrap() < 0.0);
+        assert_eq!(m.commutation_rise_limit(15.0, 0.98 * onset, 0.26, 0), None);
+        assert_eq!(m.commutation_rise_limit(15.0, -686.0, 0.26, 0), None, "braking");
         let (dn, tn) = m.commutation_losses(-15.0, -686.0, 0.26, 0);
         assert!((dn + d).abs() < 1e-6 && (tn + torque).abs() < 1e-6, "odd in the current");
         assert_eq!(m.commutation_losses(15.0, -686.0, 0.26, 0), (0.0, 0.0), "nothing when braking");
