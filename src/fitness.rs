@@ -95,6 +95,40 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
     }
 }
 
+impl<const W: usize> CurrentFit<'_, W> {
+    /// Effective number of independent samples in the weighted residual `u_i = √w_i·r_i` of `k`:
+    /// `n_eff = n·(1 − ρ)/(1 + ρ)` with `ρ = Σu_i u_{i−1} / Σu_i²` the lag-1 autocorrelation
+    /// (clamped to `[0, 0.99]`), the usual AR(1) correction of the sample count (Bartlett 1946):
+    /// the block means of a filtered noise are not independent, and an information criterion
+    /// that counted every sample would keep parameters that only fit noise.
+    pub fn effective_samples(&self, k: &FaultVector) -> f32 {
+        let y = self.trace.current_a();
+        let w = self.trace.weight();
+        let (mut sum_sq, mut sum_lag, mut previous) = (0.0f32, 0.0f32, 0.0f32);
+        simulate_window(&self.params, &self.profile, k, y.len(), |i, model_a, _| {
+            let u = libm::sqrtf(w[i]) * (y[i] - model_a);
+            sum_sq += u * u;
+            sum_lag += u * previous;
+            previous = u;
+            true
+        });
+        let rho = if sum_sq > 0.0 && sum_lag.is_finite() { sum_lag / sum_sq } else { 0.0 };
+        let rho = clamp_unit(rho, 0.99);
+        y.len() as f32 * (1.0 - rho) / (1.0 + rho)
+    }
+}
+
+/// `x` clamped to `[0, hi]` (NaN → 0).
+fn clamp_unit(x: f32, hi: f32) -> f32 {
+    if x > hi {
+        hi
+    } else if x >= 0.0 {
+        x
+    } else {
+        0.0
+    }
+}
+
 impl<const W: usize> Objective<FAULT_COUNT> for CurrentFit<'_, W> {
     fn cost(&mut self, x: &[f32; FAULT_COUNT], abandon_above: f32) -> f32 {
         self.error_abandoning(&FaultVector(*x), abandon_above)
@@ -132,6 +166,20 @@ mod tests {
             k.0[i] += 0.05;
             assert!(fit.error(&k) > 1e-6, "parameter {i} is invisible: {}", fit.error(&k));
         }
+    }
+
+    #[test]
+    fn effective_samples_fall_with_a_correlated_residual() {
+        let truth = FaultVector::HEALTHY;
+        let trace = self_trace(&truth);
+        let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD);
+        let n = trace.len() as f32;
+        // A wrong gain leaves a smooth (strongly correlated) residual: far fewer than n samples.
+        let wrong = FaultVector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.3]);
+        let n_eff = fit.effective_samples(&wrong);
+        assert!(n_eff > 0.0 && n_eff < 0.2 * n, "{n_eff} of {n}");
+        // The exact vector leaves no residual at all: ρ = 0, every sample counts.
+        assert_eq!(fit.effective_samples(&truth), n);
     }
 
     #[test]

@@ -11,8 +11,9 @@ use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::CurrentFit;
 use crate::health::HealthReport;
 use crate::optimizer::ga::{GaConfig, Genetic};
+use crate::optimizer::pattern::{PatternConfig, PatternSearch};
 use crate::optimizer::pso::{ParticleSwarm, PsoConfig};
-use crate::optimizer::{Bounds, ConfigError, Optimizer, Status};
+use crate::optimizer::{Bounds, ConfigError, Optimizer, Status, TerminationReason};
 use crate::params::EmaParams;
 use crate::profile::Profile;
 
@@ -42,7 +43,12 @@ pub enum Algorithm {
     Ga,
 }
 
-/// Settings of one identification. `Default` = the paper: PSO, 200 iterations, tolerance 1e-9.
+/// Settings of one identification.
+///
+/// Stages: the global search (PSO or GA, the paper), then, when enabled, **model selection** (a
+/// fault group whose removal costs less than the Bayesian information criterion's price of its
+/// parameters is set back to healthy, [`FAULT_GROUPS`]) and a **polish** of the parameters left
+/// free by a compass search ([`PatternSearch`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct IdentifyConfig {
@@ -56,19 +62,76 @@ pub struct IdentifyConfig {
     pub function_tolerance: f32,
     /// Stall window of the tolerance test.
     pub stall_iterations: u32,
+    /// Test each fault group against the information criterion after the global search.
+    pub model_selection: bool,
+    /// Polish the result by compass search (`None`: report the global search's best).
+    pub polish: Option<PatternConfig>,
 }
 
 impl Default for IdentifyConfig {
+    /// The paper's global search (PSO, 200 iterations, tolerance 1e-9), then model selection and
+    /// the polish.
     fn default() -> Self {
-        Self { algorithm: Algorithm::Pso, seed: 1, max_iterations: 200, function_tolerance: 1e-9, stall_iterations: 20 }
+        Self { model_selection: true, polish: Some(PatternConfig::default()), ..Self::paper() }
     }
 }
 
 impl IdentifyConfig {
-    /// The firmware's settings: PSO, seed 1, [`ONBOARD_MAX_ITERATIONS`], the paper's tolerance.
+    /// The paper alone: PSO, 200 iterations, tolerance 1e-9, no selection, no polish.
+    pub fn paper() -> Self {
+        Self {
+            algorithm: Algorithm::Pso,
+            seed: 1,
+            max_iterations: 200,
+            function_tolerance: 1e-9,
+            stall_iterations: 20,
+            model_selection: false,
+            polish: None,
+        }
+    }
+
+    /// The firmware's settings: PSO with [`ONBOARD_MAX_ITERATIONS`], model selection and the polish.
     pub fn onboard() -> Self {
         Self { max_iterations: ONBOARD_MAX_ITERATIONS, ..Self::default() }
     }
+}
+
+/// The fault groups model selection tests, as `(first, last)` indices into the fault vector:
+/// friction, backlash, the three shorts, eccentricity (magnitude and phase: 2 parameters), gain.
+pub const FAULT_GROUPS: [(usize, usize); 7] = [(0, 0), (1, 1), (2, 2), (3, 3), (4, 4), (5, 6), (7, 7)];
+
+/// The refit of the other groups when one group is set back to healthy: steps from 0.01 down to
+/// 1e-3, at most 120 evaluations (a nested model is compared at its own best, not at the full
+/// model's: otherwise parameters that co-adapted with the group make it look needed).
+pub const SELECTION_REFIT: PatternConfig = PatternConfig { initial_step: 0.01, min_step: 1e-3, max_evaluations: 120 };
+
+/// A group counts as present when one of its parameters is this far from healthy (the phase of
+/// eccentricity only counts through its magnitude).
+const PRESENT_ABOVE: f32 = 1e-4;
+
+/// `true` when group `g` of `k` differs from the healthy vector.
+fn group_present(k: &[f32; FAULT_COUNT], (first, last): (usize, usize)) -> bool {
+    if first == PHASE_INDEX - 1 {
+        return k[first] > PRESENT_ABOVE;
+    }
+    (first..=last).any(|i| libm::fabsf(k[i] - FaultVector::HEALTHY.0[i]) > PRESENT_ABOVE)
+}
+
+/// `k` with group `g` set back to healthy.
+fn without_group(k: &[f32; FAULT_COUNT], (first, last): (usize, usize)) -> [f32; FAULT_COUNT] {
+    let mut out = *k;
+    out[first..=last].copy_from_slice(&FaultVector::HEALTHY.0[first..=last]);
+    out
+}
+
+/// Bayesian information criterion for dropping a group of `parameters`: with Gaussian residuals of
+/// `n` effective samples, `ΔBIC = n·ln(E_without/E_with) − parameters·ln(n)`; the group stays only
+/// when `ΔBIC > 0`, i.e. when it explains more than its parameters' price (Schwarz 1978).
+fn group_pays(error_with: f32, error_without: f32, parameters: usize, effective_samples: f32) -> bool {
+    if !(error_with > 0.0 && error_without.is_finite() && effective_samples > 1.0) {
+        return error_without > error_with;
+    }
+    effective_samples * libm::logf(error_without / error_with) > parameters as f32 * libm::logf(effective_samples)
 }
 
 /// Why an identification could not start.
@@ -192,13 +255,60 @@ enum Solver<const P: usize> {
     Ga(Genetic<P, FAULT_COUNT>),
 }
 
+impl<const P: usize> Solver<P> {
+    fn best(&self) -> ([f32; FAULT_COUNT], f32) {
+        match self {
+            Solver::Pso(s) => (*s.best().0, s.best().1),
+            Solver::Ga(s) => (*s.best().0, s.best().1),
+        }
+    }
+
+    fn evaluations(&self) -> u32 {
+        match self {
+            Solver::Pso(s) => s.evaluations(),
+            Solver::Ga(s) => s.evaluations(),
+        }
+    }
+
+    fn iterations(&self) -> u32 {
+        match self {
+            Solver::Pso(s) => s.iterations(),
+            Solver::Ga(s) => s.iterations(),
+        }
+    }
+}
+
+/// Where an identification is (each stage spends one evaluation per [`Identification::step`]).
+#[derive(Clone, Debug)]
+enum Stage {
+    /// The global search (PSO or GA).
+    Global,
+    /// Model selection: the effective sample count (`None` until evaluated), then for each present
+    /// group in turn (`next`) a refit of the other groups with it set to healthy (`refit`).
+    Select { effective_samples: Option<f32>, next: usize, refit: Option<PatternSearch<FAULT_COUNT>> },
+    /// The compass-search polish.
+    Polish(PatternSearch<FAULT_COUNT>),
+    /// No polish, but selection changed the vector: evaluate it once, then finish.
+    Rescore(TerminationReason),
+    /// Finished with this reason.
+    Done(TerminationReason),
+}
+
 /// One fault identification in progress: `W` window samples, `P` individuals.
 #[derive(Clone, Debug)]
 pub struct Identification<'a, const W: usize, const P: usize> {
     fit: CurrentFit<'a, W>,
     solver: Solver<P>,
     params: EmaParams,
-    status: Status,
+    config: IdentifyConfig,
+    stage: Stage,
+    /// Best vector and cost of the stages after the global search.
+    best: [f32; FAULT_COUNT],
+    best_cost: f32,
+    /// Groups kept by model selection (all of them when it is off).
+    kept: [bool; FAULT_GROUPS.len()],
+    /// Evaluations spent after the global search.
+    later_evaluations: u32,
 }
 
 impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
@@ -222,6 +332,10 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         }
         let bounds = fault_bounds();
         let healthy = FaultVector::HEALTHY.0;
+        if let Some(polish) = config.polish {
+            // Refuse a bad polish now, not after the global search.
+            PatternSearch::new(bounds, polish, healthy, None, [true; FAULT_COUNT])?;
+        }
         let solver = match config.algorithm {
             Algorithm::Pso => {
                 let c = PsoConfig {
@@ -242,34 +356,168 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                 Solver::Ga(Genetic::new(bounds, c, config.seed)?.with_initial_guess(healthy))
             }
         };
-        Ok(Self { fit: CurrentFit::new(trace, params, profile), solver, params, status: Status::Running })
+        Ok(Self {
+            fit: CurrentFit::new(trace, params, profile),
+            solver,
+            params,
+            config: *config,
+            stage: Stage::Global,
+            best: healthy,
+            best_cost: f32::INFINITY,
+            kept: [true; FAULT_GROUPS.len()],
+            later_evaluations: 0,
+        })
     }
 
     /// One objective evaluation (one monitor-model run over the trace, possibly abandoned early).
     pub fn step(&mut self) -> Status {
-        if let Status::Done(_) = self.status {
-            return self.status;
+        match &mut self.stage {
+            Stage::Done(reason) => return Status::Done(*reason),
+            Stage::Global => {
+                let status = match &mut self.solver {
+                    Solver::Pso(s) => s.step(&mut self.fit),
+                    Solver::Ga(s) => s.step(&mut self.fit),
+                };
+                if let Status::Done(reason) = status {
+                    (self.best, self.best_cost) = self.solver.best();
+                    if self.config.model_selection {
+                        self.stage = Stage::Select { effective_samples: None, next: 0, refit: None };
+                    } else {
+                        self.start_polish(reason);
+                    }
+                }
+            }
+            Stage::Select { effective_samples, next, refit } => match (*effective_samples, refit.as_mut()) {
+                (None, _) => {
+                    *effective_samples = Some(self.fit.effective_samples(&FaultVector(self.best)));
+                    self.later_evaluations += 1;
+                }
+                (Some(n), Some(search)) => {
+                    let status = search.step(&mut self.fit);
+                    self.later_evaluations += 1;
+                    if let Status::Done(_) = status {
+                        let (x, without) = search.best();
+                        let g = *next;
+                        let (first, last) = FAULT_GROUPS[g];
+                        if without < self.best_cost {
+                            // the smaller model fits better: it becomes the one to beat
+                            (self.best, self.best_cost) = (*x, without);
+                            self.kept[g] = false;
+                        } else {
+                            self.kept[g] = group_pays(self.best_cost, without, last - first + 1, n);
+                        }
+                        *next += 1;
+                        *refit = None;
+                        self.next_selection_test();
+                    }
+                }
+                (Some(_), None) => self.next_selection_test(),
+            },
+            Stage::Polish(search) => {
+                let status = search.step(&mut self.fit);
+                self.later_evaluations += 1;
+                let (x, c) = search.best();
+                (self.best, self.best_cost) = (*x, c);
+                if let Status::Done(_) = status {
+                    self.stage = Stage::Done(self.global_reason());
+                }
+            }
+            Stage::Rescore(reason) => {
+                let reason = *reason;
+                self.best_cost = self.fit.error(&FaultVector(self.best));
+                self.later_evaluations += 1;
+                self.stage = Stage::Done(reason);
+            }
         }
-        self.status = match &mut self.solver {
-            Solver::Pso(s) => s.step(&mut self.fit),
-            Solver::Ga(s) => s.step(&mut self.fit),
-        };
-        self.status
+        self.status()
     }
 
-    /// Steps until the optimizer stops or `max_evaluations` more evaluations are spent.
+    /// Starts the refit for the next present group, or ends model selection and starts the polish.
+    /// Spends no evaluation (the refit's first step evaluates its start point).
+    fn next_selection_test(&mut self) {
+        let Stage::Select { next, refit, .. } = &mut self.stage else { return };
+        while let Some(&group) = FAULT_GROUPS.get(*next) {
+            if group_present(&self.best, group) {
+                let mut free = [false; FAULT_COUNT];
+                for (h, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
+                    let movable = h != *next && self.kept[h] && group_present(&self.best, (first, last));
+                    free[first..=last].iter_mut().for_each(|f| *f = movable);
+                }
+                let start = without_group(&self.best, group);
+                if let Ok(search) = PatternSearch::new(fault_bounds(), SELECTION_REFIT, start, None, free) {
+                    *refit = Some(search);
+                    return;
+                }
+            }
+            *next += 1;
+        }
+        self.drop_unpaid_groups();
+        self.start_polish(self.global_reason());
+    }
+
+    /// Sets every group model selection refused back to healthy; the cost is re-evaluated by the
+    /// polish (or stays an upper bound of the healthy-group vector's own cost when there is none).
+    fn drop_unpaid_groups(&mut self) {
+        let mut changed = false;
+        for (g, group) in FAULT_GROUPS.iter().enumerate() {
+            if !self.kept[g] && group_present(&self.best, *group) {
+                self.best = without_group(&self.best, *group);
+                changed = true;
+            }
+        }
+        if changed {
+            self.best_cost = f32::NAN; // unknown until evaluated
+        }
+    }
+
+    /// Starts the polish over the kept groups' parameters (or finishes with `reason`).
+    fn start_polish(&mut self, reason: TerminationReason) {
+        let Some(polish) = self.config.polish else {
+            self.stage = if self.best_cost.is_nan() { Stage::Rescore(reason) } else { Stage::Done(reason) };
+            return;
+        };
+        let mut free = [false; FAULT_COUNT];
+        for (g, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
+            for f in free.iter_mut().take(last + 1).skip(first) {
+                *f = self.kept[g];
+            }
+        }
+        let start_cost = if self.best_cost.is_nan() { None } else { Some(self.best_cost) };
+        // The configuration was validated in `new`; should it fail anyway, keep the result as is.
+        self.stage = match PatternSearch::new(fault_bounds(), polish, self.best, start_cost, free) {
+            Ok(search) => Stage::Polish(search),
+            Err(_) => Stage::Done(reason),
+        };
+    }
+
+    /// Why the global search stopped (the report's termination reason).
+    fn global_reason(&self) -> TerminationReason {
+        let status = match &self.solver {
+            Solver::Pso(s) => s.status(),
+            Solver::Ga(s) => s.status(),
+        };
+        match status {
+            Status::Done(reason) => reason,
+            Status::Running => TerminationReason::MaxIterations,
+        }
+    }
+
+    /// Steps until the identification finishes or `max_evaluations` more evaluations are spent.
     pub fn run(&mut self, max_evaluations: u32) -> Status {
         for _ in 0..max_evaluations {
             if let Status::Done(_) = self.step() {
                 break;
             }
         }
-        self.status
+        self.status()
     }
 
     /// Status after the last step.
     pub fn status(&self) -> Status {
-        self.status
+        match self.stage {
+            Stage::Done(reason) => Status::Done(reason),
+            _ => Status::Running,
+        }
     }
 
     /// The fitness being minimised (to evaluate other vectors against the same trace).
@@ -277,17 +525,33 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         &self.fit
     }
 
+    /// Which fault groups ([`FAULT_GROUPS`]) model selection kept (all when it is off).
+    pub fn kept_groups(&self) -> [bool; FAULT_GROUPS.len()] {
+        self.kept
+    }
+
     /// The health report of the best vector so far.
     pub fn report(&self) -> HealthReport {
-        let (best, cost, evaluations, iterations) = match &self.solver {
-            Solver::Pso(s) => (*s.best().0, s.best().1, s.evaluations(), s.iterations()),
-            Solver::Ga(s) => (*s.best().0, s.best().1, s.evaluations(), s.iterations()),
+        let (best, cost) = match self.stage {
+            Stage::Global => self.solver.best(),
+            _ => (self.best, self.best_cost),
         };
-        let termination = match self.status {
-            Status::Done(reason) => Some(reason),
-            Status::Running => None,
-        };
-        HealthReport::new(FaultVector(best), &self.params, cost, evaluations, iterations, termination)
+        let evaluations = self.solver.evaluations() + self.later_evaluations;
+        HealthReport::new(
+            FaultVector(best),
+            &self.params,
+            cost,
+            evaluations,
+            self.solver.iterations(),
+            self.termination(),
+        )
+    }
+
+    fn termination(&self) -> Option<TerminationReason> {
+        match self.stage {
+            Stage::Done(reason) => Some(reason),
+            _ => None,
+        }
     }
 }
 
@@ -323,7 +587,59 @@ mod tests {
         let r = id.report();
         let err = r.faults.paper_error_percent(&truth);
         assert!(err < 1.0, "Err% {err}: {:?}", r.faults.0);
-        assert_eq!(r.evaluations, ONBOARD_MAX_ITERATIONS * ONBOARD_POPULATION as u32);
+        // the global search's budget, then 1 + (present groups) selection evaluations and the polish
+        let global = ONBOARD_MAX_ITERATIONS * ONBOARD_POPULATION as u32;
+        let polish = PatternConfig::default().max_evaluations;
+        let selection = 1 + FAULT_GROUPS.len() as u32 * SELECTION_REFIT.max_evaluations;
+        assert!(r.evaluations > global && r.evaluations <= global + selection + polish);
+        let kept = id.kept_groups();
+        assert!(kept[0] && kept[3] && kept[6], "a noise-free trace keeps its real faults: {kept:?}");
+    }
+
+    #[test]
+    fn the_information_criterion_prices_parameters() {
+        // n = 2000: one parameter must lower E by more than ln(2000)/2000 = 0.38 %, two by 0.76 %.
+        assert!(group_pays(1.0, 1.005, 1, 2000.0));
+        assert!(!group_pays(1.0, 1.005, 2, 2000.0));
+        assert!(!group_pays(1.0, 1.001, 1, 2000.0));
+        assert!(!group_pays(1.0, 0.99, 1, 2000.0), "a group that makes E worse never pays");
+        assert!(group_pays(0.0, 1e-9, 1, 2000.0), "an exact fit keeps what it needs");
+        assert!(!group_pays(1.0, f32::NAN, 1, 2000.0));
+    }
+
+    #[test]
+    fn model_selection_returns_unsupported_groups_to_healthy() {
+        // The model's own trace of friction + gain drift, with seeded noise on every frame: the
+        // global search leaves small values in groups that only fit noise; selection
+        // must put each of them back to exactly healthy and keep the two real faults.
+        let truth = FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.35]);
+        let mut t = MeasuredTrace::<ONBOARD_WINDOW>::new();
+        let n = (Profile::STANDARD.duration_s() / EmaParams::NOMINAL.control_period_s) as usize / DECIMATION;
+        let mut rng = crate::optimizer::rng::Rng::new(7);
+        simulate_window(&EmaParams::NOMINAL, &Profile::STANDARD, &truth, n, |_, i, _| {
+            for _ in 0..DECIMATION {
+                // the nominal actuator's noise (conditioning::MeasuredEnvelope): 0.29 A of controller
+                // jitter on the pair current, 0.02 A on each sensor
+                let pair = i + 0.29 * rng.normal();
+                let [na, nb, nc] = [0.02 * rng.normal(), 0.02 * rng.normal(), 0.02 * rng.normal()];
+                t.push(pair + na, -pair + nb, nc).unwrap();
+            }
+            true
+        });
+        t.finish().unwrap();
+        let config = IdentifyConfig::onboard();
+        let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
+            Identification::new(&t, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap();
+        id.run(u32::MAX);
+        let (kept, k) = (id.kept_groups(), id.report().faults.0);
+        assert!(kept[0] && kept[6], "friction and gain are real: {kept:?}");
+        for (g, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
+            if !kept[g] {
+                assert_eq!(&k[first..=last], &FaultVector::HEALTHY.0[first..=last], "group {g}");
+            }
+        }
+        assert!(kept.iter().filter(|k| !**k).count() >= 1, "noise alone paid for every group: {k:?}");
+        assert!(id.report().faults.paper_error_percent(&truth) < 2.0, "{k:?}");
     }
 
     #[test]

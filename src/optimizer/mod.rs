@@ -9,6 +9,7 @@
 //! Invalid costs: a non-finite cost ranks worst (it is treated as `f32::INFINITY`), never a panic.
 
 pub mod ga;
+pub mod pattern;
 pub mod pso;
 pub mod rng;
 

@@ -80,6 +80,9 @@ pub struct CampaignArgs {
     /// Iteration limit of each identification (the paper: 200).
     #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(1..))]
     pub max_iterations: u32,
+    /// The paper's global search alone: no model selection, no polish.
+    #[arg(long)]
+    pub paper_only: bool,
     /// Master seed of every draw.
     #[arg(long, default_value_t = 2018)]
     pub seed: u64,
@@ -222,17 +225,23 @@ pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
     Ok(out)
 }
 
+/// The identification settings of `ema campaign`'s flags (algorithm and seed are per run).
+pub fn identify_config(args: &CampaignArgs) -> IdentifyConfig {
+    let base = IdentifyConfig { max_iterations: args.max_iterations, ..IdentifyConfig::default() };
+    if args.paper_only {
+        IdentifyConfig { model_selection: false, polish: None, ..base }
+    } else {
+        base
+    }
+}
+
 /// Simulates and identifies one planned run.
-pub fn execute(p: &Plan, max_iterations: u32) -> Result<RunResult, CliError> {
+/// `base` gives the identification's settings; the algorithm and the seed come from the plan.
+pub fn execute(p: &Plan, base: &IdentifyConfig) -> Result<RunResult, CliError> {
     let config = SimConfig { faults: p.truth, seed: p.seed, ..SimConfig::default() };
     let rec = simulate(&config).map_err(|e| CliError::Simulation(e.to_string()))?;
     let recording = Recording::from_reference(&rec, Vec::new());
-    let identify = IdentifyConfig {
-        algorithm: Algorithm::from(p.algorithm),
-        seed: p.seed,
-        max_iterations,
-        ..IdentifyConfig::default()
-    };
+    let identify = IdentifyConfig { algorithm: Algorithm::from(p.algorithm), seed: p.seed, ..*base };
     let label = PathBuf::from(format!("campaign run {} {} {} #{}", alg_name(p.algorithm), p.mode, p.level, p.run));
     let outcome = identify_recording(&recording, &label, &Profile::STANDARD, &identify)?;
     let estimate = outcome.report.faults;
@@ -255,7 +264,7 @@ fn alg_name(a: AlgorithmArg) -> &'static str {
 /// Runs every planned run on `threads` workers; results in plan order.
 pub fn run_all(
     plans: &[Plan],
-    max_iterations: u32,
+    base: &IdentifyConfig,
     threads: usize,
     progress: bool,
 ) -> Result<Vec<RunResult>, CliError> {
@@ -277,7 +286,7 @@ pub fn run_all(
             scope.spawn(|| loop {
                 let i = next.fetch_add(1, Ordering::Relaxed);
                 let Some(p) = plans.get(i) else { break };
-                let r = execute(p, max_iterations);
+                let r = execute(p, base);
                 if let Ok(mut all) = results.lock() {
                     all[i] = Some(r);
                 }
@@ -374,8 +383,11 @@ fn table(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> String {
     }
     let _ = write!(
         out,
-        "\nErr% by the paper's formula; ours: {} runs per cell, reference model with noise, max {} iterations, seed {}.",
-        args.runs, args.max_iterations, args.seed
+        "\nErr% by the paper's formula; ours: {} runs per cell, reference model with noise, max {} iterations, {}, seed {}.",
+        args.runs,
+        args.max_iterations,
+        if args.paper_only { "global search only" } else { "then model selection and polish" },
+        args.seed
     );
     out
 }
@@ -397,6 +409,7 @@ fn summary_json(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> serde
         })
         .collect();
     json!({"runs_per_cell": args.runs, "max_iterations": args.max_iterations, "seed": args.seed,
+           "model_selection_and_polish": !args.paper_only,
            "cells": cells, "paper_table_ii": paper})
 }
 
@@ -509,7 +522,7 @@ pub fn run(args: &CampaignArgs) -> Result<String, CliError> {
     if threads == 0 {
         return Err(CliError::flag("--threads", "must be at least 1"));
     }
-    let results = run_all(&plans, args.max_iterations, threads, true)?;
+    let results = run_all(&plans, &identify_config(args), threads, true)?;
     let summary = summarize(&results);
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).map_err(|source| CliError::Io { path: dir.clone(), source })?;

@@ -71,6 +71,9 @@ pub struct IdentifyArgs {
     /// Command profile the recording was made with: `standard` or a profile file.
     #[arg(long, default_value = "standard")]
     pub profile: String,
+    /// The paper's global search alone: no model selection, no polish.
+    #[arg(long)]
+    pub paper_only: bool,
     /// Print JSON instead of the readable report.
     #[arg(long)]
     pub json: bool,
@@ -91,12 +94,15 @@ pub struct Outcome {
 /// Runs `ema identify`.
 pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
     let base = if args.firmware_trace.is_some() { IdentifyConfig::onboard() } else { IdentifyConfig::default() };
-    let config = IdentifyConfig {
+    let mut config = IdentifyConfig {
         algorithm: args.algorithm.into(),
         seed: args.seed,
         max_iterations: args.max_iterations.unwrap_or(base.max_iterations),
         ..base
     };
+    if args.paper_only {
+        config = IdentifyConfig { model_selection: false, polish: None, ..config };
+    }
     let outcome = match (&args.firmware_trace, &args.file) {
         (Some(path), _) => identify_firmware_trace(path, &config)?,
         (None, Some(path)) => {

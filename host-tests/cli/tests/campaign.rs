@@ -3,7 +3,7 @@
 mod common;
 use common::refused;
 
-use ema_cli::campaign::{bar_chart, plan, run_all, runs_csv, summarize, CampaignArgs, PAPER_TABLE_II};
+use ema_cli::campaign::{bar_chart, identify_config, plan, run_all, runs_csv, summarize, CampaignArgs, PAPER_TABLE_II};
 use ema_cli::identify::AlgorithmArg;
 use ema_monitor::FaultVector;
 
@@ -13,6 +13,7 @@ fn args(runs: u32, modes: &[&str]) -> CampaignArgs {
         algorithms: vec![AlgorithmArg::Pso],
         multi: 0,
         max_iterations: 2,
+        paper_only: false,
         seed: 2018,
         threads: Some(1),
         modes: modes.iter().map(|m| m.to_string()).collect(),
@@ -79,8 +80,8 @@ fn plans_follow_the_protocol_and_are_deterministic() {
 fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
     let a = args(1, &["friction", "gain"]);
     let plans = plan(&a).expect("valid");
-    let one = run_all(&plans, 2, 1, false).expect("runs");
-    let two = run_all(&plans, 2, 2, false).expect("runs");
+    let one = run_all(&plans, &identify_config(&a), 1, false).expect("runs");
+    let two = run_all(&plans, &identify_config(&a), 2, false).expect("runs");
     // every column but `identification_s` (second to last), which is wall time
     let strip = |csv: String| -> Vec<Vec<String>> {
         csv.lines()
