@@ -120,6 +120,8 @@ pub struct MonitorModel {
     hinge_at_motor_n_m_per_rad: f32,
     /// Per phase `k_0(1 − s_j)`.
     phase_k: [f32; 3],
+    /// Per phase `1/L_j`, `L_j = L_0(1 − s_j)²` (the commutation's neutral-point weights).
+    phase_inv_l: [f32; 3],
     /// Per sector `R_eq` and `T/L_eq` of the conducting pair (precomputed: no division per step).
     pair_r: [f32; 6],
     pair_dt_over_l: [f32; 6],
@@ -132,17 +134,30 @@ pub struct MonitorModel {
     ecc_phase: [(f32, f32); 3],
 }
 
-/// One commutation of a motoring current (see [`MonitorModel::commutation`]).
+/// The commutation into a sector, per ampere of the current it carries
+/// (see [`MonitorModel::commutation`]).
 #[derive(Clone, Copy, Debug)]
 struct Commutation {
-    /// `t_c`: the outgoing phase's decay time.
-    time_s: f32,
-    /// `ΔI`: the dip of the non-commutated phase (0 below the onset `4E = V_dc`).
-    drop_a: f32,
+    /// `t_c/|I|`: the outgoing phase's decay time per ampere.
+    time_s_per_a: f32,
+    /// `ΔI/|I|`: the dip of the common phase (0 below the onset).
+    drop_fraction: f32,
     /// `T_s`: time spent in one sector.
     sector_time_s: f32,
-    /// `(V_dc − 2E − R_eq|I|)/(2L)`: the slope at which the current recovers after `t_c`.
-    recovery_a_per_s: f32,
+    /// `K_eq|ω|`: the new pair's back-EMF.
+    pair_emf_v: f32,
+}
+
+/// `(common, outgoing, incoming)` phases of the commutation into `sector`, from `sector − 1` when
+/// turning forward, from `sector + 1` when turning backward.
+fn commutation_roles(sector: usize, forward: bool) -> (usize, usize, usize) {
+    let previous = if forward { (sector + 5) % 6 } else { (sector + 1) % 6 };
+    let (a, b) = PAIRS[sector % 6];
+    let (x, y) = PAIRS[previous];
+    let common = if a == x || a == y { a } else { b };
+    let incoming = if common == a { b } else { a };
+    let outgoing = if common == x { y } else { x };
+    (common, outgoing, incoming)
 }
 
 impl MonitorModel {
@@ -196,6 +211,7 @@ impl MonitorModel {
             aiding_load_factor: 1.0 - p.efficiency_aiding,
             hinge_at_motor_n_m_per_rad: p.hinge_stiffness_n_m_per_rad / p.gear_ratio,
             phase_k,
+            phase_inv_l: phase_l.map(|l| 1.0 / l),
             pair_r,
             pair_dt_over_l,
             pair_l,
@@ -238,26 +254,25 @@ impl MonitorModel {
         }
     }
 
-    /// `K_eq` of the conducting pair of `sector` at the state's rotor angle.
-    fn pair_emf_constant(&self, s: &ModelState, sector: usize) -> f32 {
-        let (p, q) = PAIRS[sector];
-        let mut kp = self.phase_k[p];
-        let mut kq = self.phase_k[q];
+    /// Back-EMF constants `k_j(θ_m)` of the three phases at the state's rotor angle.
+    fn phase_emf_constants(&self, s: &ModelState) -> [f32; 3] {
+        let mut k = self.phase_k;
         if self.eccentricity > 0.0 {
             let (sin_t, cos_t) = crate::trig::sin_cos(s.motor_angle_wrapped_rad);
-            // cos(θ − (φ+ψ)) = cos θ cos(φ+ψ) + sin θ sin(φ+ψ)
-            let (cp, sp) = self.ecc_phase[p];
-            let (cq, sq) = self.ecc_phase[q];
-            kp *= 1.0 + self.eccentricity * (cos_t * cp + sin_t * sp);
-            kq *= 1.0 + self.eccentricity * (cos_t * cq + sin_t * sq);
+            // cos(θ − (φ+ψ_j)) = cos θ cos(φ+ψ_j) + sin θ sin(φ+ψ_j)
+            for (kj, (c, sn)) in k.iter_mut().zip(self.ecc_phase) {
+                *kj *= 1.0 + self.eccentricity * (cos_t * c + sin_t * sn);
+            }
         }
-        kp + kq
+        k
     }
 
     /// Shape functions of the conducting pair at the state's rotor angle: `(K_eq, R_eq, L_eq)`.
     pub fn shape(&self, s: &ModelState) -> (f32, f32, f32) {
         let sector = Self::sector(s);
-        (self.pair_emf_constant(s, sector), self.pair_r[sector], self.pair_l[sector])
+        let (p, q) = PAIRS[sector];
+        let k = self.phase_emf_constants(s);
+        (k[p] + k[q], self.pair_r[sector], self.pair_l[sector])
     }
 
     /// Advances the model one control period under the surface command `command_rad`.
@@ -266,15 +281,18 @@ impl MonitorModel {
 
         // Electrical: first-order loop toward I_ref, limited by the voltage left across the pair.
         let sector = Self::sector(s);
-        let k_eq = self.pair_emf_constant(s, sector);
+        let k_phase = self.phase_emf_constants(s);
+        let (p, q) = PAIRS[sector];
+        let k_eq = k_phase[p] + k_phase[q];
         let dt_over_l = self.pair_dt_over_l[sector];
         let i = s.current_a;
         let w = s.motor_speed_rad_s;
+        let commutation = if w != 0.0 { Some(self.commutation(&k_phase, sector, w)) } else { None };
         let wanted = i_ref + (i - i_ref) * self.lag_factor - i;
         let back = self.pair_r[sector] * i + k_eq * w;
         let mut up = dt_over_l * (self.supply_voltage_v - back);
         let mut down = dt_over_l * (-self.supply_voltage_v - back);
-        if let Some(limit) = self.commutation_rise_limit(i, w, k_eq, sector) {
+        if let Some(limit) = commutation.and_then(|c| self.commutation_rise_limit(&c, i, w, sector)) {
             if i > 0.0 {
                 up = up.min(limit);
             } else {
@@ -282,7 +300,10 @@ impl MonitorModel {
             }
         }
         s.current_a = i + clamp(wanted, down, up);
-        let (dip_a, torque_loss_a) = self.commutation_losses(s.current_a, w, k_eq, sector);
+        let (dip_a, torque_loss_a) = match commutation {
+            Some(c) => self.commutation_losses(&c, s.current_a, w, sector),
+            None => (0.0, 0.0),
+        };
         s.output_current_a = s.current_a - dip_a;
 
         // Mechanical: torque balance at the motor shaft with Borello dry friction.
@@ -314,54 +335,74 @@ impl MonitorModel {
         }
     }
 
-    /// The commutation of a motoring current `|I| = i_abs` at `|ω| = speed` (module doc):
-    /// per-phase EMF `E = K_eq|ω|/2`, commutation time `t_c = 3L|I|/(V_dc + 2E)`, current drop
-    /// `ΔI = |I|(4E − V_dc)/(V_dc + 2E)` (0 below the onset), sector time `T_s = (π/3)/(p|ω|)` and
-    /// the recovery slope `(V_dc − 2E − R_eq|I|)/(2L)`.
-    fn commutation(&self, i_abs: f32, speed: f32, k_eq: f32, sector: usize) -> Commutation {
+    /// The commutation into `sector` at speed `w` (module doc, "Commutation"): the phase the two
+    /// pairs share (common `c`, its current `I`), the one leaving (`o`, decaying through its diode)
+    /// and the one entering (`n`). With the isolated star's neutral
+    /// `v_N = Σ Y_j(v_j − e_j)/ΣY_j`, `Y_j = 1/L_j`, flat-top EMFs `E_j = k_j(θ_m)|ω|`:
+    ///
+    /// ```text
+    /// d|i_o|/dt = −(Y_o/Y)·[Y_c(E_c + E_o) + Y_n(V_dc + E_o − E_n)]      (t_c = |I| / that)
+    /// d|i_c|/dt =  (Y_c/Y)·[Y_n(V_dc − E_c − E_n) − Y_o(E_c + E_o)]      (ΔI = −that·t_c when < 0)
+    /// ```
+    ///
+    /// Equal phases give Carlson's `t_c = 3L|I|/(V_dc + 2E)`, `ΔI = |I|(4E − V_dc)/(V_dc + 2E)`;
+    /// a shorted or eccentric phase changes both, commutation by commutation. `R` is neglected
+    /// during `t_c`, as there.
+    fn commutation(&self, k: &[f32; 3], sector: usize, w: f32) -> Commutation {
+        let (c, o, n) = commutation_roles(sector, w > 0.0);
+        let speed = libm::fabsf(w);
         let v = self.supply_voltage_v;
-        let e = 0.5 * k_eq * speed;
-        let l_phase = 0.5 * self.pair_l[sector];
-        let excess = 4.0 * e - v;
-        Commutation {
-            time_s: 3.0 * l_phase * i_abs / (v + 2.0 * e),
-            drop_a: if excess > 0.0 { i_abs * excess / (v + 2.0 * e) } else { 0.0 },
-            sector_time_s: FRAC_PI_3 / (self.pole_pairs * speed),
-            recovery_a_per_s: (v - 2.0 * e - self.pair_r[sector] * i_abs) / (2.0 * l_phase),
-        }
+        let (e_c, e_o, e_n) = (k[c] * speed, k[o] * speed, k[n] * speed);
+        let (y_c, y_o, y_n) = (self.phase_inv_l[c], self.phase_inv_l[o], self.phase_inv_l[n]);
+        let inv_y = 1.0 / (y_c + y_o + y_n);
+        let decay = y_o * inv_y * (y_c * (e_c + e_o) + y_n * (v + e_o - e_n));
+        let common = y_c * inv_y * (y_n * (v - e_c - e_n) - y_o * (e_c + e_o));
+        let sector_time_s = FRAC_PI_3 / (self.pole_pairs * speed);
+        let (time_s_per_a, drop_fraction) = if decay > 0.0 {
+            (1.0 / decay, if common < 0.0 { -common / decay } else { 0.0 })
+        } else {
+            (sector_time_s, 0.0) // never reached with physical values: the whole sector commutates
+        };
+        let (p, q) = PAIRS[sector];
+        Commutation { time_s_per_a, drop_fraction, sector_time_s, pair_emf_v: (k[p] + k[q]) * speed }
+    }
+
+    /// The recovery slope `(V_dc − K_eq|ω| − R_eq|I|)/L_eq` of the new pair after `t_c`.
+    fn recovery_a_per_s(&self, sector: usize, k_eq_speed_v: f32, i_abs: f32) -> f32 {
+        (self.supply_voltage_v - k_eq_speed_v - self.pair_r[sector] * i_abs) * self.pair_dt_over_l[sector] / self.dt_s
     }
 
     /// Largest change of `|I|` over one step while motoring above the dip onset: per sector the
     /// current loses `ΔI` during `t_c` and regains the recovery slope only during `T_s − t_c`, so
     /// the sector-start current rises by at most `T·[slope·(T_s − t_c) − ΔI]/T_s` (negative: it
     /// decays to the commutation-limited current). `None` when braking, at rest or below the onset.
-    fn commutation_rise_limit(&self, i: f32, w: f32, k_eq: f32, sector: usize) -> Option<f32> {
-        if i * w <= 0.0 {
+    fn commutation_rise_limit(&self, c: &Commutation, i: f32, w: f32, sector: usize) -> Option<f32> {
+        if i * w <= 0.0 || c.drop_fraction <= 0.0 {
             return None;
         }
-        let c = self.commutation(libm::fabsf(i), libm::fabsf(w), k_eq, sector);
-        if c.drop_a <= 0.0 {
-            return None;
-        }
-        let rise_time = if c.sector_time_s > c.time_s { c.sector_time_s - c.time_s } else { 0.0 };
-        Some(self.dt_s * (c.recovery_a_per_s * rise_time - c.drop_a) / c.sector_time_s)
+        let i_abs = libm::fabsf(i);
+        let (t_c, drop) = (c.time_s_per_a * i_abs, c.drop_fraction * i_abs);
+        let slope = self.recovery_a_per_s(sector, c.pair_emf_v, i_abs);
+        let rise_time = if c.sector_time_s > t_c { c.sector_time_s - t_c } else { 0.0 };
+        Some(self.dt_s * (slope * rise_time - drop) / c.sector_time_s)
     }
 
     /// Sector means of the commutation dip of `I_out` and of the extra torque loss (both as
     /// equivalent currents, signed like `i`; module doc). Zero when braking or at rest.
-    fn commutation_losses(&self, i: f32, w: f32, k_eq: f32, sector: usize) -> (f32, f32) {
+    fn commutation_losses(&self, c: &Commutation, i: f32, w: f32, sector: usize) -> (f32, f32) {
         if i * w <= 0.0 {
             return (0.0, 0.0);
         }
         let i_abs = libm::fabsf(i);
-        let c = self.commutation(i_abs, libm::fabsf(w), k_eq, sector);
-        let angle = self.pole_pairs * libm::fabsf(w) * c.time_s;
+        let (t_c, drop) = (c.time_s_per_a * i_abs, c.drop_fraction * i_abs);
+        let angle = self.pole_pairs * libm::fabsf(w) * t_c;
         let ramp_loss = 1.5 * angle * angle * i_abs * (1.0 / (PI * PI));
         let torque_loss = if ramp_loss < 0.5 * i_abs { ramp_loss } else { 0.5 * i_abs };
-        let dip = if c.drop_a > 0.0 {
-            let t_r = if c.recovery_a_per_s > 0.0 { c.drop_a / c.recovery_a_per_s } else { c.sector_time_s };
-            let dip_time = if c.time_s + t_r < c.sector_time_s { c.time_s + t_r } else { c.sector_time_s };
-            0.5 * c.drop_a * dip_time / c.sector_time_s
+        let dip = if drop > 0.0 {
+            let slope = self.recovery_a_per_s(sector, c.pair_emf_v, i_abs);
+            let t_r = if slope > 0.0 { drop / slope } else { c.sector_time_s };
+            let dip_time = if t_c + t_r < c.sector_time_s { t_c + t_r } else { c.sector_time_s };
+            0.5 * drop * dip_time / c.sector_time_s
         } else {
             0.0
         };
@@ -594,26 +635,62 @@ mod tests {
     #[test]
     fn commutation_dip_starts_at_a_quarter_of_the_bus_voltage() {
         let m = model(FaultVector::HEALTHY.0);
+        let k = [0.13f32; 3];
+        let at = |i: f32, w: f32| m.commutation_losses(&m.commutation(&k, 0, w), i, w, 0);
+        let limit = |i: f32, w: f32| m.commutation_rise_limit(&m.commutation(&k, 0, w), i, w, 0);
         let onset = 270.0 / (4.0 * 0.13); // 4E = V_dc, E = k_0 ω
-        assert_eq!(m.commutation_losses(15.0, 0.98 * onset, 0.26, 0).0, 0.0);
-        assert!(m.commutation_losses(15.0, 1.05 * onset, 0.26, 0).0 > 0.0);
+        assert_eq!(at(15.0, 0.98 * onset).0, 0.0);
+        assert!(at(15.0, 1.05 * onset).0 > 0.0);
         // Worked example (the reference model reads 13.6 A, i.e. a 1.4 A dip, at 686 rad/s):
         // E = 89.18 V, t_c = 0.2007 ms, ΔI = 2.901 A, t_r = 2.901·4 mH/(270 − 178.4 − 15) V = 0.1514 ms,
         // T_s = 0.3816 ms → ½·2.901·0.3521/0.3816 = 1.338 A.
-        let (d, torque) = m.commutation_losses(15.0, 686.0, 0.26, 0);
+        let (d, torque) = at(15.0, 686.0);
         assert!((d - 1.338).abs() < 0.002, "{d}");
         // ramp loss: p·ω·t_c = 4·686·0.2007 ms = 0.5507 rad → 1.5·0.5507²·15/π² = 0.691 A
         assert!((torque - 0.691).abs() < 0.002, "{torque}");
         // Rise limit at the same point: rate = (270 − 178.36 − 15)/4 mH = 19 160 A/s over
         // T_s − t_c = 0.1809 ms regains 3.466 A against the 2.901 A lost: +0.565 A per sector,
         // i.e. 0.565·T/T_s = 0.148 A per step; at 800 rad/s the sector loses more than it regains.
-        let limit = m.commutation_rise_limit(15.0, 686.0, 0.26, 0).unwrap();
-        assert!((limit - 0.148).abs() < 1e-3, "{limit}");
-        assert!(m.commutation_rise_limit(15.0, 800.0, 0.26, 0).unwrap() < 0.0);
-        assert_eq!(m.commutation_rise_limit(15.0, 0.98 * onset, 0.26, 0), None);
-        assert_eq!(m.commutation_rise_limit(15.0, -686.0, 0.26, 0), None, "braking");
-        let (dn, tn) = m.commutation_losses(-15.0, -686.0, 0.26, 0);
+        let l = limit(15.0, 686.0).unwrap();
+        assert!((l - 0.148).abs() < 1e-3, "{l}");
+        assert!(limit(15.0, 800.0).unwrap() < 0.0);
+        assert_eq!(limit(15.0, 0.98 * onset), None);
+        assert_eq!(limit(15.0, -686.0), None, "braking");
+        let (dn, tn) = at(-15.0, -686.0);
         assert!((dn + d).abs() < 1e-6 && (tn + torque).abs() < 1e-6, "odd in the current");
-        assert_eq!(m.commutation_losses(15.0, -686.0, 0.26, 0), (0.0, 0.0), "nothing when braking");
+        assert_eq!(at(15.0, -686.0), (0.0, 0.0), "nothing when braking");
+    }
+
+    #[test]
+    fn commutation_roles_follow_the_six_step_table() {
+        // forward 0 → 1: (a+, b−) → (a+, c−): a stays, b leaves, c enters
+        assert_eq!(commutation_roles(1, true), (0, 1, 2));
+        // backward 1 → 0: (a+, c−) → (a+, b−): a stays, c leaves, b enters
+        assert_eq!(commutation_roles(0, false), (0, 2, 1));
+        for sector in 0..6 {
+            for forward in [true, false] {
+                let (c, o, n) = commutation_roles(sector, forward);
+                assert!(c != o && o != n && c != n);
+                let (p, q) = PAIRS[sector];
+                assert!((c == p || c == q) && (n == p || n == q), "the new pair is (common, incoming)");
+            }
+        }
+    }
+
+    #[test]
+    fn a_shorted_outgoing_phase_commutates_faster() {
+        // A short lowers L_j (∝ (1−s)²) more than k_j (∝ 1−s): its current decays faster, so
+        // commutations where it leaves are shorter than the healthy ones; the equal-phase case is
+        // the symmetric formula exactly.
+        let m = model([0.0, 0.0, 0.6, 0.0, 0.0, 0.0, 0.5, 0.5]); // s_a = 0.3
+        let k = [0.13 * 0.7, 0.13, 0.13];
+        let w = 700.0;
+        let a_leaves = m.commutation(&k, 2, w); // forward 1 → 2: a leaves
+        let a_stays = m.commutation(&k, 1, w); // forward 0 → 1: b leaves
+        assert!(a_leaves.time_s_per_a < a_stays.time_s_per_a);
+        let healthy = model(FaultVector::HEALTHY.0).commutation(&[0.13; 3], 1, w);
+        let e = 0.13 * w;
+        assert!((healthy.time_s_per_a - 3.0 * 2e-3 / (270.0 + 2.0 * e)).abs() < 1e-9);
+        assert!((healthy.drop_fraction - (4.0 * e - 270.0) / (270.0 + 2.0 * e)).abs() < 1e-5);
     }
 }
