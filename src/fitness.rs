@@ -18,7 +18,7 @@ use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::model::{ModelState, MonitorModel};
 use crate::optimizer::Objective;
 use crate::params::EmaParams;
-use crate::profile::Profile;
+use crate::profile::{Profile, ProfileCursor};
 
 /// Runs the monitor model with faults `k` under `profile` for `samples` window samples and hands
 /// each block mean of the expected measured envelope ([`MeasuredEnvelope`] of `I_out`, with the
@@ -35,12 +35,13 @@ pub fn simulate_window(
     let envelope = MeasuredEnvelope::of(params);
     let dt = model.dt_s();
     let mut state = ModelState::at_rest();
+    let mut command = ProfileCursor::new(profile);
     let mut step = 0u32;
     for i in 0..samples {
         let mut block = 0.0f32;
         for _ in 0..DECIMATION {
             block += envelope.expected_a(state.output_current_a);
-            model.step(&mut state, profile.command_rad(step as f32 * dt));
+            model.step(&mut state, command.command_rad(step as f32 * dt));
             step += 1;
         }
         if !sink(i, block * (1.0 / DECIMATION as f32), &state) {

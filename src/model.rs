@@ -129,6 +129,8 @@ pub struct MonitorModel {
     pair_l: [f32; 6],
     inv_dt: f32,
     dt_over_j: f32,
+    /// One sector in motor angle, `(π/3)/p`.
+    sector_angle_rad: f32,
     eccentricity: f32,
     /// `(cos, sin)` of `φ + ψ_j` per phase.
     ecc_phase: [(f32, f32); 3],
@@ -216,6 +218,7 @@ impl MonitorModel {
             pair_dt_over_l,
             pair_l,
             inv_dt: 1.0 / p.control_period_s,
+            sector_angle_rad: FRAC_PI_3 / p.pole_pairs,
             dt_over_j: p.control_period_s / p.equivalent_inertia_kg_m2(),
             eccentricity: f.eccentricity,
             ecc_phase,
@@ -287,7 +290,9 @@ impl MonitorModel {
         let dt_over_l = self.pair_dt_over_l[sector];
         let i = s.current_a;
         let w = s.motor_speed_rad_s;
-        let commutation = if w != 0.0 { Some(self.commutation(&k_phase, sector, w)) } else { None };
+        // Commutation terms only while motoring (before or after this step's current change).
+        let motoring = i * w > 0.0 || i_ref * w > 0.0;
+        let commutation = if motoring { Some(self.commutation(&k_phase, sector, w)) } else { None };
         let wanted = i_ref + (i - i_ref) * self.lag_factor - i;
         let back = self.pair_r[sector] * i + k_eq * w;
         let mut up = dt_over_l * (self.supply_voltage_v - back);
@@ -357,7 +362,7 @@ impl MonitorModel {
         let inv_y = 1.0 / (y_c + y_o + y_n);
         let decay = y_o * inv_y * (y_c * (e_c + e_o) + y_n * (v + e_o - e_n));
         let common = y_c * inv_y * (y_n * (v - e_c - e_n) - y_o * (e_c + e_o));
-        let sector_time_s = FRAC_PI_3 / (self.pole_pairs * speed);
+        let sector_time_s = self.sector_angle_rad / speed;
         let (time_s_per_a, drop_fraction) = if decay > 0.0 {
             (1.0 / decay, if common < 0.0 { -common / decay } else { 0.0 })
         } else {
@@ -369,7 +374,7 @@ impl MonitorModel {
 
     /// The recovery slope `(V_dc − K_eq|ω| − R_eq|I|)/L_eq` of the new pair after `t_c`.
     fn recovery_a_per_s(&self, sector: usize, k_eq_speed_v: f32, i_abs: f32) -> f32 {
-        (self.supply_voltage_v - k_eq_speed_v - self.pair_r[sector] * i_abs) * self.pair_dt_over_l[sector] / self.dt_s
+        (self.supply_voltage_v - k_eq_speed_v - self.pair_r[sector] * i_abs) * self.pair_dt_over_l[sector] * self.inv_dt
     }
 
     /// Largest change of `|I|` over one step while motoring above the dip onset: per sector the

@@ -470,17 +470,18 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         }
     }
 
-    /// Starts the polish over the kept groups' parameters (or finishes with `reason`).
+    /// Starts the polish over the present and kept groups' parameters (or finishes with `reason`).
     fn start_polish(&mut self, reason: TerminationReason) {
         let Some(polish) = self.config.polish else {
             self.stage = if self.best_cost.is_nan() { Stage::Rescore(reason) } else { Stage::Done(reason) };
             return;
         };
+        // Only the groups the global search found and selection kept move: an absent group has no
+        // gradient to follow from healthy (the eccentricity phase means nothing without magnitude).
         let mut free = [false; FAULT_COUNT];
-        for (g, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
-            for f in free.iter_mut().take(last + 1).skip(first) {
-                *f = self.kept[g];
-            }
+        for (g, &group) in FAULT_GROUPS.iter().enumerate() {
+            let movable = self.kept[g] && group_present(&self.best, group);
+            free[group.0..=group.1].iter_mut().for_each(|f| *f = movable);
         }
         let start_cost = if self.best_cost.is_nan() { None } else { Some(self.best_cost) };
         // The configuration was validated in `new`; should it fail anyway, keep the result as is.

@@ -174,6 +174,35 @@ impl Profile {
     }
 }
 
+/// Reads a [`Profile`] at non-decreasing times without rescanning its segments (the monitor
+/// model's hot loop): same values as [`Profile::command_rad`].
+#[derive(Clone, Debug)]
+pub struct ProfileCursor<'a> {
+    segments: &'a [Segment],
+    active: usize,
+}
+
+impl<'a> ProfileCursor<'a> {
+    /// A cursor at the profile's first segment.
+    pub fn new(profile: &'a Profile) -> Self {
+        Self { segments: profile.segments(), active: 0 }
+    }
+
+    /// Commanded surface position at `t_s`, which must not be earlier than the previous call's.
+    pub fn command_rad(&mut self, t_s: f32) -> f32 {
+        while let Some(next) = self.segments.get(self.active + 1) {
+            if next.start_s() > t_s {
+                break;
+            }
+            self.active += 1;
+        }
+        match self.segments.get(self.active) {
+            Some(s) => s.value_rad(t_s),
+            None => 0.0, // a profile always has a segment (checked when it is built)
+        }
+    }
+}
+
 impl Default for Profile {
     fn default() -> Self {
         Self::STANDARD
@@ -183,6 +212,16 @@ impl Default for Profile {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_cursor_reads_what_the_profile_says() {
+        let p = Profile::STANDARD;
+        let mut cursor = ProfileCursor::new(&p);
+        for step in 0..9000 {
+            let t = step as f32 * 1e-4;
+            assert_eq!(cursor.command_rad(t).to_bits(), p.command_rad(t).to_bits(), "t = {t}");
+        }
+    }
 
     #[test]
     fn standard_profile_values() {
