@@ -3,7 +3,7 @@
 mod common;
 use common::refused;
 
-use ema_cli::campaign::{bar_chart, plan, run_all, runs_csv, summarize, CampaignArgs, PAPER_TABLE_II};
+use ema_cli::campaign::{self, bar_chart, plan, run_all, runs_csv, summarize, CampaignArgs, PAPER_TABLE_II};
 use ema_cli::identify::AlgorithmArg;
 use ema_monitor::FaultVector;
 
@@ -112,6 +112,33 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
     let svg = bar_chart("t", "Err %", &summary, |c| c.mean_err_percent);
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>") && svg.contains("<rect"));
     assert_eq!(svg.matches("<svg").count(), 1);
+}
+
+#[test]
+fn differential_evolution_runs_on_the_same_recordings_and_gets_its_own_rows() {
+    let a = CampaignArgs { algorithms: vec![AlgorithmArg::Pso, AlgorithmArg::De], ..args(1, &["gain"]) };
+    let plans = plan(&a).expect("valid");
+    assert_eq!(plans.len(), 2 * 2);
+    let (pso, de): (Vec<_>, Vec<_>) = plans.iter().partition(|p| p.algorithm == AlgorithmArg::Pso);
+    // Same faults for every algorithm; the optimizer seed differs.
+    for (p, d) in pso.iter().zip(&de) {
+        assert_eq!((p.truth, &p.mode, p.level), (d.truth, &d.mode, d.level));
+        assert_ne!(p.seed, d.seed);
+    }
+    let table = campaign::run(&a).expect("runs");
+    let row = |alg: &str, level: &str| {
+        table
+            .lines()
+            .find(|l| l.starts_with(&format!("| {alg} | {level} |")))
+            .unwrap_or_else(|| panic!("no {alg} {level} row in\n{table}"))
+            .to_string()
+    };
+    for level in ["low", "high"] {
+        // The paper has no DE: its two columns are dashes; the PSO row keeps the paper's numbers.
+        assert!(row("de", level).ends_with("| – | – |"), "{}", row("de", level));
+        assert!(!row("pso", level).ends_with("| – | – |"), "{}", row("pso", level));
+    }
+    assert!(!table.contains("| ga |"), "{table}");
 }
 
 #[test]

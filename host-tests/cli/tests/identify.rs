@@ -203,3 +203,18 @@ fn short_recording_identifies_to_json() {
     let text = accepted(&["identify", s(&p), "--max-iterations", "3", "--algorithm", "ga"]);
     assert!(text.starts_with("EMA health:") && text.contains("identification took"), "{text}");
 }
+
+#[test]
+fn differential_evolution_is_selectable_and_deterministic() {
+    let dir = scratch("identify", "de");
+    let csv = Csv::read(standard_csv());
+    let p = dir.join("first-0.2s.csv");
+    csv.write(&p, &csv.rows[..2000]);
+    let args = ["identify", s(&p), "--algorithm", "de", "--json", "--max-iterations", "4"];
+    // 4 generations of 50: the evaluation count and bounds checks of check_json hold for DE too.
+    let de = check_json(&accepted(&args), 4);
+    assert_eq!((&de["k"], &de["fitness"]), (&check_json(&accepted(&args), 4)["k"], &de["fitness"]));
+    // A different optimizer from the PSO: same input, same seed, another search.
+    let pso = check_json(&accepted(&["identify", s(&p), "--json", "--max-iterations", "4"]), 4);
+    assert_ne!(de["k"], pso["k"]);
+}
