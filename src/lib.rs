@@ -13,7 +13,7 @@
 //!   3 phase currents, counts     amperes,        I_3eq, block      weighted      driven by the same
 //!                                 checks          means, weights   residual      command profile
 //!                                                                    │
-//!                                                 optimizer (PSO/GA, step-wise) ─► health report
+//!                                              optimizer (PSO/GA/DE, step-wise) ─► health report
 //! ```
 //!
 //! Vocabulary of the const generics: `W` = samples in the conditioned window, `P` = individuals

@@ -8,6 +8,7 @@
 //!
 //! Invalid costs: a non-finite cost ranks worst (it is treated as `f32::INFINITY`), never a panic.
 
+pub mod de;
 pub mod ga;
 pub mod pattern;
 pub mod pso;

@@ -34,13 +34,16 @@ use crate::error::CliError;
 use crate::identify::{identify_recording, AlgorithmArg};
 use crate::recording_io::Recording;
 
+/// Order of the algorithms in the table: the paper's two, then differential evolution (not in the paper).
+const ALGORITHM_ORDER: [&str; 3] = ["pso", "ga", "de"];
+
 /// The five fault modes, in the paper's order.
 pub const MODES: [&str; 5] = ["friction", "backlash", "short-circuit", "eccentricity", "gain"];
 
 /// One row of the paper's Table II.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PaperRow {
-    /// `pso` or `ga`.
+    /// `pso` or `ga` (the paper has no DE).
     pub algorithm: &'static str,
     /// `low` or `high`.
     pub level: &'static str,
@@ -184,6 +187,7 @@ pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
         let alg_key = match algorithm {
             AlgorithmArg::Pso => 1u64,
             AlgorithmArg::Ga => 2,
+            AlgorithmArg::De => 3,
         };
         for &mode in &modes {
             for (level_key, level, lo, hi) in [(1u64, "low", 0.05f32, 0.25f32), (2, "high", 0.70, 0.95)] {
@@ -258,6 +262,7 @@ fn alg_name(a: AlgorithmArg) -> &'static str {
     match a {
         AlgorithmArg::Pso => "pso",
         AlgorithmArg::Ga => "ga",
+        AlgorithmArg::De => "de",
     }
 }
 
@@ -352,27 +357,28 @@ fn table(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> String {
         MODES.join(" | ")
     );
     let _ = writeln!(out, "|{}", "---|".repeat(MODES.len() + 6));
-    let order = ["pso", "ga"].into_iter().flat_map(|a| ["low", "high"].map(move |l| (a, l)));
-    for paper in order.filter_map(|(a, l)| PAPER_TABLE_II.iter().find(|r| r.algorithm == a && r.level == l)) {
-        let (alg, level, paper_total) = (paper.algorithm, paper.level, paper.total_err_percent);
-        let paper_time = paper.seconds;
+    // The paper has no DE rows: its columns show "–" there.
+    let order = ALGORITHM_ORDER.into_iter().flat_map(|a| ["low", "high"].map(move |l| (a, l)));
+    for (alg, level) in order {
         if !args.algorithms.iter().any(|a| alg_name(*a) == alg) {
             continue;
         }
+        let paper = PAPER_TABLE_II.iter().find(|r| r.algorithm == alg && r.level == level);
         let cell = |mode: &str| summary.get(&(alg.to_string(), mode.to_string(), level.to_string()));
         let errs: Vec<String> =
             MODES.iter().map(|m| cell(m).map_or("–".into(), |c| format!("{:.2}", c.mean_err_percent))).collect();
         let total = cell("total");
         let _ = writeln!(
             out,
-            "| {alg} | {level} | {} | {} | {} | {paper_total:.3} | {:.0} |",
+            "| {alg} | {level} | {} | {} | {} | {} | {} |",
             errs.join(" | "),
             total.map_or("–".into(), |c| format!("{:.2}", c.mean_err_percent)),
             total.map_or("–".into(), |c| format!("{:.2}", c.mean_seconds)),
-            paper_time.iter().sum::<f64>() / 5.0,
+            paper.map_or("–".into(), |p| format!("{:.3}", p.total_err_percent)),
+            paper.map_or("–".into(), |p| format!("{:.0}", p.seconds.iter().sum::<f64>() / 5.0)),
         );
     }
-    for alg in ["pso", "ga"] {
+    for alg in ALGORITHM_ORDER {
         if let Some(c) = summary.get(&(alg.to_string(), "multi".to_string(), "multi".to_string())) {
             let _ = writeln!(
                 out,
@@ -450,7 +456,7 @@ pub fn bar_chart(title: &str, unit: &str, summary: &BTreeMap<CellKey, Cell>, val
     let (w, h, left, bottom, top) = (760.0, 360.0, 60.0, 50.0, 40.0);
     let group_w = (w - left - 20.0) / MODES.len() as f64;
     let bar_w = group_w * 0.8 / series.len().max(1) as f64;
-    let colors = ["#1f77b4", "#aec7e8", "#d62728", "#ff9896"];
+    let colors = ["#1f77b4", "#aec7e8", "#d62728", "#ff9896", "#2ca02c", "#98df8a"];
     let mut svg = format!(
         "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n\
          <rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n<text x=\"{}\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">{title}</text>\n",
@@ -497,8 +503,10 @@ pub fn bar_chart(title: &str, unit: &str, summary: &BTreeMap<CellKey, Cell>, val
             h - bottom + 18.0
         );
     }
+    // Legend entries 130 px apart, closer when six series (three algorithms) would overflow the width.
+    let legend_step = ((w - left - 20.0) / series.len().max(1) as f64).min(130.0);
     for (s, (alg, level)) in series.iter().enumerate() {
-        let x = left + 10.0 + 130.0 * s as f64;
+        let x = left + 10.0 + legend_step * s as f64;
         let _ = writeln!(
             svg,
             "<rect x=\"{x:.1}\" y=\"{:.1}\" width=\"12\" height=\"12\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{:.1}\">{alg} {level}</text>",
@@ -515,7 +523,7 @@ pub fn bar_chart(title: &str, unit: &str, summary: &BTreeMap<CellKey, Cell>, val
 /// Runs `ema campaign`.
 pub fn run(args: &CampaignArgs) -> Result<String, CliError> {
     if args.algorithms.is_empty() {
-        return Err(CliError::flag("--algorithms", "give at least one of pso, ga"));
+        return Err(CliError::flag("--algorithms", "give at least one of pso, ga, de"));
     }
     let plans = plan(args)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));

@@ -39,6 +39,8 @@ pub enum AlgorithmArg {
     Pso,
     /// Genetic algorithm.
     Ga,
+    /// Differential evolution.
+    De,
 }
 
 impl From<AlgorithmArg> for Algorithm {
@@ -46,6 +48,7 @@ impl From<AlgorithmArg> for Algorithm {
         match a {
             AlgorithmArg::Pso => Algorithm::Pso,
             AlgorithmArg::Ga => Algorithm::Ga,
+            AlgorithmArg::De => Algorithm::De,
         }
     }
 }
@@ -122,8 +125,18 @@ pub fn identify_recording(
     profile: &Profile,
     config: &IdentifyConfig,
 ) -> Result<Outcome, CliError> {
-    let params = EmaParams::NOMINAL;
-    check_recording(recording, path, profile, &params)?;
+    let trace = condition_recording(recording, path, profile)?;
+    identify_trace(&trace, profile, config, path)
+}
+
+/// Checks a recording made under `profile` (read from `path`, used for messages) and conditions it into the
+/// measured trace the core identifies (`I_3eq` block means and weights), as `ema identify` does.
+pub fn condition_recording(
+    recording: &Recording,
+    path: &Path,
+    profile: &Profile,
+) -> Result<Box<MeasuredTrace<HOST_WINDOW>>, CliError> {
+    check_recording(recording, path, profile, &EmaParams::NOMINAL)?;
     let mut trace = Box::new(MeasuredTrace::<HOST_WINDOW>::new());
     for k in 0..recording.len() {
         trace
@@ -131,7 +144,7 @@ pub fn identify_recording(
             .map_err(|e| input_error(path, &format!("line {}: {e}", line_of(recording, k))))?;
     }
     trace.finish().map_err(|e| input_error(path, &e.to_string()))?;
-    identify_trace(&trace, profile, config, path)
+    Ok(trace)
 }
 
 /// Identifies a conditioned trace (any window size); `path` names the input in messages.

@@ -3,7 +3,9 @@
 mod common;
 use common::refused;
 
-use ema_cli::campaign::{bar_chart, identify_config, plan, run_all, runs_csv, summarize, CampaignArgs, PAPER_TABLE_II};
+use ema_cli::campaign::{
+    self, bar_chart, identify_config, plan, run_all, runs_csv, summarize, CampaignArgs, PAPER_TABLE_II,
+};
 use ema_cli::identify::AlgorithmArg;
 use ema_monitor::FaultVector;
 
@@ -78,7 +80,8 @@ fn plans_follow_the_protocol_and_are_deterministic() {
 
 #[test]
 fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
-    let a = args(1, &["friction", "gain"]);
+    // the global search alone, so every run spends exactly its budget
+    let a = CampaignArgs { paper_only: true, ..args(1, &["friction", "gain"]) };
     let plans = plan(&a).expect("valid");
     let one = run_all(&plans, &identify_config(&a), 1, false).expect("runs");
     let two = run_all(&plans, &identify_config(&a), 2, false).expect("runs");
@@ -109,10 +112,45 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
         assert!((f64::from(est.paper_error_percent(&truth)) - err).abs() < 1e-6, "{row}");
         assert_eq!(f[23], "100", "2 iterations × 50 particles");
     }
+    // model selection and the polish come on top of the global search's budget
+    let refined =
+        run_all(&plans, &identify_config(&CampaignArgs { paper_only: false, ..a.clone() }), 2, false).expect("runs");
+    assert!(
+        refined.iter().all(|r| r.evaluations > 100),
+        "{:?}",
+        refined.iter().map(|r| r.evaluations).collect::<Vec<_>>()
+    );
     let summary = summarize(&one);
     let svg = bar_chart("t", "Err %", &summary, |c| c.mean_err_percent);
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>") && svg.contains("<rect"));
     assert_eq!(svg.matches("<svg").count(), 1);
+}
+
+#[test]
+fn differential_evolution_runs_on_the_same_recordings_and_gets_its_own_rows() {
+    let a = CampaignArgs { algorithms: vec![AlgorithmArg::Pso, AlgorithmArg::De], ..args(1, &["gain"]) };
+    let plans = plan(&a).expect("valid");
+    assert_eq!(plans.len(), 2 * 2);
+    let (pso, de): (Vec<_>, Vec<_>) = plans.iter().partition(|p| p.algorithm == AlgorithmArg::Pso);
+    // Same faults for every algorithm; the optimizer seed differs.
+    for (p, d) in pso.iter().zip(&de) {
+        assert_eq!((p.truth, &p.mode, p.level), (d.truth, &d.mode, d.level));
+        assert_ne!(p.seed, d.seed);
+    }
+    let table = campaign::run(&a).expect("runs");
+    let row = |alg: &str, level: &str| {
+        table
+            .lines()
+            .find(|l| l.starts_with(&format!("| {alg} | {level} |")))
+            .unwrap_or_else(|| panic!("no {alg} {level} row in\n{table}"))
+            .to_string()
+    };
+    for level in ["low", "high"] {
+        // The paper has no DE: its two columns are dashes; the PSO row keeps the paper's numbers.
+        assert!(row("de", level).ends_with("| – | – |"), "{}", row("de", level));
+        assert!(!row("pso", level).ends_with("| – | – |"), "{}", row("pso", level));
+    }
+    assert!(!table.contains("| ga |"), "{table}");
 }
 
 #[test]

@@ -7,7 +7,8 @@ mod common;
 use common::{accepted, refused, s, scratch};
 use std::sync::OnceLock;
 
-use ema_monitor::monitor::ONBOARD_POPULATION;
+use ema_monitor::monitor::{FAULT_GROUPS, ONBOARD_POPULATION, SELECTION_REFIT};
+use ema_monitor::optimizer::pattern::PatternConfig;
 use ema_monitor::FAULT_COUNT;
 
 /// A recording CSV split into its lines: comments and header (kept as they are) and data rows.
@@ -179,7 +180,12 @@ fn check_json(out: &str, max_iterations: u64) -> serde_json::Value {
     let iterations = v["iterations"].as_u64().unwrap_or_else(|| panic!("no iterations in {v}"));
     assert!((1..=max_iterations).contains(&iterations), "{v}");
     let evaluations = v["evaluations"].as_u64().unwrap_or_else(|| panic!("no evaluations in {v}"));
-    assert_eq!(evaluations, ONBOARD_POPULATION as u64 * iterations, "{v}");
+    // the global search's iterations × population, then model selection and the polish
+    let global = ONBOARD_POPULATION as u64 * iterations;
+    let later = 1
+        + (FAULT_GROUPS.len() as u64) * u64::from(SELECTION_REFIT.max_evaluations)
+        + u64::from(PatternConfig::default().max_evaluations);
+    assert!((global..=global + later).contains(&evaluations), "{v}");
     v
 }
 
@@ -202,4 +208,21 @@ fn short_recording_identifies_to_json() {
     check_json(&accepted(&["identify", s(&p), "--json", "--max-iterations", "5"]), 5);
     let text = accepted(&["identify", s(&p), "--max-iterations", "3", "--algorithm", "ga"]);
     assert!(text.starts_with("EMA health:") && text.contains("identification took"), "{text}");
+}
+
+#[test]
+fn differential_evolution_is_selectable_and_deterministic() {
+    let dir = scratch("identify", "de");
+    let csv = Csv::read(standard_csv());
+    let p = dir.join("first-0.2s.csv");
+    csv.write(&p, &csv.rows[..2000]);
+    // the global search alone (model selection returns both to healthy on this short recording)
+    // 20 generations of 50 (fewer leave both at the healthy start on this recording): the evaluation
+    // count and bounds checks of check_json hold for DE too.
+    let args = ["identify", s(&p), "--algorithm", "de", "--json", "--max-iterations", "20", "--paper-only"];
+    let de = check_json(&accepted(&args), 20);
+    assert_eq!((&de["k"], &de["fitness"]), (&check_json(&accepted(&args), 20)["k"], &de["fitness"]));
+    // A different optimizer from the PSO: same input, same seed, another search.
+    let pso = check_json(&accepted(&["identify", s(&p), "--json", "--max-iterations", "20", "--paper-only"]), 20);
+    assert_ne!(de["k"], pso["k"]);
 }
