@@ -399,8 +399,10 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                     (self.best, self.best_cost) = self.solver.best();
                     if self.config.model_selection {
                         self.stage = Stage::Select { effective_samples: None, next: 0, refit: None };
-                    } else {
+                    } else if self.config.polish.is_some() {
                         self.start_polish(reason);
+                    } else {
+                        self.stage = Stage::Done(reason); // the paper: the global search's best as is
                     }
                 }
             }
@@ -489,17 +491,22 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
 
     /// Starts the polish over the present and kept groups' parameters (or finishes with `reason`).
     fn start_polish(&mut self, reason: TerminationReason) {
+        // Only the groups the global search found and selection kept move: an absent group has no
+        // gradient to follow from healthy (the eccentricity phase means nothing without magnitude),
+        // so it is set exactly healthy.
+        let mut free = [false; FAULT_COUNT];
+        for (g, &group) in FAULT_GROUPS.iter().enumerate() {
+            let present = group_present(&self.best, group);
+            if !present && self.best[group.0..=group.1] != FaultVector::HEALTHY.0[group.0..=group.1] {
+                self.best = without_group(&self.best, group);
+                self.best_cost = f32::NAN; // re-evaluated by the polish's first step
+            }
+            free[group.0..=group.1].iter_mut().for_each(|f| *f = self.kept[g] && present);
+        }
         let Some(polish) = self.config.polish else {
             self.stage = if self.best_cost.is_nan() { Stage::Rescore(reason) } else { Stage::Done(reason) };
             return;
         };
-        // Only the groups the global search found and selection kept move: an absent group has no
-        // gradient to follow from healthy (the eccentricity phase means nothing without magnitude).
-        let mut free = [false; FAULT_COUNT];
-        for (g, &group) in FAULT_GROUPS.iter().enumerate() {
-            let movable = self.kept[g] && group_present(&self.best, group);
-            free[group.0..=group.1].iter_mut().for_each(|f| *f = movable);
-        }
         let start_cost = if self.best_cost.is_nan() { None } else { Some(self.best_cost) };
         // The configuration was validated in `new`; should it fail anyway, keep the result as is.
         self.stage = match PatternSearch::new(fault_bounds(), polish, self.best, start_cost, free) {
