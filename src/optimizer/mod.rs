@@ -95,6 +95,15 @@ impl<const D: usize> Bounds<D> {
     }
 }
 
+/// Puts `guesses` (each brought into `bounds`) in place of the first starting points: the
+/// optimizers' `with_initial_guesses`. Extra guesses beyond the population are ignored.
+pub(crate) fn place_guesses<const D: usize>(bounds: &Bounds<D>, points: &mut [[f32; D]], guesses: &[[f32; D]]) {
+    for (point, guess) in points.iter_mut().zip(guesses) {
+        *point = *guess;
+        bounds.enforce_point(point);
+    }
+}
+
 /// Why an optimizer stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -294,13 +294,15 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
 
     /// Replaces particle 0's starting point by `x` (brought into the box by [`Bounds::enforce`]), e.g. the
     /// healthy fault vector. Ignored once the first evaluation has been done.
-    pub fn with_initial_guess(mut self, x: [f32; D]) -> Self {
+    pub fn with_initial_guess(self, x: [f32; D]) -> Self {
+        self.with_initial_guesses(&[x])
+    }
+
+    /// Replaces the first starting points by `guesses` (each brought into the box), e.g. one
+    /// candidate per basin of a multi-modal search. Ignored once the first evaluation has been done.
+    pub fn with_initial_guesses(mut self, guesses: &[[f32; D]]) -> Self {
         if self.evaluations == 0 {
-            let mut x = x;
-            self.bounds.enforce_point(&mut x);
-            if let Some(p) = self.position.first_mut() {
-                *p = x;
-            }
+            super::place_guesses(&self.bounds, &mut self.position, guesses);
         }
         self
     }
