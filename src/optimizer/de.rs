@@ -18,7 +18,7 @@
 //!   wraps there ([`Bounds::enforce`]); any other parameter that leaves the box is clamped to the bound (so a
 //!   healthy fault parameter, 0 at the bound, can be hit exactly);
 //! - **initialisation**: a Latin-hypercube sample of the box ([`Rng::latin_hypercube`]);
-//!   [`DifferentialEvolution::with_initial_guess`] may put a known point (the healthy vector) in as individual 0.
+//!   [`DifferentialEvolution::with_initial_guesses`] may put known points (the healthy vector) in as the first individuals.
 //!
 //! **Why this default.** Success counts over seeds 0..100 at the paper's budget (`P = 50`, ≤ 200 generations,
 //! tolerance 1e-9 over 20 generations; `de_variant_sweep` in the tests prints this table). Double sum is
@@ -213,12 +213,6 @@ impl<const P: usize, const D: usize> DifferentialEvolution<P, D> {
             iterations: 0,
             status: Status::Running,
         })
-    }
-
-    /// Replaces individual 0's starting point by `x` (brought into the box by [`Bounds::enforce`]), e.g. the
-    /// healthy fault vector. Ignored once the first evaluation has been done.
-    pub fn with_initial_guess(self, x: [f32; D]) -> Self {
-        self.with_initial_guesses(&[x])
     }
 
     /// Replaces the first starting points by `guesses` (each brought into the box), e.g. one
@@ -493,7 +487,7 @@ mod tests {
             let mut f = Recorder::new(AcrossWrap, &bounds);
             let mut de = DifferentialEvolution::<20, 2>::new(bounds, DeConfig::default(), seed)
                 .unwrap()
-                .with_initial_guess([0.2, 0.0]);
+                .with_initial_guesses(&[[0.2, 0.0]]);
             run(&mut de, &mut f, u32::MAX);
             let (x, cost) = de.best();
             assert!(cost < 1e-8, "seed {seed}: {x:?} {cost}");
@@ -780,7 +774,7 @@ mod tests {
         }
         let mut f = First(None);
         let mut de =
-            DifferentialEvolution::<5, 3>::new(bounds, DeConfig::default(), 15).unwrap().with_initial_guess(guess);
+            DifferentialEvolution::<5, 3>::new(bounds, DeConfig::default(), 15).unwrap().with_initial_guesses(&[guess]);
         de.step(&mut f);
         assert_eq!(f.0, Some([0.25, 2.0, -1.5]));
         assert_eq!(de.best(), (&[0.25, 2.0, -1.5], 0.0625 + 4.0 + 2.25));

@@ -19,8 +19,8 @@
 //! - **periodic parameters**: the second parent is first moved to the image nearest to the first
 //!   ([`Bounds::delta`]), crossover and mutation use the unbounded formulas, then the child wraps
 //!   ([`Bounds::enforce`]); other parameters are clamped.
-//! - **initialisation**: a Latin-hypercube sample ([`Rng::latin_hypercube`]); [`Genetic::with_initial_guess`] may
-//!   put a known point in as individual 0.
+//! - **initialisation**: a Latin-hypercube sample ([`Rng::latin_hypercube`]); [`Genetic::with_initial_guesses`] may
+//!   put known points in as the first individuals.
 //!
 //! # Generations, evaluations and termination
 //!
@@ -179,12 +179,6 @@ impl<const P: usize, const D: usize> Genetic<P, D> {
             iterations: 0,
             status: Status::Running,
         })
-    }
-
-    /// Replaces individual 0's starting point by `x` (brought into the box by [`Bounds::enforce`]), e.g. the
-    /// healthy fault vector. Ignored once the first evaluation has been done.
-    pub fn with_initial_guess(self, x: [f32; D]) -> Self {
-        self.with_initial_guesses(&[x])
     }
 
     /// Replaces the first starting points by `guesses` (each brought into the box), e.g. one
@@ -517,7 +511,7 @@ mod tests {
         for seed in 0..10 {
             let mut f = Recorder::new(AcrossWrap, &bounds);
             let mut ga =
-                Genetic::<20, 2>::new(bounds, GaConfig::default(), seed).unwrap().with_initial_guess([0.2, 0.0]);
+                Genetic::<20, 2>::new(bounds, GaConfig::default(), seed).unwrap().with_initial_guesses(&[[0.2, 0.0]]);
             run(&mut ga, &mut f, u32::MAX);
             let (x, cost) = ga.best();
             assert!(cost < 1e-5, "seed {seed}: {x:?} {cost}");

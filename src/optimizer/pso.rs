@@ -18,8 +18,8 @@
 //!   (MATLAB's rule); a *periodic* parameter wraps instead ([`Bounds::enforce`]) and the differences `p − x`,
 //!   `g − x` go the short way round the circle ([`Bounds::delta`]), so a swarm can meet across the wrap point;
 //! - **initialisation**: a Latin-hypercube sample of the box ([`Rng::latin_hypercube`]), velocities uniform in
-//!   `±velocity_limit·(uᵢ − lᵢ)`; [`ParticleSwarm::with_initial_guess`] may put a known point (the healthy
-//!   vector) in as particle 0.
+//!   `±velocity_limit·(uᵢ − lᵢ)`; [`ParticleSwarm::with_initial_guesses`] may put known points (the healthy
+//!   vector) in as the first particles.
 //!
 //! Also available through [`PsoConfig`]: [`Topology::Global`] (gbest; [`PsoConfig::constriction`] is Clerc's
 //! `w = 0.7298`, `c₁ = c₂ = 1.49618`, M. Clerc and J. Kennedy, IEEE TEC 6(1), 2002) and MATLAB `particleswarm`
@@ -290,12 +290,6 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
             iterations: 0,
             status: Status::Running,
         })
-    }
-
-    /// Replaces particle 0's starting point by `x` (brought into the box by [`Bounds::enforce`]), e.g. the
-    /// healthy fault vector. Ignored once the first evaluation has been done.
-    pub fn with_initial_guess(self, x: [f32; D]) -> Self {
-        self.with_initial_guesses(&[x])
     }
 
     /// Replaces the first starting points by `guesses` (each brought into the box), e.g. one
@@ -687,7 +681,7 @@ pub(crate) mod tests {
             let mut f = Recorder::new(AcrossWrap, &bounds);
             let mut pso = ParticleSwarm::<20, 2>::new(bounds, PsoConfig::default(), seed).unwrap();
             // Start the known point on the far side of the wrap: the shortest way to the optimum crosses it.
-            pso = pso.with_initial_guess([0.2, 0.0]);
+            pso = pso.with_initial_guesses(&[[0.2, 0.0]]);
             run(&mut pso, &mut f, u32::MAX);
             let (x, cost) = pso.best();
             assert!(cost < 1e-8, "seed {seed}: {x:?} {cost}");
@@ -998,7 +992,8 @@ pub(crate) mod tests {
             }
         }
         let mut f = First(None);
-        let mut pso = ParticleSwarm::<5, 3>::new(bounds, PsoConfig::default(), 15).unwrap().with_initial_guess(guess);
+        let mut pso =
+            ParticleSwarm::<5, 3>::new(bounds, PsoConfig::default(), 15).unwrap().with_initial_guesses(&[guess]);
         pso.step(&mut f);
         assert_eq!(f.0, Some([0.25, -0.5, 2.0]));
         assert_eq!(pso.best(), (&[0.25, -0.5, 2.0], 0.0625 + 0.25 + 4.0));

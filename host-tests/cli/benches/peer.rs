@@ -160,7 +160,7 @@ fn de_variant(trace: &MeasuredTrace<HOST_WINDOW>, config: DeConfig, seed: u64) -
     let mut de = Box::new(
         DifferentialEvolution::<ONBOARD_POPULATION, FAULT_COUNT>::new(fault_bounds(), config, seed)
             .expect("valid DE settings")
-            .with_initial_guess(FaultVector::HEALTHY.0),
+            .with_initial_guesses(&[FaultVector::HEALTHY.0]),
     );
     run(de.as_mut(), &mut fit, u32::MAX);
     let (best, cost) = de.best();
