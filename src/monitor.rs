@@ -427,18 +427,20 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                     self.later_evaluations += 1;
                 }
                 (Some(n), Some(search)) => {
+                    let before = search.evaluations();
                     let status = search.step(&mut self.fit);
-                    self.later_evaluations += 1;
+                    self.later_evaluations += search.evaluations() - before;
                     if let Status::Done(_) = status {
                         let (x, without) = search.best();
                         let g = *next;
-                        let (first, last) = FAULT_GROUPS[g];
-                        if without < self.best_cost {
-                            // the smaller model fits better: it becomes the one to beat
-                            (self.best, self.best_cost) = (*x, without);
-                            self.kept[g] = false;
-                        } else {
-                            self.kept[g] = group_pays(self.best_cost, without, last - first + 1, n);
+                        if let (Some(&(first, last)), Some(kept)) = (FAULT_GROUPS.get(g), self.kept.get_mut(g)) {
+                            if without < self.best_cost {
+                                // the smaller model fits better: it becomes the one to beat
+                                (self.best, self.best_cost) = (*x, without);
+                                *kept = false;
+                            } else {
+                                *kept = group_pays(self.best_cost, without, last - first + 1, n);
+                            }
                         }
                         *next += 1;
                         *refit = None;
@@ -448,8 +450,9 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                 (Some(_), None) => self.next_selection_test(),
             },
             Stage::Polish(search) => {
+                let before = search.evaluations();
                 let status = search.step(&mut self.fit);
-                self.later_evaluations += 1;
+                self.later_evaluations += search.evaluations() - before;
                 let (x, c) = search.best();
                 (self.best, self.best_cost) = (*x, c);
                 if let Status::Done(_) = status {
