@@ -14,6 +14,7 @@
 //! (early abandoning, see [`crate::optimizer::Objective`]).
 
 use crate::conditioning::{MeasuredEnvelope, MeasuredTrace, DECIMATION};
+use crate::effects::{EffectId, ModelEffects};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::model::{ModelState, MonitorModel};
 use crate::optimizer::Objective;
@@ -29,9 +30,21 @@ pub fn simulate_window(
     profile: &Profile,
     k: &FaultVector,
     samples: usize,
+    sink: impl FnMut(usize, f32, &ModelState) -> bool,
+) {
+    simulate_window_with_effects(params, profile, k, &ModelEffects::NONE, samples, sink)
+}
+
+/// [`simulate_window`] with the monitor model's optional effect terms `effects` switched on.
+pub fn simulate_window_with_effects(
+    params: &EmaParams,
+    profile: &Profile,
+    k: &FaultVector,
+    effects: &ModelEffects,
+    samples: usize,
     mut sink: impl FnMut(usize, f32, &ModelState) -> bool,
 ) {
-    let model = MonitorModel::new(params, k);
+    let model = MonitorModel::with_effects(params, k, effects);
     let envelope = MeasuredEnvelope::of(params);
     let dt = model.dt_s();
     let mut state = ModelState::at_rest();
@@ -56,12 +69,29 @@ pub struct CurrentFit<'a, const W: usize> {
     trace: &'a MeasuredTrace<W>,
     params: EmaParams,
     profile: Profile,
+    effects: ModelEffects,
 }
 
 impl<'a, const W: usize> CurrentFit<'a, W> {
     /// The fitness of the monitor model of `params`, driven by `profile`, against `trace`.
     pub fn new(trace: &'a MeasuredTrace<W>, params: EmaParams, profile: Profile) -> Self {
-        Self { trace, params, profile }
+        Self { trace, params, profile, effects: ModelEffects::NONE }
+    }
+
+    /// The same fitness with the monitor model's effect terms `effects` on.
+    pub fn with_effects(mut self, effects: ModelEffects) -> Self {
+        self.effects = effects;
+        self
+    }
+
+    /// The effect terms the model runs with.
+    pub fn effects(&self) -> &ModelEffects {
+        &self.effects
+    }
+
+    /// The measured trace.
+    pub fn trace(&self) -> &'a MeasuredTrace<W> {
+        self.trace
     }
 
     /// `E(k)`, evaluated to the end.
@@ -82,7 +112,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
         // Stop when sum·inv_n > abandon_above; compare sums to avoid a multiply per sample.
         let limit = if abandon_above.is_finite() { abandon_above * n as f32 } else { f32::INFINITY };
         let mut sum = 0.0f32;
-        simulate_window(&self.params, &self.profile, k, n, |i, model_a, _| {
+        simulate_window_with_effects(&self.params, &self.profile, k, &self.effects, n, |i, model_a, _| {
             let r = y[i] - model_a;
             sum += w[i] * r * r;
             sum <= limit
@@ -106,7 +136,7 @@ impl<const W: usize> CurrentFit<'_, W> {
         let y = self.trace.current_a();
         let w = self.trace.weight();
         let (mut sum_sq, mut sum_lag, mut previous) = (0.0f32, 0.0f32, 0.0f32);
-        simulate_window(&self.params, &self.profile, k, y.len(), |i, model_a, _| {
+        simulate_window_with_effects(&self.params, &self.profile, k, &self.effects, y.len(), |i, model_a, _| {
             let u = libm::sqrtf(w[i]) * (y[i] - model_a);
             sum_sq += u * u;
             sum_lag += u * previous;
@@ -133,6 +163,66 @@ fn clamp_unit(x: f32, hi: f32) -> f32 {
 impl<const W: usize> Objective<FAULT_COUNT> for CurrentFit<'_, W> {
     fn cost(&mut self, x: &[f32; FAULT_COUNT], abandon_above: f32) -> f32 {
         self.error_abandoning(&FaultVector(*x), abandon_above)
+    }
+}
+
+/// Effect slots of an [`EffectFit`]: how many effect severities are fitted beside the faults.
+pub const EFFECT_SLOTS: usize = 2;
+
+/// Parameters of an [`EffectFit`]: the 8 faults, then one severity per effect slot.
+pub const EFFECT_FIT_DIMENSION: usize = FAULT_COUNT + EFFECT_SLOTS;
+
+/// The fitness with up to [`EFFECT_SLOTS`] effect terms fitted together with the fault vector:
+/// an [`Objective`] over `x = (k_1 … k_8, s_1, s_2)`, `s_j` the severity of slot `j`'s effect
+/// (an empty slot's severity is ignored; give it the bounds `[0, 0]`). Effects already on in the
+/// base [`CurrentFit`] stay on at their severities unless a slot names them.
+#[derive(Clone, Debug)]
+pub struct EffectFit<'a, const W: usize> {
+    fit: CurrentFit<'a, W>,
+    base: ModelEffects,
+    slots: [Option<EffectId>; EFFECT_SLOTS],
+}
+
+impl<'a, const W: usize> EffectFit<'a, W> {
+    /// Fits the effects in `slots` beside the faults of `fit`.
+    pub fn new(fit: CurrentFit<'a, W>, slots: [Option<EffectId>; EFFECT_SLOTS]) -> Self {
+        let base = fit.effects;
+        Self { fit, base, slots }
+    }
+
+    /// The fault vector and the effect terms a point `x` stands for (severities clamped to `[0, 1]`).
+    pub fn split(&self, x: &[f32; EFFECT_FIT_DIMENSION]) -> (FaultVector, ModelEffects) {
+        let mut k = [0.0; FAULT_COUNT];
+        k.copy_from_slice(&x[..FAULT_COUNT]);
+        let mut effects = self.base;
+        for (slot, &severity) in self.slots.iter().zip(&x[FAULT_COUNT..]) {
+            if let Some(effect) = slot {
+                let s = if severity > 1.0 {
+                    1.0
+                } else if severity > 0.0 {
+                    severity
+                } else {
+                    0.0
+                };
+                // in [0, 1] by construction: set cannot fail
+                let _ = effects.set(*effect, s);
+            }
+        }
+        (FaultVector(k), effects)
+    }
+
+    /// `E` at `x`, evaluated to the end.
+    pub fn error(&self, x: &[f32; EFFECT_FIT_DIMENSION]) -> f32 {
+        let (k, effects) = self.split(x);
+        self.fit.clone().with_effects(effects).error(&k)
+    }
+}
+
+impl<const W: usize> Objective<EFFECT_FIT_DIMENSION> for EffectFit<'_, W> {
+    fn cost(&mut self, x: &[f32; EFFECT_FIT_DIMENSION], abandon_above: f32) -> f32 {
+        let (k, effects) = self.split(x);
+        self.fit.effects = effects;
+        self.fit.error_abandoning(&k, abandon_above)
     }
 }
 

@@ -20,7 +20,8 @@
 //! (particles), `D` = parameters fitted.
 //!
 //! Stages, one module each: [`acquisition`], [`conditioning`], [`model`], [`fitness`],
-//! [`optimizer`], [`health`]; [`monitor`] wires them. Shared definitions: [`params`] (nominal
+//! [`optimizer`], [`health`]; [`monitor`] wires them; [`effects`] holds the optional effect terms
+//! the discrepancy workflow adds to the model. Shared definitions: [`params`] (nominal
 //! actuator), [`faults`] (the fault vector and its physical mapping), [`profile`] (the test
 //! manoeuvre), [`trace`] (the ADC format).
 #![cfg_attr(not(test), no_std)]
@@ -32,6 +33,7 @@ mod fmt;
 
 pub mod acquisition;
 pub mod conditioning;
+pub mod effects;
 pub mod faults;
 pub mod fitness;
 pub mod health;
@@ -43,6 +45,7 @@ pub mod profile;
 pub mod trace;
 pub mod trig;
 
+pub use effects::{EffectId, ModelEffects};
 pub use faults::{FaultVector, FAULT_COUNT};
 pub use params::EmaParams;
 pub use profile::Profile;

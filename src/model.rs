@@ -49,6 +49,7 @@
 //! The electrical and mechanical time constants (4 ms, 2.2 ms) are ≥ 20 T, so explicit steps at
 //! the control period are accurate; the current loop lag (0.2 ms) is integrated exactly.
 
+use crate::effects::{maxima, EffectId, ModelEffects};
 use crate::faults::{FaultPhysics, FaultVector};
 use crate::params::EmaParams;
 use core::f32::consts::{FRAC_PI_3, FRAC_PI_6, PI};
@@ -134,6 +135,8 @@ pub struct MonitorModel {
     eccentricity: f32,
     /// `(cos, sin)` of `φ + ψ_j` per phase.
     ecc_phase: [(f32, f32); 3],
+    /// The optional effect terms switched on ([`crate::effects`]).
+    effects: ModelEffects,
 }
 
 /// The commutation into a sector, per ampere of the current it carries
@@ -168,9 +171,41 @@ impl MonitorModel {
         Self::from_physics(params, &k.physical(params))
     }
 
+    /// The model of `params` with the faults `k` and the effect terms `effects`
+    /// ([`ModelEffects::NONE`]: exactly [`MonitorModel::new`]).
+    pub fn with_effects(params: &EmaParams, k: &FaultVector, effects: &ModelEffects) -> Self {
+        Self::from_physics_with_effects(params, &k.physical(params), effects)
+    }
+
     /// The model of `params` with the physical fault parameters `f`.
     pub fn from_physics(params: &EmaParams, f: &FaultPhysics) -> Self {
-        let p = params;
+        Self::from_physics_with_effects(params, f, &ModelEffects::NONE)
+    }
+
+    /// The model of `params` with the physical fault parameters `f` and the effect terms `effects`.
+    /// Parameter effects change the constants here (same mapping as the reference model):
+    ///
+    /// ```text
+    /// winding_temperature  R_j ×(1 + α·ΔT),  k_j ×(1 + β·ΔT),  ΔT = s·100 K
+    /// viscous              C_m += s·5e-4 N·m·s/rad
+    /// hinge_stiffness      K_h ×(1 + s)
+    /// ```
+    pub fn from_physics_with_effects(params: &EmaParams, f: &FaultPhysics, effects: &ModelEffects) -> Self {
+        let mut nominal = *params;
+        let temperature_rise_k = effects.get(EffectId::WindingTemperature) * maxima::WINDING_TEMPERATURE_RISE_K;
+        if temperature_rise_k != 0.0 {
+            nominal.phase_resistance_ohm *= 1.0 + maxima::COPPER_ALPHA_PER_K * temperature_rise_k;
+            nominal.phase_emf_constant_v_s_per_rad *= 1.0 + maxima::MAGNET_BETA_PER_K * temperature_rise_k;
+        }
+        let viscous = effects.get(EffectId::Viscous);
+        if viscous != 0.0 {
+            nominal.viscous_friction_n_m_s_per_rad += viscous * maxima::VISCOUS_N_M_S_PER_RAD;
+        }
+        let hinge = effects.get(EffectId::HingeStiffness);
+        if hinge != 0.0 {
+            nominal.hinge_stiffness_n_m_per_rad *= 1.0 + hinge * maxima::HINGE_STIFFNESS_GAIN;
+        }
+        let p = &nominal;
         let mut phase_k = [0.0; 3];
         let mut phase_r = [0.0f32; 3];
         let mut phase_l = [0.0f32; 3];
@@ -222,7 +257,13 @@ impl MonitorModel {
             dt_over_j: p.control_period_s / p.equivalent_inertia_kg_m2(),
             eccentricity: f.eccentricity,
             ecc_phase,
+            effects: *effects,
         }
+    }
+
+    /// The effect terms of this model.
+    pub fn effects(&self) -> &ModelEffects {
+        &self.effects
     }
 
     /// Model step (control period `T`).

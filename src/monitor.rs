@@ -7,6 +7,7 @@
 
 use crate::acquisition::{AcquisitionError, PhaseCurrents};
 use crate::conditioning::{ConditioningError, MeasuredTrace, DECIMATION};
+use crate::effects::ModelEffects;
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::CurrentFit;
 use crate::health::HealthReport;
@@ -69,6 +70,9 @@ pub struct IdentifyConfig {
     pub model_selection: bool,
     /// Polish the result by compass search (`None`: report the global search's best).
     pub polish: Option<PatternConfig>,
+    /// Effect terms the monitor model runs with ([`ModelEffects::NONE`]: the paper's model); set
+    /// by a promoted discovery (`ema discover`), fixed during the identification.
+    pub effects: ModelEffects,
 }
 
 impl Default for IdentifyConfig {
@@ -90,6 +94,7 @@ impl IdentifyConfig {
             stall_iterations: 20,
             model_selection: false,
             polish: None,
+            effects: ModelEffects::NONE,
         }
     }
 
@@ -388,7 +393,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             }
         };
         Ok(Self {
-            fit: CurrentFit::new(trace, params, profile),
+            fit: CurrentFit::new(trace, params, profile).with_effects(config.effects),
             solver,
             params,
             config: *config,
