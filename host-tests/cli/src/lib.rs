@@ -9,6 +9,7 @@
 
 pub mod campaign;
 pub mod compare;
+pub mod discover;
 pub mod error;
 pub mod firmware_trace;
 pub mod identify;

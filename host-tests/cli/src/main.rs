@@ -1,4 +1,4 @@
-//! `ema`: host tools of ema-monitor. Subcommands: `simulate` (reference model → recording CSV), `identify` (core → health report).
+//! `ema`: host tools of ema-monitor. Subcommands: `simulate` (reference model → recording CSV), `identify` (core → health report), `discover` (missing effects).
 
 use std::process::ExitCode;
 
@@ -6,6 +6,7 @@ use clap::error::ErrorKind;
 use clap::{Parser, Subcommand};
 use ema_cli::campaign::{self, CampaignArgs};
 use ema_cli::compare::{self, CompareArgs};
+use ema_cli::discover::{self, DiscoverArgs};
 use ema_cli::error::{CliError, EXIT_FAILURE};
 use ema_cli::firmware_trace::{self, FirmwareTraceArgs};
 use ema_cli::identify::{self, IdentifyArgs};
@@ -31,6 +32,8 @@ enum Command {
     Compare(CompareArgs),
     /// The paper's Table II protocol: many reference-model runs identified by the core, scored.
     Campaign(CampaignArgs),
+    /// Where the monitor model and a recording disagree, which library effect is missing, and the gap it closes.
+    Discover(DiscoverArgs),
 }
 
 fn main() -> ExitCode {
@@ -44,6 +47,7 @@ fn main() -> ExitCode {
         Command::FirmwareTrace(args) => firmware_trace::run(args),
         Command::Compare(args) => compare::run(args),
         Command::Campaign(args) => campaign::run(args),
+        Command::Discover(args) => discover::run(args),
     };
     match result {
         Ok(summary) => {

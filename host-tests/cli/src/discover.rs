@@ -1,0 +1,986 @@
+//! `ema discover`: where the monitor model and a recording disagree, which library effect is
+//! missing, and how much of the gap it closes.
+//!
+//! 1. **Fit** the current model (the on-board identification: PSO, model selection, polish) and
+//!    take the residual `r_i = I_3eq,i − Ĩ_MM,i` of the 0.4 ms block means. The sensor noise is
+//!    not a discrepancy any model could remove, so the residual judged here is the *structural*
+//!    one: `r` averaged over [`SMOOTH_BLOCKS`] blocks (2 ms). Its RMS is "the gap"; the raw RMS is
+//!    reported beside it.
+//! 2. **Where**: the 25 ms windows holding most of the structural residual energy, and its share
+//!    per operating regime (direction, speed, reversals, current level) against the regime's
+//!    share of time; the share of the raw residual carried by rotor-angle orders (1, 2, 6 per
+//!    electrical turn, 24 per mechanical turn: cogging) by least squares on `sin/cos(n·θ)`.
+//! 3. **Name**: every library effect ([`EffectId::ALL`]) is fitted with the faults
+//!    ([`fit_model`]: PSO seeded at the current fit and at several severities, then a compass
+//!    polish) on alternate 50 ms chunks of the recording, and scored on the held-out chunks:
+//!    `ΔBIC = n_eff·ln(E_before/E_after) − ln(n_eff)` on each part (`n_eff` the residual's
+//!    effective sample count, [`CurrentFit::effective_samples`]). An effect is named only when
+//!    the held-out ΔBIC exceeds [`BIC_STRONG`] (Kass & Raftery's "very strong"), the fitted
+//!    severity is not negligible, and the structural residual it removes is a real part of the
+//!    gap ([`MIN_GAP_SHARE`]). Confidence is the winner's posterior weight among "no effect" and
+//!    all candidates, `exp(ΔBIC_j/2)/(1 + Σ exp(ΔBIC/2))`. The search repeats for a second
+//!    effect on top of the first.
+//! 4. **Add**: the named effects are refitted with the faults on the whole recording.
+//! 5. **Show**: structural and raw residual RMS before/after, overall and in the windows of step
+//!    2; with `--truth`, the paper's Err% of the fault vector before/after.
+//!
+//! `--out DIR` writes `discovery.json`, `residual.csv`, `fit.svg`, `residual.svg` and
+//! `model-config.txt` (the promoted model: `effect ID SEVERITY` lines for the firmware build).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::Args;
+use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
+use ema_monitor::fitness::{simulate_window_with_effects, CurrentFit};
+use ema_monitor::monitor::{fault_bounds, Identification, IdentifyConfig, ONBOARD_POPULATION};
+use ema_monitor::optimizer::pattern::{PatternConfig, PatternSearch};
+use ema_monitor::optimizer::pso::{ParticleSwarm, PsoConfig};
+use ema_monitor::optimizer::{self, Bounds, Objective, Optimizer};
+use ema_monitor::{EffectId, EmaParams, FaultVector, ModelEffects, Profile, FAULT_COUNT};
+use serde_json::json;
+
+use crate::error::CliError;
+use crate::identify::{condition_recording, HOST_WINDOW};
+use crate::recording_io::read_recording;
+use crate::simulate::{parse_faults, resolve_profile};
+
+/// Blocks averaged into the structural residual (5 × 0.4 ms = 2 ms).
+pub const SMOOTH_BLOCKS: usize = 5;
+/// Length of the "where" windows (s).
+pub const WINDOW_S: f64 = 0.025;
+/// Blocks per chunk of the fit / held-out split (125 × 0.4 ms = 50 ms).
+pub const CHUNK_BLOCKS: usize = 125;
+/// Held-out ΔBIC above which an effect may be named (Kass & Raftery 1995: > 10 is very strong).
+pub const BIC_STRONG: f64 = 10.0;
+/// Severity below which a fitted effect counts as absent.
+pub const MIN_SEVERITY: f32 = 0.03;
+/// Share of the structural residual energy an effect must remove to be named.
+pub const MIN_GAP_SHARE: f64 = 0.25;
+/// Largest number of effects named.
+pub const MAX_NAMED: usize = 2;
+
+/// Arguments of `ema discover`.
+#[derive(Args, Debug, Clone)]
+pub struct DiscoverArgs {
+    /// Recording CSV (time_s, command_rad, position_rad, ia_A, ib_A, ic_A at 10 kHz).
+    pub file: PathBuf,
+    /// The true fault vector k1..k8, when known: reports the fault-vector error before and after.
+    #[arg(long, value_name = "K1,...,K8", allow_hyphen_values = true)]
+    pub truth: Option<String>,
+    /// Command profile the recording was made with: `standard` or a profile file.
+    #[arg(long, default_value = "standard")]
+    pub profile: String,
+    /// Print JSON instead of the readable summary.
+    #[arg(long)]
+    pub json: bool,
+    /// Write discovery.json, residual.csv, fit.svg, residual.svg and model-config.txt here.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Seed of the optimizers.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Worker threads for the candidate fits (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// The monitor model's output and state along a recording, and the residual.
+#[derive(Clone, Debug, Default)]
+pub struct Series {
+    /// Block centre times (s).
+    pub time_s: Vec<f64>,
+    /// Measured `I_3eq` block means (A).
+    pub measured_a: Vec<f64>,
+    /// Model's expected measured `I_3eq` (A).
+    pub model_a: Vec<f64>,
+    /// Raw residual `measured − model` (A).
+    pub residual_a: Vec<f64>,
+    /// Structural residual: `residual` averaged over [`SMOOTH_BLOCKS`] (A).
+    pub structural_a: Vec<f64>,
+    /// Model motor speed (rad/s).
+    pub speed_rad_s: Vec<f64>,
+    /// Model equivalent current (A).
+    pub current_a: Vec<f64>,
+    /// Model electrical angle `θ_e` (rad).
+    pub electrical_angle_rad: Vec<f64>,
+    /// Model motor angle `θ_m` (rad).
+    pub motor_angle_rad: Vec<f64>,
+}
+
+/// Runs the model with `k` and `effects` along `trace`.
+pub fn series<const W: usize>(
+    trace: &MeasuredTrace<W>,
+    params: &EmaParams,
+    profile: &Profile,
+    k: &FaultVector,
+    effects: &ModelEffects,
+) -> Series {
+    let n = trace.len();
+    let dt = f64::from(params.control_period_s) * DECIMATION as f64;
+    let mut s = Series::default();
+    simulate_window_with_effects(params, profile, k, effects, n, |i, model_a, state| {
+        let y = f64::from(trace.current_a()[i]);
+        s.time_s.push((i as f64 + 0.5) * dt);
+        s.measured_a.push(y);
+        s.model_a.push(f64::from(model_a));
+        s.residual_a.push(y - f64::from(model_a));
+        s.speed_rad_s.push(f64::from(state.motor_speed_rad_s));
+        s.current_a.push(f64::from(state.output_current_a));
+        s.electrical_angle_rad.push(f64::from(state.hall_angle_rad) + std::f64::consts::FRAC_PI_6);
+        s.motor_angle_rad.push(f64::from(state.motor_angle_rad));
+        true
+    });
+    s.structural_a = moving_mean(&s.residual_a, SMOOTH_BLOCKS);
+    s
+}
+
+/// Centred moving mean over `m` samples (shorter at the ends).
+pub fn moving_mean(x: &[f64], m: usize) -> Vec<f64> {
+    let half = m / 2;
+    (0..x.len())
+        .map(|i| {
+            let lo = i.saturating_sub(half);
+            let hi = (i + m - half).min(x.len());
+            x[lo..hi].iter().sum::<f64>() / (hi - lo) as f64
+        })
+        .collect()
+}
+
+fn rms(x: impl Iterator<Item = f64>) -> f64 {
+    let (mut s, mut n) = (0.0, 0usize);
+    for v in x {
+        s += v * v;
+        n += 1;
+    }
+    if n == 0 {
+        0.0
+    } else {
+        (s / n as f64).sqrt()
+    }
+}
+
+/// Which blocks a fit sees: alternate chunks of [`CHUNK_BLOCKS`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Part {
+    /// Every block.
+    All,
+    /// Even chunks (fit).
+    Fit,
+    /// Odd chunks (held out).
+    HeldOut,
+}
+
+impl Part {
+    fn contains(self, i: usize) -> bool {
+        match self {
+            Part::All => true,
+            Part::Fit => (i / CHUNK_BLOCKS) % 2 == 0,
+            Part::HeldOut => (i / CHUNK_BLOCKS) % 2 == 1,
+        }
+    }
+}
+
+/// The paper's weighted fitness over one [`Part`] of the trace, with effect severities fitted
+/// beside the faults: `x = (k_1 … k_8, s_1 … s_{D−8})`, `s_j` the severity of `free[j]`.
+pub struct PartFit<'a, const W: usize> {
+    trace: &'a MeasuredTrace<W>,
+    params: EmaParams,
+    profile: Profile,
+    base: ModelEffects,
+    free: Vec<EffectId>,
+    part: Part,
+}
+
+impl<'a, const W: usize> PartFit<'a, W> {
+    /// The fitness over `part` with `base` effects on and the severities of `free` fitted.
+    pub fn new(
+        trace: &'a MeasuredTrace<W>,
+        profile: Profile,
+        base: ModelEffects,
+        free: Vec<EffectId>,
+        part: Part,
+    ) -> Self {
+        Self { trace, params: EmaParams::NOMINAL, profile, base, free, part }
+    }
+
+    /// The fault vector and the effects a point stands for.
+    pub fn split(&self, x: &[f32]) -> (FaultVector, ModelEffects) {
+        let mut k = [0.0; FAULT_COUNT];
+        k.copy_from_slice(&x[..FAULT_COUNT]);
+        let mut effects = self.base;
+        for (e, &s) in self.free.iter().zip(&x[FAULT_COUNT..]) {
+            // clamped into [0, 1]: cannot be refused
+            let _ = effects.set(*e, s.clamp(0.0, 1.0));
+        }
+        (FaultVector(k), effects)
+    }
+
+    /// `E` over the part for `k` and `effects` (mean of `w_i·r_i²`), stopping above `abandon_above`.
+    pub fn error(&self, k: &FaultVector, effects: &ModelEffects, abandon_above: f32) -> f32 {
+        let y = self.trace.current_a();
+        let w = self.trace.weight();
+        let count = (0..y.len()).filter(|&i| self.part.contains(i)).count();
+        if count == 0 {
+            return f32::INFINITY;
+        }
+        let limit = if abandon_above.is_finite() { abandon_above * count as f32 } else { f32::INFINITY };
+        let mut sum = 0.0f32;
+        let part = self.part;
+        simulate_window_with_effects(&self.params, &self.profile, k, effects, y.len(), |i, model_a, _| {
+            if part.contains(i) {
+                let r = y[i] - model_a;
+                sum += w[i] * r * r;
+            }
+            sum <= limit
+        });
+        let e = sum / count as f32;
+        if e.is_finite() {
+            e
+        } else {
+            f32::INFINITY
+        }
+    }
+}
+
+impl<const W: usize, const D: usize> Objective<D> for PartFit<'_, W> {
+    fn cost(&mut self, x: &[f32; D], abandon_above: f32) -> f32 {
+        let (k, effects) = self.split(x);
+        self.error(&k, &effects, abandon_above)
+    }
+}
+
+/// A fitted model: faults, effects, and its fitness.
+#[derive(Clone, Debug)]
+pub struct ModelFit {
+    /// Fault vector.
+    pub k: FaultVector,
+    /// Effects on, with their severities.
+    pub effects: ModelEffects,
+    /// `E` on the part it was fitted on (A²).
+    pub error: f32,
+    /// Objective evaluations spent.
+    pub evaluations: u32,
+}
+
+/// Severities the candidate fits start from.
+const SEVERITY_GUESSES: [f32; 4] = [0.15, 0.35, 0.65, 1.0];
+
+/// Fits the faults and the severities of `free` (with `base` effects fixed) on `part`: PSO
+/// (30 particles, 30 iterations) seeded with `start` and with `start`'s fault groups reset to
+/// healthy at several severities, then a compass polish (≤ 400 evaluations).
+/// An effect already on in `start` starts at its severity; a new one at the guesses.
+pub fn fit_model<const W: usize>(
+    trace: &MeasuredTrace<W>,
+    profile: &Profile,
+    free: &[EffectId],
+    start: &ModelFit,
+    part: Part,
+    seed: u64,
+) -> ModelFit {
+    match free.len() {
+        0 => fit_d::<W, 8>(trace, profile, free, start, part, seed),
+        1 => fit_d::<W, 9>(trace, profile, free, start, part, seed),
+        _ => fit_d::<W, 10>(trace, profile, &free[..2], start, part, seed),
+    }
+}
+
+fn fit_d<const W: usize, const D: usize>(
+    trace: &MeasuredTrace<W>,
+    profile: &Profile,
+    free: &[EffectId],
+    start_fit: &ModelFit,
+    part: Part,
+    seed: u64,
+) -> ModelFit {
+    let base = ModelEffects::NONE;
+    let start = &start_fit.k;
+    let mut objective = PartFit::new(trace, *profile, base, free.to_vec(), part);
+    let fb = fault_bounds();
+    let mut bounds = Bounds::<D>::unit();
+    bounds.periodic[..FAULT_COUNT].copy_from_slice(&fb.periodic);
+    let point = |k: &FaultVector, s: f32| {
+        let mut x = [s; D];
+        x[..FAULT_COUNT].copy_from_slice(&k.0);
+        for (xj, e) in x[FAULT_COUNT..].iter_mut().zip(free) {
+            let on = start_fit.effects.get(*e);
+            if on > 0.0 {
+                *xj = on;
+            }
+        }
+        x
+    };
+    let mut guesses = vec![point(start, 0.0)];
+    if D > FAULT_COUNT {
+        for &s in &SEVERITY_GUESSES {
+            guesses.push(point(start, s));
+            guesses.push(point(&FaultVector::HEALTHY, s));
+        }
+    }
+    let config = PsoConfig { max_iterations: 30, ..PsoConfig::default() };
+    let mut evaluations = 0;
+    let mut best = point(start, 0.0);
+    if let Ok(pso) = ParticleSwarm::<30, D>::new(bounds, config, seed) {
+        let mut pso = pso.with_initial_guesses(&guesses);
+        optimizer::run(&mut pso, &mut objective, u32::MAX);
+        best = *pso.best().0;
+        evaluations += pso.evaluations();
+    }
+    let polish = PatternConfig { initial_step: 0.02, min_step: 2e-4, max_evaluations: 400 };
+    let mut best_cost = Objective::<D>::cost(&mut objective, &best, f32::INFINITY);
+    if let Ok(mut search) = PatternSearch::new(bounds, polish, best, Some(best_cost), [true; D]) {
+        optimizer::run(&mut search, &mut objective, u32::MAX);
+        let (x, c) = search.best();
+        if c <= best_cost {
+            best = *x;
+            best_cost = c;
+        }
+        evaluations += search.evaluations();
+    }
+    let (k, effects) = objective.split(&best);
+    ModelFit { k, effects, error: best_cost, evaluations: evaluations + 1 }
+}
+
+/// One library effect tried as the missing one.
+#[derive(Clone, Debug)]
+pub struct Candidate {
+    /// The effect.
+    pub effect: EffectId,
+    /// Its fitted severity.
+    pub severity: f32,
+    /// ΔBIC on the fit part (positive: the effect pays for its parameter).
+    pub bic_fit: f64,
+    /// ΔBIC on the held-out part: the evidence.
+    pub bic_held_out: f64,
+    /// Share of the structural residual energy (whole recording) it removes.
+    pub gap_share: f64,
+    /// The fit with the effect on (fit part).
+    pub fit: ModelFit,
+}
+
+/// The verdict of one search round.
+#[derive(Clone, Debug)]
+pub struct Round {
+    /// Every candidate, best evidence first.
+    pub candidates: Vec<Candidate>,
+    /// The winner's posterior weight, when one is named.
+    pub named: Option<(EffectId, f32, f64)>,
+}
+
+/// `ΔBIC = n·ln(E0/E1) − ln(n)` for one extra parameter.
+fn delta_bic(n_eff: f64, before: f32, after: f32) -> f64 {
+    if !(before > 0.0 && after > 0.0) {
+        return f64::NEG_INFINITY;
+    }
+    n_eff * (f64::from(before) / f64::from(after)).ln() - n_eff.ln()
+}
+
+/// A time window of the recording and its residual.
+#[derive(Clone, Debug)]
+pub struct Window {
+    /// Start (s).
+    pub start_s: f64,
+    /// End (s).
+    pub end_s: f64,
+    /// Share of the structural residual energy before (fraction).
+    pub share: f64,
+    /// Structural residual RMS before (A).
+    pub rms_before_a: f64,
+    /// Structural residual RMS after (A), filled at the end.
+    pub rms_after_a: f64,
+}
+
+/// The windows holding most of the structural residual energy: [`WINDOW_S`] windows in
+/// decreasing energy until half the energy is covered (at most 5), adjacent ones merged.
+pub fn hot_windows(s: &Series) -> Vec<Window> {
+    let dt = s.time_s.get(1).copied().unwrap_or(0.0) - s.time_s.first().copied().unwrap_or(0.0);
+    let per = ((WINDOW_S / dt.max(1e-9)).round() as usize).max(1);
+    let energy: Vec<f64> = s.structural_a.chunks(per).map(|c| c.iter().map(|v| v * v).sum()).collect();
+    let total: f64 = energy.iter().sum::<f64>().max(1e-30);
+    let mut order: Vec<usize> = (0..energy.len()).collect();
+    order.sort_by(|a, b| energy[*b].total_cmp(&energy[*a]));
+    let mut picked = Vec::new();
+    let mut covered = 0.0;
+    for &w in &order {
+        if covered >= 0.5 || picked.len() >= 5 {
+            break;
+        }
+        picked.push(w);
+        covered += energy[w] / total;
+    }
+    picked.sort_unstable();
+    let mut out: Vec<Window> = Vec::new();
+    for w in picked {
+        let (start, end) = (w as f64 * per as f64 * dt, ((w + 1) * per).min(s.time_s.len()) as f64 * dt);
+        match out.last_mut() {
+            Some(last) if (last.end_s - start).abs() < 1e-9 => {
+                last.end_s = end;
+                last.share += energy[w] / total;
+            }
+            _ => out.push(Window { start_s: start, end_s: end, share: energy[w] / total, rms_before_a: 0.0, rms_after_a: 0.0 }),
+        }
+    }
+    for w in &mut out {
+        w.rms_before_a = window_rms(s, w.start_s, w.end_s);
+    }
+    out
+}
+
+fn window_rms(s: &Series, start: f64, end: f64) -> f64 {
+    rms(s.time_s.iter().zip(&s.structural_a).filter(|(t, _)| **t >= start && **t < end).map(|(_, r)| *r))
+}
+
+/// An operating regime and the residual energy in it.
+#[derive(Clone, Debug)]
+pub struct Regime {
+    /// Family (`direction`, `speed`, `reversal`, `current`).
+    pub family: &'static str,
+    /// Regime name.
+    pub name: &'static str,
+    /// Share of the recording's time (fraction).
+    pub time_share: f64,
+    /// Share of the structural residual energy (fraction).
+    pub energy_share: f64,
+}
+
+/// Motor speed under which the actuator counts as at rest (rad/s).
+const REST_RAD_S: f64 = 5.0;
+/// Blocks on each side of a speed sign change counted as the reversal (10 ms).
+const REVERSAL_BLOCKS: usize = 25;
+
+/// Shares of the structural residual energy per regime of the model's state.
+pub fn regimes(s: &Series) -> Vec<Regime> {
+    let n = s.time_s.len();
+    let mut reversal = vec![false; n];
+    let mut last_sign = 0.0;
+    for i in 0..n {
+        let w = s.speed_rad_s[i];
+        if w.abs() > REST_RAD_S {
+            let sign = w.signum();
+            if last_sign != 0.0 && sign != last_sign {
+                for r in &mut reversal[i.saturating_sub(REVERSAL_BLOCKS)..(i + REVERSAL_BLOCKS).min(n)] {
+                    *r = true;
+                }
+            }
+            last_sign = sign;
+        }
+    }
+    type Classifier = fn(f64, f64, bool) -> bool;
+    let table: [(&str, &str, Classifier); 11] = [
+        ("direction", "forward", |w, _, _| w > REST_RAD_S),
+        ("direction", "backward", |w, _, _| w < -REST_RAD_S),
+        ("direction", "at rest", |w, _, _| w.abs() <= REST_RAD_S),
+        ("speed", "low (< 100 rad/s)", |w, _, _| w.abs() > REST_RAD_S && w.abs() < 100.0),
+        ("speed", "medium (100-500 rad/s)", |w, _, _| (100.0..500.0).contains(&w.abs())),
+        ("speed", "high (>= 500 rad/s)", |w, _, _| w.abs() >= 500.0),
+        ("reversal", "within 10 ms of a reversal", |_, _, r| r),
+        ("reversal", "away from reversals", |_, _, r| !r),
+        ("current", "low (< 2 A)", |_, i, _| i.abs() < 2.0),
+        ("current", "medium (2-8 A)", |_, i, _| (2.0..8.0).contains(&i.abs())),
+        ("current", "high (>= 8 A)", |_, i, _| i.abs() >= 8.0),
+    ];
+    let total: f64 = s.structural_a.iter().map(|r| r * r).sum::<f64>().max(1e-30);
+    table
+        .iter()
+        .map(|(family, name, f)| {
+            let (mut t, mut e) = (0usize, 0.0);
+            for i in 0..n {
+                if f(s.speed_rad_s[i], s.current_a[i], reversal[i]) {
+                    t += 1;
+                    e += s.structural_a[i] * s.structural_a[i];
+                }
+            }
+            Regime { family, name, time_share: t as f64 / n.max(1) as f64, energy_share: e / total }
+        })
+        .collect()
+}
+
+/// Share of the raw residual energy explained by `a·sin(n·θ) + b·cos(n·θ)` (least squares).
+pub fn order_share(residual: &[f64], angle: &[f64], order: f64) -> f64 {
+    let (mut ss, mut cc, mut sc, mut rs, mut rc, mut rr) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    for (r, a) in residual.iter().zip(angle) {
+        let (sn, cs) = (order * a).sin_cos();
+        ss += sn * sn;
+        cc += cs * cs;
+        sc += sn * cs;
+        rs += r * sn;
+        rc += r * cs;
+        rr += r * r;
+    }
+    let det = ss * cc - sc * sc;
+    if det <= 0.0 || rr <= 0.0 {
+        return 0.0;
+    }
+    let a = (rs * cc - rc * sc) / det;
+    let b = (rc * ss - rs * sc) / det;
+    (a * rs + b * rc) / rr
+}
+
+/// The rotor-angle orders reported: `(name, share of the raw residual energy)`.
+pub fn orders(s: &Series) -> Vec<(&'static str, f64)> {
+    let r = &s.residual_a;
+    vec![
+        ("1 x electrical", order_share(r, &s.electrical_angle_rad, 1.0)),
+        ("2 x electrical", order_share(r, &s.electrical_angle_rad, 2.0)),
+        ("6 x electrical", order_share(r, &s.electrical_angle_rad, 6.0)),
+        ("24 x mechanical (cogging)", order_share(r, &s.motor_angle_rad, 24.0)),
+    ]
+}
+
+/// Everything `ema discover` found.
+#[derive(Clone, Debug)]
+pub struct Discovery {
+    /// Recording path.
+    pub file: PathBuf,
+    /// The current model's fit (whole recording).
+    pub before: ModelFit,
+    /// The model with the named effects (whole recording).
+    pub after: ModelFit,
+    /// Residual series before and after.
+    pub series_before: Series,
+    /// After adding the named effects.
+    pub series_after: Series,
+    /// Hot windows (with RMS before and after).
+    pub windows: Vec<Window>,
+    /// Regime shares (before).
+    pub regimes: Vec<Regime>,
+    /// Order shares (before).
+    pub orders: Vec<(&'static str, f64)>,
+    /// The search rounds.
+    pub rounds: Vec<Round>,
+    /// Named effects: `(effect, severity, confidence)`.
+    pub named: Vec<(EffectId, f32, f64)>,
+    /// True fault vector, when given.
+    pub truth: Option<FaultVector>,
+    /// Wall time (s).
+    pub seconds: f64,
+    /// Objective evaluations in all.
+    pub evaluations: u64,
+}
+
+impl Discovery {
+    /// Structural residual RMS before (A).
+    pub fn rms_before_a(&self) -> f64 {
+        rms(self.series_before.structural_a.iter().copied())
+    }
+    /// Structural residual RMS after (A).
+    pub fn rms_after_a(&self) -> f64 {
+        rms(self.series_after.structural_a.iter().copied())
+    }
+    /// Raw residual RMS before (A).
+    pub fn raw_rms_before_a(&self) -> f64 {
+        rms(self.series_before.residual_a.iter().copied())
+    }
+    /// Raw residual RMS after (A).
+    pub fn raw_rms_after_a(&self) -> f64 {
+        rms(self.series_after.residual_a.iter().copied())
+    }
+}
+
+fn structural_energy(s: &Series) -> f64 {
+    s.structural_a.iter().map(|r| r * r).sum()
+}
+
+/// One search round: every effect not yet on, fitted on the fit part from `base_fit`, scored
+/// on the held-out part against `base_fit` (itself fitted on the fit part).
+#[allow(clippy::too_many_arguments)]
+fn search_round<const W: usize>(
+    trace: &MeasuredTrace<W>,
+    profile: &Profile,
+    on: &[EffectId],
+    base_fit: &ModelFit,
+    base_held_out: f32,
+    base_series: &Series,
+    n_eff_part: f64,
+    seed: u64,
+    threads: usize,
+) -> Round {
+    let candidates: Vec<EffectId> = EffectId::ALL.iter().copied().filter(|e| !on.contains(e)).collect();
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results = std::sync::Mutex::new(Vec::new());
+    std::thread::scope(|scope| {
+        for _ in 0..threads.max(1) {
+            scope.spawn(|| loop {
+                let j = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(&effect) = candidates.get(j) else { break };
+                let mut free: Vec<EffectId> = on.to_vec();
+                free.push(effect);
+                let fit = fit_model(trace, profile, &free, base_fit, Part::Fit, seed);
+                let held = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::HeldOut);
+                let e_held = held.error(&fit.k, &fit.effects, f32::INFINITY);
+                let after = series(trace, &EmaParams::NOMINAL, profile, &fit.k, &fit.effects);
+                let before_energy = structural_energy(base_series).max(1e-30);
+                let c = Candidate {
+                    effect,
+                    severity: fit.effects.get(effect),
+                    bic_fit: delta_bic(n_eff_part, base_fit.error, fit.error),
+                    bic_held_out: delta_bic(n_eff_part, base_held_out, e_held),
+                    gap_share: 1.0 - structural_energy(&after) / before_energy,
+                    fit,
+                };
+                if let Ok(mut r) = results.lock() {
+                    r.push(c);
+                }
+            });
+        }
+    });
+    let mut candidates = results.into_inner().unwrap_or_default();
+    candidates.sort_by(|a, b| b.bic_held_out.total_cmp(&a.bic_held_out));
+    let weight_sum: f64 = 1.0 + candidates.iter().map(|c| (c.bic_held_out.min(1400.0) / 2.0).exp()).sum::<f64>();
+    let named = candidates.first().and_then(|c| {
+        let pass = c.bic_held_out > BIC_STRONG
+            && c.bic_fit > BIC_STRONG
+            && c.severity >= MIN_SEVERITY
+            && c.gap_share >= MIN_GAP_SHARE;
+        pass.then(|| (c.effect, c.severity, (c.bic_held_out.min(1400.0) / 2.0).exp() / weight_sum))
+    });
+    Round { candidates, named }
+}
+
+/// Runs the whole workflow on a conditioned trace.
+pub fn discover<const W: usize>(
+    trace: &MeasuredTrace<W>,
+    profile: &Profile,
+    file: &Path,
+    truth: Option<FaultVector>,
+    seed: u64,
+    threads: usize,
+) -> Result<Discovery, CliError> {
+    let start = Instant::now();
+    let params = EmaParams::NOMINAL;
+    // 1. the current model, as on board (whole recording)
+    let config = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
+    let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> = Box::new(
+        Identification::new(trace, params, *profile, &config)
+            .map_err(|e| CliError::Input { path: file.to_path_buf(), message: e.to_string() })?,
+    );
+    id.run(u32::MAX);
+    let report = id.report();
+    let mut evaluations = u64::from(report.evaluations);
+    let whole = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::All);
+    let before = ModelFit {
+        k: report.faults,
+        effects: ModelEffects::NONE,
+        error: whole.error(&report.faults, &ModelEffects::NONE, f32::INFINITY),
+        evaluations: report.evaluations,
+    };
+    let series_before = series(trace, &params, profile, &before.k, &ModelEffects::NONE);
+    // 2. where
+    let mut windows = hot_windows(&series_before);
+    let regimes = regimes(&series_before);
+    let orders = orders(&series_before);
+    // 3. name: the reference (no effect) fitted on the fit part like every candidate
+    let n_eff_part = 0.5 * f64::from(CurrentFit::new(trace, params, *profile).effective_samples(&before.k));
+    let mut on: Vec<EffectId> = Vec::new();
+    let mut named = Vec::new();
+    let mut rounds = Vec::new();
+    let mut base_fit = fit_model(trace, profile, &on, &before, Part::Fit, seed);
+    evaluations += u64::from(base_fit.evaluations);
+    let mut base_series = series(trace, &params, profile, &base_fit.k, &base_fit.effects);
+    while named.len() < MAX_NAMED {
+        let held = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::HeldOut);
+        let base_held_out = held.error(&base_fit.k, &base_fit.effects, f32::INFINITY);
+        let round =
+            search_round(trace, profile, &on, &base_fit, base_held_out, &base_series, n_eff_part, seed, threads);
+        evaluations += round.candidates.iter().map(|c| u64::from(c.fit.evaluations)).sum::<u64>();
+        let winner = round.named;
+        let winner_fit = round.candidates.first().map(|c| c.fit.clone());
+        rounds.push(round);
+        match (winner, winner_fit) {
+            (Some(w), Some(fit)) => {
+                named.push(w);
+                on.push(w.0);
+                base_series = series(trace, &params, profile, &fit.k, &fit.effects);
+                base_fit = fit;
+            }
+            _ => break,
+        }
+    }
+    // 4. add: the named effects refitted with the faults on the whole recording
+    let after = if on.is_empty() {
+        before.clone()
+    } else {
+        let fit = fit_model(trace, profile, &on, &base_fit, Part::All, seed);
+        evaluations += u64::from(fit.evaluations);
+        for (e, s, _) in &mut named {
+            *s = fit.effects.get(*e);
+        }
+        fit
+    };
+    let series_after = series(trace, &params, profile, &after.k, &after.effects);
+    for w in &mut windows {
+        w.rms_after_a = window_rms(&series_after, w.start_s, w.end_s);
+    }
+    Ok(Discovery {
+        file: file.to_path_buf(),
+        before,
+        after,
+        series_before,
+        series_after,
+        windows,
+        regimes,
+        orders,
+        rounds,
+        named,
+        truth,
+        seconds: start.elapsed().as_secs_f64(),
+        evaluations,
+    })
+}
+
+/// Runs `ema discover`.
+pub fn run(args: &DiscoverArgs) -> Result<String, CliError> {
+    let profile = resolve_profile(&args.profile)?;
+    let truth = args.truth.as_deref().map(parse_faults).transpose()?;
+    let recording = read_recording(&args.file).map_err(CliError::Recording)?;
+    let trace = condition_recording(&recording, &args.file, &profile)?;
+    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let d = discover::<HOST_WINDOW>(&trace, &profile, &args.file, truth, args.seed, threads)?;
+    if let Some(dir) = &args.out {
+        write_outputs(dir, &d)?;
+    }
+    Ok(if args.json { to_json(&d).to_string() } else { summary(&d) })
+}
+
+/// The model configuration the firmware build accepts (`EMA_MODEL_CONFIG`).
+pub fn model_config(d: &Discovery) -> String {
+    let mut s = format!(
+        "# ema-monitor model configuration, written by `ema discover {}`\n# lines: effect ID SEVERITY\n",
+        d.file.display()
+    );
+    for (e, sev, c) in &d.named {
+        let _ = writeln!(s, "effect {} {sev} # confidence {c:.3}", e.id());
+    }
+    s
+}
+
+fn err_percent(d: &Discovery, k: &FaultVector) -> Option<f64> {
+    d.truth.map(|t| f64::from(k.paper_error_percent(&t)))
+}
+
+/// The JSON report.
+pub fn to_json(d: &Discovery) -> serde_json::Value {
+    json!({
+        "file": d.file.display().to_string(),
+        "named": d.named.iter().map(|(e, s, c)| json!({"effect": e.id(), "severity": s, "confidence": c})).collect::<Vec<_>>(),
+        "verdict": verdict(d),
+        "rms_before": d.rms_before_a(),
+        "rms_after": d.rms_after_a(),
+        "raw_rms_before": d.raw_rms_before_a(),
+        "raw_rms_after": d.raw_rms_after_a(),
+        "residual": format!("I_3eq block means minus model, averaged over {SMOOTH_BLOCKS} blocks (2 ms); raw_*: not averaged; A"),
+        "windows": d.windows.iter().map(|w| json!({"start_s": w.start_s, "end_s": w.end_s, "share": w.share, "rms_before": w.rms_before_a, "rms_after": w.rms_after_a})).collect::<Vec<_>>(),
+        "regimes": d.regimes.iter().map(|r| json!({"family": r.family, "regime": r.name, "time_share": r.time_share, "energy_share": r.energy_share})).collect::<Vec<_>>(),
+        "orders": d.orders.iter().map(|(n, s)| json!({"order": n, "share": s})).collect::<Vec<_>>(),
+        "rounds": d.rounds.iter().map(|r| r.candidates.iter().map(|c| json!({"effect": c.effect.id(), "severity": c.severity, "bic_fit": finite(c.bic_fit), "bic_held_out": finite(c.bic_held_out), "gap_share": c.gap_share})).collect::<Vec<_>>()).collect::<Vec<_>>(),
+        "k_before": d.before.k.0,
+        "k_after": d.after.k.0,
+        "fitness_before": d.before.error,
+        "fitness_after": d.after.error,
+        "err_percent_before": err_percent(d, &d.before.k),
+        "err_percent_after": err_percent(d, &d.after.k),
+        "seconds": d.seconds,
+        "evaluations": d.evaluations,
+    })
+}
+
+fn finite(x: f64) -> serde_json::Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
+/// One line: what was found.
+pub fn verdict(d: &Discovery) -> String {
+    if d.named.is_empty() {
+        "no missing effect found".to_string()
+    } else {
+        let names: Vec<String> =
+            d.named.iter().map(|(e, s, c)| format!("{} (severity {s:.2}, confidence {c:.2})", e.id())).collect();
+        format!("missing: {}", names.join(" and "))
+    }
+}
+
+/// The readable summary.
+pub fn summary(d: &Discovery) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "recording: {}", d.file.display());
+    let _ = writeln!(s, "verdict: {}", verdict(d));
+    let _ = writeln!(
+        s,
+        "structural residual RMS (2 ms means): {:.4} A before, {:.4} A after ({:.1} % of before); raw: {:.4} -> {:.4} A",
+        d.rms_before_a(),
+        d.rms_after_a(),
+        100.0 * d.rms_after_a() / d.rms_before_a().max(1e-12),
+        d.raw_rms_before_a(),
+        d.raw_rms_after_a()
+    );
+    let _ = writeln!(s, "\nwhere (windows holding half the residual energy):");
+    for w in &d.windows {
+        let _ = writeln!(
+            s,
+            "  {:.3}-{:.3} s: {:4.1} % of the energy, RMS {:.4} -> {:.4} A",
+            w.start_s,
+            w.end_s,
+            100.0 * w.share,
+            w.rms_before_a,
+            w.rms_after_a
+        );
+    }
+    let _ = writeln!(s, "\nregimes (share of residual energy / share of time):");
+    for r in &d.regimes {
+        let _ = writeln!(
+            s,
+            "  {:9} {:28} {:5.1} % / {:5.1} %",
+            r.family,
+            r.name,
+            100.0 * r.energy_share,
+            100.0 * r.time_share
+        );
+    }
+    let _ = writeln!(s, "\nrotor-angle orders (share of the raw residual energy):");
+    for (n, v) in &d.orders {
+        let _ = writeln!(s, "  {n:28} {:5.2} %", 100.0 * v);
+    }
+    for (j, r) in d.rounds.iter().enumerate() {
+        let _ = writeln!(s, "\nround {}: candidates (held-out ΔBIC, fit ΔBIC, severity, share of the gap removed)", j + 1);
+        for c in &r.candidates {
+            let _ = writeln!(
+                s,
+                "  {:20} {:9.1} {:9.1} {:6.3} {:6.1} %",
+                c.effect.id(),
+                c.bic_held_out,
+                c.bic_fit,
+                c.severity,
+                100.0 * c.gap_share
+            );
+        }
+    }
+    let _ = writeln!(s, "\nfault vector before: {:?}", d.before.k.0);
+    let _ = writeln!(s, "fault vector after:  {:?}", d.after.k.0);
+    if let (Some(a), Some(b)) = (err_percent(d, &d.before.k), err_percent(d, &d.after.k)) {
+        let _ = writeln!(s, "Err% against --truth: {a:.2} before, {b:.2} after");
+    }
+    let _ = write!(s, "{} evaluations, {:.1} s", d.evaluations, d.seconds);
+    s
+}
+
+fn write_file(path: &Path, text: &str) -> Result<(), CliError> {
+    std::fs::write(path, text).map_err(|e| CliError::Io { path: path.to_path_buf(), source: e })
+}
+
+/// Writes discovery.json, residual.csv, fit.svg, residual.svg and model-config.txt into `dir`.
+pub fn write_outputs(dir: &Path, d: &Discovery) -> Result<(), CliError> {
+    std::fs::create_dir_all(dir).map_err(|e| CliError::Io { path: dir.to_path_buf(), source: e })?;
+    write_file(&dir.join("discovery.json"), &to_json(d).to_string())?;
+    write_file(&dir.join("model-config.txt"), &model_config(d))?;
+    let (b, a) = (&d.series_before, &d.series_after);
+    let mut csv = String::from(
+        "time_s,measured_A,model_before_A,model_after_A,residual_before_A,residual_after_A,structural_before_A,structural_after_A\n",
+    );
+    for i in 0..b.time_s.len() {
+        let _ = writeln!(
+            csv,
+            "{:.4},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5}",
+            b.time_s[i],
+            b.measured_a[i],
+            b.model_a[i],
+            a.model_a[i],
+            b.residual_a[i],
+            a.residual_a[i],
+            b.structural_a[i],
+            a.structural_a[i]
+        );
+    }
+    write_file(&dir.join("residual.csv"), &csv)?;
+    let measured = moving_mean(&b.measured_a, SMOOTH_BLOCKS);
+    let model_before = moving_mean(&b.model_a, SMOOTH_BLOCKS);
+    let model_after = moving_mean(&a.model_a, SMOOTH_BLOCKS);
+    write_file(
+        &dir.join("fit.svg"),
+        &line_plot(
+            "Equivalent current I_3eq (2 ms means): measured vs model",
+            "A",
+            &b.time_s,
+            &[("measured", "#222222", &measured), ("model before", "#d62728", &model_before), ("model after", "#1f77b4", &model_after)],
+            &d.windows,
+        ),
+    )?;
+    write_file(
+        &dir.join("residual.svg"),
+        &line_plot(
+            "Structural residual (measured - model, 2 ms means)",
+            "A",
+            &b.time_s,
+            &[("before", "#d62728", &b.structural_a), ("after", "#1f77b4", &a.structural_a)],
+            &d.windows,
+        ),
+    )?;
+    Ok(())
+}
+
+/// A time-series SVG: one polyline per series, the hot windows shaded.
+pub fn line_plot(title: &str, unit: &str, t: &[f64], lines: &[(&str, &str, &[f64])], windows: &[Window]) -> String {
+    let (w, h, left, right, top, bottom) = (960.0, 360.0, 60.0, 150.0, 30.0, 40.0);
+    let t_max = t.last().copied().unwrap_or(1.0).max(1e-9);
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (_, _, y) in lines {
+        for v in y.iter() {
+            lo = lo.min(*v);
+            hi = hi.max(*v);
+        }
+    }
+    if !(lo.is_finite() && hi.is_finite()) || hi <= lo {
+        (lo, hi) = (-1.0, 1.0);
+    }
+    let x = |tt: f64| left + (w - left - right) * tt / t_max;
+    let y = |v: f64| top + (h - top - bottom) * (hi - v) / (hi - lo);
+    let mut s = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n\
+         <rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n<text x=\"{left}\" y=\"18\" font-size=\"14\">{title}</text>\n"
+    );
+    for win in windows {
+        let _ = writeln!(
+            s,
+            "<rect x=\"{:.1}\" y=\"{top}\" width=\"{:.1}\" height=\"{:.1}\" fill=\"#ffdd88\" opacity=\"0.4\"/>",
+            x(win.start_s),
+            (x(win.end_s) - x(win.start_s)).max(1.0),
+            h - top - bottom
+        );
+    }
+    let _ = writeln!(
+        s,
+        "<line x1=\"{left}\" y1=\"{0:.1}\" x2=\"{1:.1}\" y2=\"{0:.1}\" stroke=\"#999\"/>",
+        y(0.0f64.clamp(lo, hi)),
+        w - right
+    );
+    for k in 0..=5 {
+        let v = lo + (hi - lo) * k as f64 / 5.0;
+        let _ = writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{v:.2}</text>", left - 4.0, y(v) + 4.0);
+        let tt = t_max * k as f64 / 5.0;
+        let _ = writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{tt:.2}</text>", x(tt), h - bottom + 16.0);
+    }
+    let _ = writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">time (s)</text>", x(t_max / 2.0), h - 6.0);
+    let _ = writeln!(s, "<text x=\"12\" y=\"{:.1}\" transform=\"rotate(-90 12 {:.1})\">{unit}</text>", h / 2.0, h / 2.0);
+    for (j, (name, colour, values)) in lines.iter().enumerate() {
+        let mut pts = String::new();
+        for (tt, v) in t.iter().zip(values.iter()) {
+            let _ = write!(pts, "{:.1},{:.1} ", x(*tt), y(*v));
+        }
+        let _ = writeln!(s, "<polyline fill=\"none\" stroke=\"{colour}\" stroke-width=\"1\" points=\"{pts}\"/>");
+        let ly = top + 16.0 * j as f64 + 8.0;
+        let _ = writeln!(
+            s,
+            "<line x1=\"{0:.1}\" y1=\"{ly:.1}\" x2=\"{1:.1}\" y2=\"{ly:.1}\" stroke=\"{colour}\" stroke-width=\"2\"/><text x=\"{2:.1}\" y=\"{3:.1}\">{name}</text>",
+            w - right + 10.0,
+            w - right + 30.0,
+            w - right + 34.0,
+            ly + 4.0
+        );
+    }
+    s.push_str("</svg>\n");
+    s
+}
