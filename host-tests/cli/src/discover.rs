@@ -11,13 +11,14 @@
 //!    share of time; the share of the raw residual carried by rotor-angle orders (1, 2, 6 per
 //!    electrical turn, 24 per mechanical turn: cogging) by least squares on `sin/cos(n·θ)`.
 //! 3. **Name**: every library effect ([`EffectId::ALL`]) is fitted with the faults
-//!    ([`fit_model`]: PSO seeded at the current fit and at several severities, then a compass
-//!    polish) on alternate 50 ms chunks of the recording, and scored on the held-out chunks:
-//!    `ΔBIC = n_eff·ln(E_before/E_after) − ln(n_eff)` on each part (`n_eff` the residual's
+//!    ([`fit_model`]: compass searches from the current fit and from its electrical or mechanical
+//!    faults reset, at the best severity of a scan, then model selection and a polish) on alternate 50 ms chunks of the recording, and scored on the held-out chunks:
+//!    `ΔBIC = n_eff·ln(E_before/E_after) − Δp·ln(n_eff)` on each part (`Δp` the change in free parameters, `n_eff` the residual's
 //!    effective sample count, [`CurrentFit::effective_samples`]). An effect is named only when
-//!    the held-out ΔBIC exceeds [`BIC_STRONG`] (Kass & Raftery's "very strong"), the fitted
-//!    severity is not negligible, and the structural residual it removes is a real part of the
-//!    gap ([`MIN_GAP_SHARE`]). Confidence is the winner's posterior weight among "no effect" and
+//!    the held-out and the fit ΔBIC exceed [`BIC_STRONG`] (Kass & Raftery's "very strong"), the
+//!    fitted severity is not negligible, and either the structural residual it removes is a real
+//!    part of the gap ([`MIN_GAP_SHARE`]) or it explains with fewer parameters what the fit had
+//!    attributed to faults (a winding temperature rise read as shorts on three phases). Confidence is the winner's posterior weight among "no effect" and
 //!    all candidates, `exp(ΔBIC_j/2)/(1 + Σ exp(ΔBIC/2))`. The search repeats for a second
 //!    effect on top of the first.
 //! 4. **Add**: the named effects are refitted with the faults on the whole recording.
@@ -34,9 +35,10 @@ use std::time::Instant;
 use clap::Args;
 use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
 use ema_monitor::fitness::{simulate_window_with_effects, CurrentFit};
-use ema_monitor::monitor::{fault_bounds, Identification, IdentifyConfig, ONBOARD_POPULATION};
+use ema_monitor::monitor::{
+    fault_bounds, Identification, IdentifyConfig, FAULT_GROUPS, ONBOARD_POPULATION, SELECTION_REFIT,
+};
 use ema_monitor::optimizer::pattern::{PatternConfig, PatternSearch};
-use ema_monitor::optimizer::pso::{ParticleSwarm, PsoConfig};
 use ema_monitor::optimizer::{self, Bounds, Objective, Optimizer};
 use ema_monitor::{EffectId, EmaParams, FaultVector, ModelEffects, Profile, FAULT_COUNT};
 use serde_json::json;
@@ -264,25 +266,62 @@ pub struct ModelFit {
     pub evaluations: u32,
 }
 
-/// Severities the candidate fits start from.
-const SEVERITY_GUESSES: [f32; 4] = [0.15, 0.35, 0.65, 1.0];
+/// Severities scanned for a new effect's start: `j/SEVERITY_SCAN`, `j = 1..=SEVERITY_SCAN`.
+const SEVERITY_SCAN: usize = 20;
 
-/// Fits the faults and the severities of `free` (with `base` effects fixed) on `part`: PSO
-/// (30 particles, 30 iterations) seeded with `start` and with `start`'s fault groups reset to
-/// healthy at several severities, then a compass polish (≤ 400 evaluations).
-/// An effect already on in `start` starts at its severity; a new one at the guesses.
+/// The fault groups of the electrical model (shorts, eccentricity) and of the mechanics
+/// (friction, backlash): an effect competes with one or the other, so the candidate fits also
+/// start with each set reset to healthy.
+const ELECTRICAL_GROUPS: [usize; 4] = [2, 3, 4, 5];
+const MECHANICAL_GROUPS: [usize; 2] = [0, 1];
+
+/// A group counts as present when one of its parameters is this far from healthy.
+const PRESENT_ABOVE: f32 = 1e-4;
+
+fn group_present(k: &[f32], (first, last): (usize, usize)) -> bool {
+    if first == 5 {
+        return k[5] > PRESENT_ABOVE; // the eccentricity phase counts through the magnitude only
+    }
+    (first..=last).any(|i| (k[i] - FaultVector::HEALTHY.0[i]).abs() > PRESENT_ABOVE)
+}
+
+fn reset_groups(k: &FaultVector, groups: &[usize]) -> FaultVector {
+    let mut out = *k;
+    for &g in groups {
+        let (first, last) = FAULT_GROUPS[g];
+        out.0[first..=last].copy_from_slice(&FaultVector::HEALTHY.0[first..=last]);
+    }
+    out
+}
+
+/// Free parameters of a model: the present fault groups' and the effects' severities.
+pub fn parameter_count(fit: &ModelFit) -> usize {
+    let faults: usize =
+        FAULT_GROUPS.iter().filter(|g| group_present(&fit.k.0, **g)).map(|(first, last)| last - first + 1).sum();
+    faults + fit.effects.active().count()
+}
+
+/// Fits the faults and the severities of `free` on `part`, then keeps only what pays:
+/// 1. a compass search (≤ 300 evaluations) from `start` and from `start` with its electrical or
+///    mechanical fault groups (or all) reset to healthy, each at the best severity of a scan of
+///    the new effect's (an effect already on in `start` starts at its severity): the valley in
+///    severity can be narrow, and an electrical fault can mimic an effect;
+/// 2. model selection as on board: each present fault group is set healthy, the rest refitted
+///    ([`SELECTION_REFIT`]), and the group dropped unless it pays its BIC price with `n_eff`
+///    effective samples;
+/// 3. a compass polish (≤ 400 evaluations) of what is left.
 pub fn fit_model<const W: usize>(
     trace: &MeasuredTrace<W>,
     profile: &Profile,
     free: &[EffectId],
     start: &ModelFit,
     part: Part,
-    seed: u64,
+    n_eff: f64,
 ) -> ModelFit {
     match free.len() {
-        0 => fit_d::<W, 8>(trace, profile, free, start, part, seed),
-        1 => fit_d::<W, 9>(trace, profile, free, start, part, seed),
-        _ => fit_d::<W, 10>(trace, profile, &free[..2], start, part, seed),
+        0 => fit_d::<W, 8>(trace, profile, free, start, part, n_eff),
+        1 => fit_d::<W, 9>(trace, profile, free, start, part, n_eff),
+        _ => fit_d::<W, 10>(trace, profile, &free[..2], start, part, n_eff),
     }
 }
 
@@ -292,11 +331,9 @@ fn fit_d<const W: usize, const D: usize>(
     free: &[EffectId],
     start_fit: &ModelFit,
     part: Part,
-    seed: u64,
+    n_eff: f64,
 ) -> ModelFit {
-    let base = ModelEffects::NONE;
-    let start = &start_fit.k;
-    let mut objective = PartFit::new(trace, *profile, base, free.to_vec(), part);
+    let mut objective = PartFit::new(trace, *profile, ModelEffects::NONE, free.to_vec(), part);
     let fb = fault_bounds();
     let mut bounds = Bounds::<D>::unit();
     bounds.periodic[..FAULT_COUNT].copy_from_slice(&fb.periodic);
@@ -311,25 +348,69 @@ fn fit_d<const W: usize, const D: usize>(
         }
         x
     };
-    let mut guesses = vec![point(start, 0.0)];
+    let start = &start_fit.k;
+    let mut evaluations = 0;
+    // starts: per fault start, the best severity of a scan (the valley in s can be narrow)
+    let mut starts: Vec<[f32; D]> = vec![point(start, 0.0)];
     if D > FAULT_COUNT {
-        for &s in &SEVERITY_GUESSES {
-            guesses.push(point(start, s));
-            guesses.push(point(&FaultVector::HEALTHY, s));
+        let electrical = reset_groups(start, &ELECTRICAL_GROUPS);
+        let mechanical = reset_groups(start, &MECHANICAL_GROUPS);
+        for k in [start, &electrical, &mechanical, &FaultVector::HEALTHY] {
+            let mut best_scan = (f32::INFINITY, point(k, 0.0));
+            for j in 1..=SEVERITY_SCAN {
+                let x = point(k, j as f32 / SEVERITY_SCAN as f32);
+                let c = Objective::<D>::cost(&mut objective, &x, best_scan.0);
+                evaluations += 1;
+                if c < best_scan.0 {
+                    best_scan = (c, x);
+                }
+            }
+            starts.push(best_scan.1);
         }
     }
-    let config = PsoConfig { max_iterations: 30, ..PsoConfig::default() };
-    let mut evaluations = 0;
-    let mut best = point(start, 0.0);
-    if let Ok(pso) = ParticleSwarm::<30, D>::new(bounds, config, seed) {
-        let mut pso = pso.with_initial_guesses(&guesses);
-        optimizer::run(&mut pso, &mut objective, u32::MAX);
-        best = *pso.best().0;
-        evaluations += pso.evaluations();
+    let local = PatternConfig { initial_step: 0.05, min_step: 1e-3, max_evaluations: 300 };
+    let (mut best, mut best_cost) = (point(start, 0.0), f32::INFINITY);
+    for x in starts {
+        if let Ok(mut search) = PatternSearch::new(bounds, local, x, None, [true; D]) {
+            optimizer::run(&mut search, &mut objective, u32::MAX);
+            evaluations += search.evaluations();
+            let (x, c) = search.best();
+            if c < best_cost {
+                (best, best_cost) = (*x, c);
+            }
+        }
+    }
+    // model selection over the fault groups
+    for (g, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
+        if !group_present(&best, (first, last)) {
+            continue;
+        }
+        let mut movable = [true; D];
+        for (h, &(f, l)) in FAULT_GROUPS.iter().enumerate() {
+            let m = h != g && group_present(&best, (f, l));
+            movable[f..=l].iter_mut().for_each(|x| *x = m);
+        }
+        let mut without = best;
+        without[first..=last].copy_from_slice(&FaultVector::HEALTHY.0[first..=last]);
+        if let Ok(mut search) = PatternSearch::new(bounds, SELECTION_REFIT, without, None, movable) {
+            optimizer::run(&mut search, &mut objective, u32::MAX);
+            evaluations += search.evaluations();
+            let (x, c) = search.best();
+            let price = (last - first + 1) as f64 * n_eff.max(2.0).ln();
+            let pays = c.is_finite() && best_cost > 0.0 && n_eff * (f64::from(c) / f64::from(best_cost)).ln() > price;
+            if !pays {
+                (best, best_cost) = (*x, c);
+            }
+        }
+    }
+    // polish what is left
+    let mut movable = [true; D];
+    for &(f, l) in FAULT_GROUPS.iter() {
+        let m = group_present(&best, (f, l));
+        movable[f..=l].iter_mut().for_each(|x| *x = m);
     }
     let polish = PatternConfig { initial_step: 0.02, min_step: 2e-4, max_evaluations: 400 };
-    let mut best_cost = Objective::<D>::cost(&mut objective, &best, f32::INFINITY);
-    if let Ok(mut search) = PatternSearch::new(bounds, polish, best, Some(best_cost), [true; D]) {
+    if let Ok(mut search) = PatternSearch::new(bounds, polish, best, Some(best_cost), movable) {
         optimizer::run(&mut search, &mut objective, u32::MAX);
         let (x, c) = search.best();
         if c <= best_cost {
@@ -339,7 +420,7 @@ fn fit_d<const W: usize, const D: usize>(
         evaluations += search.evaluations();
     }
     let (k, effects) = objective.split(&best);
-    ModelFit { k, effects, error: best_cost, evaluations: evaluations + 1 }
+    ModelFit { k, effects, error: best_cost, evaluations }
 }
 
 /// One library effect tried as the missing one.
@@ -355,6 +436,9 @@ pub struct Candidate {
     pub bic_held_out: f64,
     /// Share of the structural residual energy (whole recording) it removes.
     pub gap_share: f64,
+    /// The effect explains with fewer parameters what the fit attributed to fault groups (e.g.
+    /// a winding temperature rise read as shorts on all three phases).
+    pub replaces_faults: bool,
     /// The fit with the effect on (fit part).
     pub fit: ModelFit,
 }
@@ -368,12 +452,13 @@ pub struct Round {
     pub named: Option<(EffectId, f32, f64)>,
 }
 
-/// `ΔBIC = n·ln(E0/E1) − ln(n)` for one extra parameter.
-fn delta_bic(n_eff: f64, before: f32, after: f32) -> f64 {
+/// `ΔBIC = n·ln(E0/E1) − (p1 − p0)·ln(n)`: positive when the second model pays for its extra
+/// parameters (or explains as much with fewer).
+fn delta_bic(n_eff: f64, before: f32, after: f32, extra_parameters: f64) -> f64 {
     if !(before > 0.0 && after > 0.0) {
         return f64::NEG_INFINITY;
     }
-    n_eff * (f64::from(before) / f64::from(after)).ln() - n_eff.ln()
+    n_eff * (f64::from(before) / f64::from(after)).ln() - extra_parameters * n_eff.max(2.0).ln()
 }
 
 /// A time window of the recording and its residual.
@@ -418,7 +503,13 @@ pub fn hot_windows(s: &Series) -> Vec<Window> {
                 last.end_s = end;
                 last.share += energy[w] / total;
             }
-            _ => out.push(Window { start_s: start, end_s: end, share: energy[w] / total, rms_before_a: 0.0, rms_after_a: 0.0 }),
+            _ => out.push(Window {
+                start_s: start,
+                end_s: end,
+                share: energy[w] / total,
+                rms_before_a: 0.0,
+                rms_after_a: 0.0,
+            }),
         }
     }
     for w in &mut out {
@@ -593,7 +684,6 @@ fn search_round<const W: usize>(
     base_held_out: f32,
     base_series: &Series,
     n_eff_part: f64,
-    seed: u64,
     threads: usize,
 ) -> Round {
     let candidates: Vec<EffectId> = EffectId::ALL.iter().copied().filter(|e| !on.contains(e)).collect();
@@ -606,7 +696,9 @@ fn search_round<const W: usize>(
                 let Some(&effect) = candidates.get(j) else { break };
                 let mut free: Vec<EffectId> = on.to_vec();
                 free.push(effect);
-                let fit = fit_model(trace, profile, &free, base_fit, Part::Fit, seed);
+                let fit = fit_model(trace, profile, &free, base_fit, Part::Fit, n_eff_part);
+                let extra = parameter_count(&fit) as f64 - parameter_count(base_fit) as f64;
+                let replaces_faults = parameter_count(&fit) < parameter_count(base_fit);
                 let held = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::HeldOut);
                 let e_held = held.error(&fit.k, &fit.effects, f32::INFINITY);
                 let after = series(trace, &EmaParams::NOMINAL, profile, &fit.k, &fit.effects);
@@ -614,9 +706,10 @@ fn search_round<const W: usize>(
                 let c = Candidate {
                     effect,
                     severity: fit.effects.get(effect),
-                    bic_fit: delta_bic(n_eff_part, base_fit.error, fit.error),
-                    bic_held_out: delta_bic(n_eff_part, base_held_out, e_held),
+                    bic_fit: delta_bic(n_eff_part, base_fit.error, fit.error, extra),
+                    bic_held_out: delta_bic(n_eff_part, base_held_out, e_held, extra),
                     gap_share: 1.0 - structural_energy(&after) / before_energy,
+                    replaces_faults,
                     fit,
                 };
                 if let Ok(mut r) = results.lock() {
@@ -632,7 +725,7 @@ fn search_round<const W: usize>(
         let pass = c.bic_held_out > BIC_STRONG
             && c.bic_fit > BIC_STRONG
             && c.severity >= MIN_SEVERITY
-            && c.gap_share >= MIN_GAP_SHARE;
+            && (c.gap_share >= MIN_GAP_SHARE || c.replaces_faults);
         pass.then(|| (c.effect, c.severity, (c.bic_held_out.min(1400.0) / 2.0).exp() / weight_sum))
     });
     Round { candidates, named }
@@ -675,14 +768,13 @@ pub fn discover<const W: usize>(
     let mut on: Vec<EffectId> = Vec::new();
     let mut named = Vec::new();
     let mut rounds = Vec::new();
-    let mut base_fit = fit_model(trace, profile, &on, &before, Part::Fit, seed);
+    let mut base_fit = fit_model(trace, profile, &on, &before, Part::Fit, n_eff_part);
     evaluations += u64::from(base_fit.evaluations);
     let mut base_series = series(trace, &params, profile, &base_fit.k, &base_fit.effects);
     while named.len() < MAX_NAMED {
         let held = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::HeldOut);
         let base_held_out = held.error(&base_fit.k, &base_fit.effects, f32::INFINITY);
-        let round =
-            search_round(trace, profile, &on, &base_fit, base_held_out, &base_series, n_eff_part, seed, threads);
+        let round = search_round(trace, profile, &on, &base_fit, base_held_out, &base_series, n_eff_part, threads);
         evaluations += round.candidates.iter().map(|c| u64::from(c.fit.evaluations)).sum::<u64>();
         let winner = round.named;
         let winner_fit = round.candidates.first().map(|c| c.fit.clone());
@@ -701,7 +793,7 @@ pub fn discover<const W: usize>(
     let after = if on.is_empty() {
         before.clone()
     } else {
-        let fit = fit_model(trace, profile, &on, &base_fit, Part::All, seed);
+        let fit = fit_model(trace, profile, &on, &base_fit, Part::All, 2.0 * n_eff_part);
         evaluations += u64::from(fit.evaluations);
         for (e, s, _) in &mut named {
             *s = fit.effects.get(*e);
@@ -773,7 +865,7 @@ pub fn to_json(d: &Discovery) -> serde_json::Value {
         "windows": d.windows.iter().map(|w| json!({"start_s": w.start_s, "end_s": w.end_s, "share": w.share, "rms_before": w.rms_before_a, "rms_after": w.rms_after_a})).collect::<Vec<_>>(),
         "regimes": d.regimes.iter().map(|r| json!({"family": r.family, "regime": r.name, "time_share": r.time_share, "energy_share": r.energy_share})).collect::<Vec<_>>(),
         "orders": d.orders.iter().map(|(n, s)| json!({"order": n, "share": s})).collect::<Vec<_>>(),
-        "rounds": d.rounds.iter().map(|r| r.candidates.iter().map(|c| json!({"effect": c.effect.id(), "severity": c.severity, "bic_fit": finite(c.bic_fit), "bic_held_out": finite(c.bic_held_out), "gap_share": c.gap_share})).collect::<Vec<_>>()).collect::<Vec<_>>(),
+        "rounds": d.rounds.iter().map(|r| r.candidates.iter().map(|c| json!({"effect": c.effect.id(), "severity": c.severity, "bic_fit": finite(c.bic_fit), "bic_held_out": finite(c.bic_held_out), "gap_share": c.gap_share, "replaces_faults": c.replaces_faults})).collect::<Vec<_>>()).collect::<Vec<_>>(),
         "k_before": d.before.k.0,
         "k_after": d.after.k.0,
         "fitness_before": d.before.error,
@@ -846,16 +938,21 @@ pub fn summary(d: &Discovery) -> String {
         let _ = writeln!(s, "  {n:28} {:5.2} %", 100.0 * v);
     }
     for (j, r) in d.rounds.iter().enumerate() {
-        let _ = writeln!(s, "\nround {}: candidates (held-out ΔBIC, fit ΔBIC, severity, share of the gap removed)", j + 1);
+        let _ = writeln!(
+            s,
+            "\nround {}: candidates (held-out ΔBIC, fit ΔBIC, severity, share of the gap removed, replaces faults)",
+            j + 1
+        );
         for c in &r.candidates {
             let _ = writeln!(
                 s,
-                "  {:20} {:9.1} {:9.1} {:6.3} {:6.1} %",
+                "  {:20} {:9.1} {:9.1} {:6.3} {:6.1} % {}",
                 c.effect.id(),
                 c.bic_held_out,
                 c.bic_fit,
                 c.severity,
-                100.0 * c.gap_share
+                100.0 * c.gap_share,
+                if c.replaces_faults { "yes" } else { "" }
             );
         }
     }
@@ -905,7 +1002,11 @@ pub fn write_outputs(dir: &Path, d: &Discovery) -> Result<(), CliError> {
             "Equivalent current I_3eq (2 ms means): measured vs model",
             "A",
             &b.time_s,
-            &[("measured", "#222222", &measured), ("model before", "#d62728", &model_before), ("model after", "#1f77b4", &model_after)],
+            &[
+                ("measured", "#222222", &measured),
+                ("model before", "#d62728", &model_before),
+                ("model after", "#1f77b4", &model_after),
+            ],
             &d.windows,
         ),
     )?;
@@ -961,10 +1062,17 @@ pub fn line_plot(title: &str, unit: &str, t: &[f64], lines: &[(&str, &str, &[f64
         let v = lo + (hi - lo) * k as f64 / 5.0;
         let _ = writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{v:.2}</text>", left - 4.0, y(v) + 4.0);
         let tt = t_max * k as f64 / 5.0;
-        let _ = writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{tt:.2}</text>", x(tt), h - bottom + 16.0);
+        let _ = writeln!(
+            s,
+            "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{tt:.2}</text>",
+            x(tt),
+            h - bottom + 16.0
+        );
     }
-    let _ = writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">time (s)</text>", x(t_max / 2.0), h - 6.0);
-    let _ = writeln!(s, "<text x=\"12\" y=\"{:.1}\" transform=\"rotate(-90 12 {:.1})\">{unit}</text>", h / 2.0, h / 2.0);
+    let _ =
+        writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">time (s)</text>", x(t_max / 2.0), h - 6.0);
+    let _ =
+        writeln!(s, "<text x=\"12\" y=\"{:.1}\" transform=\"rotate(-90 12 {:.1})\">{unit}</text>", h / 2.0, h / 2.0);
     for (j, (name, colour, values)) in lines.iter().enumerate() {
         let mut pts = String::new();
         for (tt, v) in t.iter().zip(values.iter()) {
