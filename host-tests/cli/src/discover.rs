@@ -62,6 +62,12 @@ pub const MIN_SEVERITY: f32 = 0.03;
 pub const MIN_GAP_SHARE: f64 = 0.25;
 /// Largest number of effects named.
 pub const MAX_NAMED: usize = 2;
+/// Structural residual RMS of the monitor model on clean reference-model recordings of the
+/// standard manoeuvre (0.071 A, `ema discover` on clean recordings, 2026-11-23): the known floor.
+pub const CLEAN_FLOOR_A: f64 = 0.071;
+/// A structural residual above this multiple of [`CLEAN_FLOOR_A`] after the named effects is
+/// reported as unexplained.
+pub const UNEXPLAINED_FACTOR: f64 = 1.5;
 
 /// Arguments of `ema discover`.
 #[derive(Args, Debug, Clone)]
@@ -642,6 +648,8 @@ pub struct Discovery {
     pub rounds: Vec<Round>,
     /// Named effects: `(effect, severity, confidence)`.
     pub named: Vec<(EffectId, f32, f64)>,
+    /// Where a residual no library effect explains remains (`None`: at the model's floor).
+    pub unexplained: Option<String>,
     /// True fault vector, when given.
     pub truth: Option<FaultVector>,
     /// Wall time (s).
@@ -804,7 +812,9 @@ pub fn discover<const W: usize>(
     for w in &mut windows {
         w.rms_after_a = window_rms(&series_after, w.start_s, w.end_s);
     }
+    let unexplained = unexplained(&series_after);
     Ok(Discovery {
+        unexplained,
         file: file.to_path_buf(),
         before,
         after,
@@ -819,6 +829,31 @@ pub fn discover<const W: usize>(
         seconds: start.elapsed().as_secs_f64(),
         evaluations,
     })
+}
+
+/// "unexplained residual at …" when the structural residual left is above
+/// [`UNEXPLAINED_FACTOR`]·[`CLEAN_FLOOR_A`]: its hot windows and the regimes where it is
+/// concentrated (at least 30 % of the energy in at most half that share of the time).
+pub fn unexplained(after: &Series) -> Option<String> {
+    let left = rms(after.structural_a.iter().copied());
+    if left <= UNEXPLAINED_FACTOR * CLEAN_FLOOR_A {
+        return None;
+    }
+    let windows: Vec<String> = hot_windows(after)
+        .iter()
+        .map(|w| format!("{:.3}-{:.3} s ({:.0} %)", w.start_s, w.end_s, 100.0 * w.share))
+        .collect();
+    let regimes: Vec<String> = regimes(after)
+        .iter()
+        .filter(|r| r.energy_share >= 0.3 && r.energy_share >= 2.0 * r.time_share)
+        .map(|r| format!("{} {}", r.family, r.name))
+        .collect();
+    Some(format!(
+        "unexplained residual at {} (RMS {left:.3} A, {:.1}x the clean floor){}",
+        windows.join(", "),
+        left / CLEAN_FLOOR_A,
+        if regimes.is_empty() { String::new() } else { format!("; concentrated in: {}", regimes.join(", ")) }
+    ))
 }
 
 /// Runs `ema discover`.
@@ -857,6 +892,7 @@ pub fn to_json(d: &Discovery) -> serde_json::Value {
         "file": d.file.display().to_string(),
         "named": d.named.iter().map(|(e, s, c)| json!({"effect": e.id(), "severity": s, "confidence": c})).collect::<Vec<_>>(),
         "verdict": verdict(d),
+        "unexplained": d.unexplained,
         "rms_before": d.rms_before_a(),
         "rms_after": d.rms_after_a(),
         "raw_rms_before": d.raw_rms_before_a(),
@@ -888,11 +924,17 @@ fn finite(x: f64) -> serde_json::Value {
 /// One line: what was found.
 pub fn verdict(d: &Discovery) -> String {
     if d.named.is_empty() {
-        "no missing effect found".to_string()
+        match &d.unexplained {
+            None => "no missing effect found".to_string(),
+            Some(u) => format!("no library effect explains the gap: {u}"),
+        }
     } else {
         let names: Vec<String> =
             d.named.iter().map(|(e, s, c)| format!("{} (severity {s:.2}, confidence {c:.2})", e.id())).collect();
-        format!("missing: {}", names.join(" and "))
+        match &d.unexplained {
+            None => format!("missing: {}", names.join(" and ")),
+            Some(u) => format!("missing: {}; {u}", names.join(" and ")),
+        }
     }
 }
 
