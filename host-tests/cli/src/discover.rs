@@ -184,7 +184,7 @@ impl Part {
     fn contains(self, i: usize) -> bool {
         match self {
             Part::All => true,
-            Part::Fit => (i / CHUNK_BLOCKS) % 2 == 0,
+            Part::Fit => (i / CHUNK_BLOCKS).is_multiple_of(2),
             Part::HeldOut => (i / CHUNK_BLOCKS) % 2 == 1,
         }
     }
@@ -582,10 +582,10 @@ pub fn regimes(s: &Series) -> Vec<Regime> {
         .iter()
         .map(|(family, name, f)| {
             let (mut t, mut e) = (0usize, 0.0);
-            for i in 0..n {
-                if f(s.speed_rad_s[i], s.current_a[i], reversal[i]) {
+            for (((w, i), r), x) in s.speed_rad_s.iter().zip(&s.current_a).zip(&reversal).zip(&s.structural_a) {
+                if f(*w, *i, *r) {
                     t += 1;
-                    e += s.structural_a[i] * s.structural_a[i];
+                    e += x * x;
                 }
             }
             Regime { family, name, time_share: t as f64 / n.max(1) as f64, energy_share: e / total }
