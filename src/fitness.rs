@@ -174,7 +174,7 @@ pub const EFFECT_FIT_DIMENSION: usize = FAULT_COUNT + EFFECT_SLOTS;
 
 /// The fitness with up to [`EFFECT_SLOTS`] effect terms fitted together with the fault vector:
 /// an [`Objective`] over `x = (k_1 … k_8, s_1, s_2)`, `s_j` the severity of slot `j`'s effect
-/// (an empty slot's severity is ignored; give it the bounds `[0, 0]`). Effects already on in the
+/// (an empty slot's coordinate is ignored: it does not change the cost). Effects already on in the
 /// base [`CurrentFit`] stay on at their severities unless a slot names them.
 #[derive(Clone, Debug)]
 pub struct EffectFit<'a, const W: usize> {
