@@ -1,19 +1,149 @@
-//! Puts `memory.x` on the link path and adds the Cortex-M link scripts, only for the thumb target
-//! (toolchain.md pitfall 1: `rustc-link-arg`, not `-arg-bins`, so the QEMU test binary links too).
-use std::{env, fs, path::PathBuf};
+//! Build script.
+//!
+//! 1. Puts `memory.x` on the link path and adds the Cortex-M link scripts, only for the thumb
+//!    target (toolchain.md pitfall 1: `rustc-link-arg`, not `-arg-bins`, so the QEMU test binary
+//!    links too).
+//! 2. With the `firmware` feature, writes `$OUT_DIR/model_config.rs` for `src/main.rs`:
+//!    - `MODEL_EFFECTS`: the monitor model's effect terms, from the model configuration file named
+//!      by `EMA_MODEL_CONFIG` (parsed by `ema_monitor::effects::parse_model_config`, the very code
+//!      of `src/effects.rs`, included below); unset → `ModelEffects::NONE` (the paper's model);
+//!    - `TRACE`: the built-in phase-current trace, `include_bytes!` of `EMA_TRACE` (default
+//!      `traces/standard.ematrace`), checked here to be a packed trace (magic and length);
+//!    - `MODEL_CONFIG_SOURCE` and `TRACE_SOURCE`: the paths, for the log.
+//!
+//!    Relative paths resolve from the repository root (`CARGO_MANIFEST_DIR`). A bad file stops the
+//!    build with its path, line and field.
+use std::{env, fs, path::Path, path::PathBuf};
+
+/// The core's effect catalogue and model-configuration parser (`core` only, no `defmt` here).
+#[path = "src/effects.rs"]
+#[allow(dead_code)]
+mod effects;
+
+use effects::{parse_model_config, EffectId, ModelEffects};
+
+/// Default built-in trace, relative to the repository root.
+const DEFAULT_TRACE: &str = "traces/standard.ematrace";
 
 fn main() {
     let target = env::var("TARGET").unwrap_or_default();
     println!("cargo:rerun-if-changed=memory.x");
     println!("cargo:rerun-if-changed=build.rs");
+    println!("cargo:rerun-if-changed=src/effects.rs");
+    let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+    if env::var_os("CARGO_FEATURE_FIRMWARE").is_some() {
+        if let Err(message) = write_model_config(&out) {
+            // one readable line; `cargo:warning` repeats it above cargo's own build-script dump
+            println!("cargo:warning={message}");
+            eprintln!("error: {message}");
+            std::process::exit(1);
+        }
+    }
     if !target.starts_with("thumb") {
         return;
     }
-    let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     fs::copy("memory.x", out.join("memory.x")).expect("memory.x is readable");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg=-Tlink.x");
     if env::var_os("CARGO_FEATURE_DEFMT").is_some() {
         println!("cargo:rustc-link-arg=-Tdefmt.x");
     }
+}
+
+/// A path from the environment, relative ones resolved from the repository root.
+fn resolve(value: &str) -> PathBuf {
+    let root = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
+    root.join(value)
+}
+
+/// A Rust string literal of a path (which must be UTF-8 to be `include_bytes!`-ed).
+fn literal(path: &Path, var: &str) -> Result<String, String> {
+    path.to_str().map(|p| format!("{p:?}")).ok_or_else(|| format!("{var}: path '{}' is not UTF-8", path.display()))
+}
+
+/// Writes `$OUT_DIR/model_config.rs` from `EMA_MODEL_CONFIG` and `EMA_TRACE`.
+fn write_model_config(out: &Path) -> Result<(), String> {
+    println!("cargo:rerun-if-env-changed=EMA_MODEL_CONFIG");
+    println!("cargo:rerun-if-env-changed=EMA_TRACE");
+
+    // model configuration
+    let (effects, config_source) = match env::var("EMA_MODEL_CONFIG") {
+        Ok(value) if !value.is_empty() => {
+            let path = resolve(&value);
+            println!("cargo:rerun-if-changed={}", path.display());
+            let text = fs::read_to_string(&path)
+                .map_err(|e| format!("EMA_MODEL_CONFIG: cannot read '{}': {e}", path.display()))?;
+            let effects =
+                parse_model_config(&text).map_err(|e| format!("EMA_MODEL_CONFIG: {}: {e}", path.display()))?;
+            (effects, value)
+        }
+        Ok(_) | Err(env::VarError::NotPresent) => (ModelEffects::NONE, String::new()),
+        Err(env::VarError::NotUnicode(v)) => {
+            return Err(format!("EMA_MODEL_CONFIG: path '{}' is not UTF-8", PathBuf::from(v).display()))
+        }
+    };
+
+    // trace
+    let trace_value = match env::var("EMA_TRACE") {
+        Ok(value) if !value.is_empty() => value,
+        Ok(_) | Err(env::VarError::NotPresent) => DEFAULT_TRACE.to_owned(),
+        Err(env::VarError::NotUnicode(v)) => {
+            return Err(format!("EMA_TRACE: path '{}' is not UTF-8", PathBuf::from(v).display()))
+        }
+    };
+    let trace = resolve(&trace_value);
+    println!("cargo:rerun-if-changed={}", trace.display());
+    let bytes = fs::read(&trace).map_err(|e| format!("EMA_TRACE: cannot read '{}': {e}", trace.display()))?;
+    check_trace(&bytes).map_err(|m| format!("EMA_TRACE: '{}': {m}", trace.display()))?;
+
+    let severities: Vec<String> = EffectId::ALL.iter().map(|&e| format!("{:?}_f32", effects.get(e))).collect();
+    let code = format!(
+        "// Generated by build.rs from EMA_MODEL_CONFIG and EMA_TRACE; do not edit.\n\
+         \n\
+         /// The monitor model's effect terms (`EMA_MODEL_CONFIG`; none when unset), in `EffectId::ALL` order.\n\
+         const MODEL_EFFECTS: ModelEffects = match ModelEffects::from_severities([{severities}]) {{\n\
+         \x20   Some(e) => e,\n\
+         \x20   None => panic!(\"EMA_MODEL_CONFIG: severity outside [0, 1]\"),\n\
+         }};\n\
+         \n\
+         /// The model configuration file as given (empty: none).\n\
+         const MODEL_CONFIG_SOURCE: &str = {config_source:?};\n\
+         \n\
+         /// The built-in trace as given (`EMA_TRACE`, default `{DEFAULT_TRACE}`).\n\
+         const TRACE_SOURCE: &str = {trace_value:?};\n\
+         \n\
+         /// The built-in trace: a packed phase-current recording (`ema_monitor::trace`), in flash.\n\
+         static TRACE: &[u8] = include_bytes!({trace_path});\n",
+        severities = severities.join(", "),
+        trace_path = literal(&trace, "EMA_TRACE")?,
+    );
+    let file = out.join("model_config.rs");
+    // only rewrite on change, so an unchanged configuration does not rebuild the firmware
+    if fs::read_to_string(&file).ok().as_deref() != Some(code.as_str()) {
+        fs::write(&file, code).map_err(|e| format!("cannot write '{}': {e}", file.display()))?;
+    }
+    Ok(())
+}
+
+/// The packed-trace header checks that need no decoding (magic, non-zero rate, exact length);
+/// the firmware re-checks everything with `PackedTrace::parse` at start-up.
+fn check_trace(bytes: &[u8]) -> Result<(), String> {
+    if bytes.len() < 12 {
+        return Err(format!("{} bytes, shorter than the 12-byte packed-trace header", bytes.len()));
+    }
+    if bytes[..4] != *b"EMA1" {
+        return Err(
+            "not a packed trace (does not start with EMA1); pack a recording with `ema firmware-trace --from`".into()
+        );
+    }
+    let word = |at: usize| u32::from_le_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]) as usize;
+    let (frames, rate) = (word(4), word(8));
+    if rate == 0 {
+        return Err("sample rate 0 in the header".into());
+    }
+    let expected = 12 + (3 * frames).div_ceil(2) * 3;
+    if bytes.len() != expected {
+        return Err(format!("{} bytes, but {frames} frames need {expected}", bytes.len()));
+    }
+    Ok(())
 }

@@ -8,13 +8,19 @@
 //!
 //! A model built with [`ModelEffects::NONE`] runs exactly (bit for bit) the code it ran before the
 //! effects existed: every term is guarded by its severity being non-zero.
+//!
+//! [`parse_model_config`] reads the model configuration file (`monitor-model.conf`, written by
+//! `ema discover`) that switches effects on; the firmware's `build.rs` includes this file with
+//! `#[path]` to parse the same file with the same code at build time, so this module uses nothing
+//! but `core` (the `defmt::Format` derives only apply on the MCU target, `target_os = "none"`:
+//! `defmt` is no build dependency).
 
 /// Number of library effects the monitor model can add.
 pub const EFFECT_COUNT: usize = 10;
 
 /// One library effect, by the ID the reference model and the command line use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub enum EffectId {
     /// Cogging torque `A·sin(24·θ_m)`, `A = s·0.04 N·m`.
     Cogging,
@@ -118,7 +124,7 @@ impl EffectId {
 
 /// A severity outside `[0, 1]` (or not a number).
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub struct SeverityOutOfRange {
     /// The effect.
     pub effect: EffectId,
@@ -136,7 +142,7 @@ impl core::error::Error for SeverityOutOfRange {}
 
 /// The effect terms switched on in a monitor model: one severity per library effect (0 = off).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub struct ModelEffects {
     severity: [f32; EFFECT_COUNT],
 }
@@ -144,6 +150,22 @@ pub struct ModelEffects {
 impl ModelEffects {
     /// No effect: the paper's monitor model.
     pub const NONE: Self = Self { severity: [0.0; EFFECT_COUNT] };
+
+    /// The effects of one severity per library effect, in [`EffectId::ALL`] order; `None` when one
+    /// is outside `[0, 1]` or NaN. A `const fn`, so a configuration generated at build time is
+    /// checked at compile time (`match … { Some(e) => e, None => panic!(…) }` in a `const`).
+    pub const fn from_severities(severity: [f32; EFFECT_COUNT]) -> Option<Self> {
+        let mut k = 0;
+        while k < EFFECT_COUNT {
+            let s = severity[k];
+            // written so that NaN fails too
+            if !(s >= 0.0 && s <= 1.0) {
+                return None;
+            }
+            k += 1;
+        }
+        Some(Self { severity })
+    }
 
     /// Sets `effect` to `severity` (0 switches it off).
     pub fn set(&mut self, effect: EffectId, severity: f32) -> Result<(), SeverityOutOfRange> {
@@ -178,6 +200,132 @@ impl ModelEffects {
     }
 }
 
+// ---- model configuration file ------------------------------------------------------------------
+
+/// Keyword that opens an effect line of a model configuration file.
+pub const MODEL_CONFIG_EFFECT_KEYWORD: &str = "effect";
+
+/// What is wrong on one line of a model configuration file (see [`parse_model_config`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
+pub enum ModelConfigErrorKind {
+    /// The line does not start with `effect`.
+    UnknownKeyword,
+    /// `effect` without an effect ID.
+    MissingEffect,
+    /// The ID is not one of the ten library effects.
+    UnknownEffect,
+    /// No severity after the ID.
+    MissingSeverity,
+    /// The severity is not a number.
+    BadSeverity,
+    /// The severity is outside `[0, 1]` (or NaN).
+    SeverityOutOfRange(f32),
+    /// The effect was already set on an earlier line (the line number).
+    DuplicateEffect(usize),
+    /// Something after the severity.
+    TrailingField,
+}
+
+/// A model configuration file that cannot be used: where (1-based line, field) and what.
+///
+/// `found` borrows the offending text of the file (the field, or the whole line when a field is
+/// missing), so the error needs no allocation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
+pub struct ModelConfigError<'a> {
+    /// Line of the file, 1-based.
+    pub line: usize,
+    /// The field: `keyword`, `effect` or `severity` (`end of line` for a trailing field).
+    pub field: &'static str,
+    /// What is wrong.
+    pub kind: ModelConfigErrorKind,
+    /// The offending text.
+    pub found: &'a str,
+}
+
+impl core::fmt::Display for ModelConfigError<'_> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "line {}, field {}: ", self.line, self.field)?;
+        match self.kind {
+            ModelConfigErrorKind::UnknownKeyword => {
+                write!(f, "'{}' is not a known keyword (expected 'effect ID SEVERITY')", self.found)
+            }
+            ModelConfigErrorKind::MissingEffect => write!(f, "missing effect ID in '{}'", self.found),
+            ModelConfigErrorKind::UnknownEffect => {
+                write!(f, "'{}' is not a library effect (one of:", self.found)?;
+                for e in EffectId::ALL {
+                    write!(f, " {}", e.id())?;
+                }
+                f.write_str(")")
+            }
+            ModelConfigErrorKind::MissingSeverity => write!(f, "missing severity in '{}'", self.found),
+            ModelConfigErrorKind::BadSeverity => write!(f, "'{}' is not a number", self.found),
+            ModelConfigErrorKind::SeverityOutOfRange(_) => {
+                write!(f, "severity '{}' is outside [0, 1]", self.found)
+            }
+            ModelConfigErrorKind::DuplicateEffect(first) => {
+                write!(f, "effect '{}' is already set on line {first}", self.found)
+            }
+            ModelConfigErrorKind::TrailingField => {
+                write!(f, "unexpected '{}' after the severity", self.found)
+            }
+        }
+    }
+}
+
+impl core::error::Error for ModelConfigError<'_> {}
+
+/// Parses a model configuration file: the effect terms the monitor model runs with.
+///
+/// ```text
+/// # ema-monitor model configuration (written by `ema discover`)
+/// effect dead_time 0.48
+/// effect viscous 0.30
+/// ```
+///
+/// One `effect ID SEVERITY` per line, fields separated by spaces or tabs; `ID` is a library effect
+/// ([`EffectId::id`]), `SEVERITY` a decimal number in `[0, 1]` (0 = off). `#` starts a comment up to
+/// the end of the line; blank lines are skipped; an empty file (or comments only) is
+/// [`ModelEffects::NONE`]. Refused, with the line and field: any other keyword, a missing or unknown
+/// ID, a missing, non-numeric or out-of-range severity, a field after the severity, and an effect
+/// set twice (an error, not "last wins": a file that contradicts itself is not guessed at).
+pub fn parse_model_config(text: &str) -> Result<ModelEffects, ModelConfigError<'_>> {
+    let mut effects = ModelEffects::NONE;
+    let mut set_on = [0usize; EFFECT_COUNT];
+    for (k, raw) in text.lines().enumerate() {
+        let line = k + 1;
+        let content = match raw.split_once('#') {
+            Some((before, _)) => before,
+            None => raw,
+        }
+        .trim();
+        let mut fields = content.split_ascii_whitespace();
+        let Some(keyword) = fields.next() else { continue };
+        let err = |field, kind, found| ModelConfigError { line, field, kind, found };
+        if keyword != MODEL_CONFIG_EFFECT_KEYWORD {
+            return Err(err("keyword", ModelConfigErrorKind::UnknownKeyword, keyword));
+        }
+        let id = fields.next().ok_or(err("effect", ModelConfigErrorKind::MissingEffect, content))?;
+        let effect = EffectId::from_id(id).ok_or(err("effect", ModelConfigErrorKind::UnknownEffect, id))?;
+        let text = fields.next().ok_or(err("severity", ModelConfigErrorKind::MissingSeverity, content))?;
+        let severity: f32 = text.parse().map_err(|_| err("severity", ModelConfigErrorKind::BadSeverity, text))?;
+        if let Some(extra) = fields.next() {
+            return Err(err("end of line", ModelConfigErrorKind::TrailingField, extra));
+        }
+        if effects.set(effect, severity).is_err() {
+            return Err(err("severity", ModelConfigErrorKind::SeverityOutOfRange(severity), text));
+        }
+        if let Some(first) = set_on.get_mut(effect.index()) {
+            if *first != 0 {
+                return Err(err("effect", ModelConfigErrorKind::DuplicateEffect(*first), id));
+            }
+            *first = line;
+        }
+    }
+    Ok(effects)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -203,5 +351,102 @@ mod tests {
         e.set(EffectId::DeadTime, 0.5).unwrap();
         assert_eq!(e.get(EffectId::DeadTime), 0.5);
         assert_eq!(e.active().collect::<heapless::Vec<_, 10>>().as_slice(), &[(EffectId::DeadTime, 0.5)]);
+    }
+
+    #[test]
+    fn from_severities_checks_the_range_in_const_context() {
+        const E: Option<ModelEffects> =
+            ModelEffects::from_severities([0.0, 0.0, 0.3, 0.0, 0.0, 0.48, 0.0, 0.0, 0.0, 1.0]);
+        let e = E.unwrap();
+        assert_eq!(e.get(EffectId::Viscous), 0.3);
+        assert_eq!(e.get(EffectId::DeadTime), 0.48);
+        assert_eq!(e.get(EffectId::HallMisalignment), 1.0);
+        assert_eq!(ModelEffects::from_severities([0.0; EFFECT_COUNT]), Some(ModelEffects::NONE));
+        let mut bad = [0.0; EFFECT_COUNT];
+        for v in [-0.01, 1.01, f32::NAN, f32::INFINITY] {
+            bad[4] = v;
+            assert_eq!(ModelEffects::from_severities(bad), None, "{v}");
+        }
+    }
+
+    #[test]
+    fn model_config_good_file_with_comments_and_blank_lines() {
+        let text = "# ema-monitor model configuration (written by `ema discover`)\n\
+                    \n\
+                    effect dead_time 0.48\n\
+                    \teffect   viscous\t0.30   # trailing comment\n\
+                    effect cogging 0\r\n\
+                    # effect saturation 0.9\n\
+                    \x20\x20\n";
+        let e = parse_model_config(text).unwrap();
+        assert_eq!(e.get(EffectId::DeadTime), 0.48);
+        assert_eq!(e.get(EffectId::Viscous), 0.30);
+        assert_eq!(e.get(EffectId::Cogging), 0.0);
+        assert_eq!(e.get(EffectId::Saturation), 0.0);
+        let active: heapless::Vec<_, 10> = e.active().collect();
+        assert_eq!(active.as_slice(), &[(EffectId::Viscous, 0.30), (EffectId::DeadTime, 0.48)]);
+        // every ID is accepted, and nothing at all is the paper's model
+        for id in EffectId::ALL {
+            let mut line = heapless::String::<64>::new();
+            core::fmt::write(&mut line, format_args!("effect {} 1", id.id())).unwrap();
+            assert_eq!(parse_model_config(&line).unwrap().get(id), 1.0);
+        }
+        assert_eq!(parse_model_config(""), Ok(ModelEffects::NONE));
+        assert_eq!(parse_model_config("# nothing\n\n"), Ok(ModelEffects::NONE));
+    }
+
+    fn error(text: &str) -> ModelConfigError<'_> {
+        parse_model_config(text).unwrap_err()
+    }
+
+    #[test]
+    fn model_config_errors_name_line_field_and_text() {
+        use ModelConfigErrorKind as K;
+        let e = error("# c\neffect compliance 0.5\n");
+        assert_eq!((e.line, e.field, e.kind, e.found), (2, "effect", K::UnknownEffect, "compliance"));
+        let e = error("effect dead_time 0,48");
+        assert_eq!((e.line, e.field, e.kind, e.found), (1, "severity", K::BadSeverity, "0,48"));
+        let e = error("\n\neffect viscous 1.5");
+        assert_eq!((e.line, e.field, e.kind, e.found), (3, "severity", K::SeverityOutOfRange(1.5), "1.5"));
+        assert_eq!(error("effect viscous -0.1").kind, K::SeverityOutOfRange(-0.1));
+        assert_eq!(error("effect viscous NaN").field, "severity");
+        assert_eq!(error("effect viscous inf").field, "severity");
+        let e = error("effect viscous");
+        assert_eq!((e.field, e.kind, e.found), ("severity", K::MissingSeverity, "effect viscous"));
+        let e = error("effect");
+        assert_eq!((e.field, e.kind), ("effect", K::MissingEffect));
+        let e = error("effects viscous 0.3");
+        assert_eq!((e.field, e.kind, e.found), ("keyword", K::UnknownKeyword, "effects"));
+        let e = error("viscous = 0.3");
+        assert_eq!((e.field, e.kind, e.found), ("keyword", K::UnknownKeyword, "viscous"));
+        let e = error("effect viscous 0.3 0.4");
+        assert_eq!((e.field, e.kind, e.found), ("end of line", K::TrailingField, "0.4"));
+        // the ID is case-sensitive, as on the command line
+        assert_eq!(error("effect Dead_Time 0.1").kind, K::UnknownEffect);
+    }
+
+    #[test]
+    fn model_config_duplicate_effect_is_an_error_not_last_wins() {
+        let e = error("effect dead_time 0.4\n# again\neffect dead_time 0.5\n");
+        assert_eq!(
+            (e.line, e.field, e.kind, e.found),
+            (3, "effect", ModelConfigErrorKind::DuplicateEffect(1), "dead_time")
+        );
+        // also when the first one switched it off
+        assert_eq!(error("effect cogging 0\neffect cogging 0.2").kind, ModelConfigErrorKind::DuplicateEffect(1));
+    }
+
+    #[test]
+    fn model_config_messages_read_well() {
+        let mut msg = heapless::String::<256>::new();
+        core::fmt::write(&mut msg, format_args!("{}", error("\neffect viscous 2"))).unwrap();
+        assert_eq!(msg.as_str(), "line 2, field severity: severity '2' is outside [0, 1]");
+        msg.clear();
+        core::fmt::write(&mut msg, format_args!("{}", error("effect friction 0.1"))).unwrap();
+        assert!(
+            msg.starts_with("line 1, field effect: 'friction' is not a library effect (one of: cogging stribeck"),
+            "{msg}"
+        );
+        assert!(msg.ends_with("hall_misalignment)"), "{msg}");
     }
 }

@@ -2,11 +2,12 @@
 //!
 //! Wiring only, no math. Numbered steps:
 //! 1. paint the stack (for the peak-stack figure at the end);
-//! 2. open the built-in phase-current trace (`traces/standard.ematrace`: a reference-model
-//!    recording of the standard manoeuvre, packed 12-bit, in flash) and put a [`ReplayAdc`] behind
-//!    the embedded-hal 0.2 `OneShot` reader;
+//! 2. open the built-in phase-current trace (`traces/standard.ematrace`, or `EMA_TRACE` at build
+//!    time: a recording of the standard manoeuvre, packed 12-bit, in flash) and put a
+//!    [`ReplayAdc`] behind the embedded-hal 0.2 `OneShot` reader;
 //! 3. acquire and condition every frame ([`monitor::acquire`]); a sensor fault stops here;
-//! 4. identify the faults with the on-board PSO, between the instruction-count markers
+//! 4. identify the faults with the on-board PSO and the model effects of `EMA_MODEL_CONFIG` (none
+//!    by default; logged first), between the instruction-count markers
 //!    [`ema_identification_start`] and [`ema_identification_end`] (`scripts/qemu-run` counts the
 //!    instructions between them);
 //! 5. log the health report, the fault vector's bits (for the host/target parity check), static
@@ -26,16 +27,20 @@ use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::health::{FaultMode, HealthReport};
 use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::trace::PackedTrace;
-use ema_monitor::{EmaParams, Profile};
+use ema_monitor::{EmaParams, ModelEffects, Profile};
 
-/// The built-in trace: the reference model's recording of the standard manoeuvre (traces/README.md).
-static TRACE: &[u8] = include_bytes!("../traces/standard.ematrace");
+// `MODEL_EFFECTS`, `MODEL_CONFIG_SOURCE`, `TRACE_SOURCE` and `TRACE`, written by `build.rs`:
+// the built-in trace is `EMA_TRACE` (default `traces/standard.ematrace`, the reference model's
+// recording of the standard manoeuvre, traces/README.md) and the monitor model's effect terms come
+// from the model configuration file `EMA_MODEL_CONFIG` (default none: the paper's model).
+include!(concat!(env!("OUT_DIR"), "/model_config.rs"));
 
 #[entry]
 fn main() -> ! {
     // 1. Stack paint.
     paint_stack();
     defmt::info!("ema-monitor firmware: {=usize} bytes of built-in trace", TRACE.len());
+    log_model_effects();
 
     // 2. Trace → replay ADC → OneShot reader.
     let trace = match PackedTrace::parse(TRACE) {
@@ -97,10 +102,30 @@ fn main() -> ! {
     exit(ok)
 }
 
-/// The on-board identification: monitor model + PSO (`IdentifyConfig::onboard`), run to its end.
+/// Logs where the trace and the model effects come from when they are not the defaults, then the
+/// effects that are on (`model effects: none` for the paper's model). Not inlined: `main`'s frame
+/// (below the identification's, for the peak-stack figure) stays as it was.
+#[inline(never)]
+fn log_model_effects() {
+    if TRACE_SOURCE != "traces/standard.ematrace" {
+        defmt::info!("trace file: {=str}", TRACE_SOURCE);
+    }
+    if !MODEL_CONFIG_SOURCE.is_empty() {
+        defmt::info!("model config: {=str}", MODEL_CONFIG_SOURCE);
+    }
+    if MODEL_EFFECTS.is_none() {
+        defmt::info!("model effects: none");
+    }
+    for (effect, severity) in MODEL_EFFECTS.active() {
+        defmt::info!("model effect {=str} {=f32}", effect.id(), severity);
+    }
+}
+
+/// The on-board identification: monitor model (with [`MODEL_EFFECTS`]) + PSO
+/// (`IdentifyConfig::onboard`), run to its end.
 #[inline(never)]
 fn identify(trace: &MeasuredTrace<ONBOARD_WINDOW>) -> Result<HealthReport, monitor::MonitorError> {
-    let config = IdentifyConfig::onboard();
+    let config = IdentifyConfig { effects: MODEL_EFFECTS, ..IdentifyConfig::onboard() };
     let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
         Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &config)?;
     id.run(u32::MAX);

@@ -9,6 +9,11 @@
 //!   `OneShot` reader and fixed-point calibration as on the MCU, with the on-board window, swarm
 //!   and settings — its fault vector is bit-identical to the firmware's (`--bits` prints the bits;
 //!   `scripts/parity` compares them).
+//!
+//! `--model-config FILE` switches the monitor model's effect terms on from a model configuration
+//! file (`effect ID SEVERITY` lines, [`ema_monitor::effects::parse_model_config`]), the same file
+//! and the same parser as the firmware build (`EMA_MODEL_CONFIG=FILE cargo run --release`), so a
+//! host run and a firmware run of one configuration can be compared.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -16,6 +21,7 @@ use std::time::Instant;
 use clap::{Args, ValueEnum};
 use ema_monitor::acquisition::{AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
 use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::effects::{parse_model_config, ModelEffects};
 use ema_monitor::health::HealthReport;
 use ema_monitor::monitor::{self, Algorithm, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::trace::PackedTrace;
@@ -71,6 +77,10 @@ pub struct IdentifyArgs {
     /// Iteration limit [default: 200 (the paper) for a CSV, the on-board 40 for --firmware-trace].
     #[arg(long)]
     pub max_iterations: Option<u32>,
+    /// Model configuration file (`effect ID SEVERITY` lines): the monitor model's effect terms,
+    /// as `EMA_MODEL_CONFIG` gives them to the firmware [default: none].
+    #[arg(long, value_name = "CONFIG")]
+    pub model_config: Option<PathBuf>,
     /// Command profile the recording was made with: `standard` or a profile file.
     #[arg(long, default_value = "standard")]
     pub profile: String,
@@ -101,6 +111,10 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
         algorithm: args.algorithm.into(),
         seed: args.seed,
         max_iterations: args.max_iterations.unwrap_or(base.max_iterations),
+        effects: match &args.model_config {
+            Some(path) => read_model_config(path)?,
+            None => ModelEffects::NONE,
+        },
         ..base
     };
     if args.paper_only {
@@ -115,7 +129,24 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
         }
         (None, None) => return Err(CliError::flag("FILE", "give a recording CSV or --firmware-trace FILE")),
     };
-    Ok(render(&outcome, args))
+    Ok(render(&outcome, &config.effects, args))
+}
+
+/// Reads a model configuration file with the core's parser (the firmware build's `EMA_MODEL_CONFIG`);
+/// errors name the file, line and field.
+pub fn read_model_config(path: &Path) -> Result<ModelEffects, CliError> {
+    let text = std::fs::read_to_string(path).map_err(|e| input_error(path, &format!("cannot read: {e}")))?;
+    parse_model_config(&text).map_err(|e| input_error(path, &e.to_string()))
+}
+
+/// `none` or `dead_time 0.48, viscous 0.3` (the firmware logs the same, one effect per line).
+pub fn effects_label(effects: &ModelEffects) -> String {
+    let on: Vec<String> = effects.active().map(|(e, s)| format!("{} {s}", e.id())).collect();
+    if on.is_empty() {
+        "none".to_owned()
+    } else {
+        on.join(", ")
+    }
 }
 
 /// Identifies a recording read from `path` (used for messages), driven by `profile`.
@@ -177,7 +208,12 @@ pub fn identify_firmware_trace(path: &Path, config: &IdentifyConfig) -> Result<O
 }
 
 /// Refuses a recording the monitor cannot use: wrong sample rate, or a command that is not `profile`.
-fn check_recording(r: &Recording, path: &Path, profile: &Profile, params: &EmaParams) -> Result<(), CliError> {
+pub(crate) fn check_recording(
+    r: &Recording,
+    path: &Path,
+    profile: &Profile,
+    params: &EmaParams,
+) -> Result<(), CliError> {
     let period = f64::from(params.control_period_s);
     let measured = r.sample_period_s();
     if (measured - period).abs() > 1e-3 * period {
@@ -240,11 +276,19 @@ pub fn to_json(outcome: &Outcome) -> serde_json::Value {
     })
 }
 
-fn render(outcome: &Outcome, args: &IdentifyArgs) -> String {
+fn render(outcome: &Outcome, effects: &ModelEffects, args: &IdentifyArgs) -> String {
     let mut out = if args.json {
-        to_json(outcome).to_string()
+        let mut v = to_json(outcome);
+        let fx: serde_json::Map<String, serde_json::Value> =
+            effects.active().map(|(e, s)| (e.id().to_owned(), json!(s))).collect();
+        v["model_effects"] = serde_json::Value::Object(fx);
+        v.to_string()
     } else {
-        format!("{}\n  identification took {:.3} s", outcome.report, outcome.seconds)
+        let mut text = format!("{}\n  identification took {:.3} s", outcome.report, outcome.seconds);
+        if args.model_config.is_some() {
+            text.push_str(&format!("\n  model effects: {}", effects_label(effects)));
+        }
+        text
     };
     if args.bits {
         out.push('\n');
