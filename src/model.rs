@@ -52,12 +52,13 @@
 use crate::effects::{maxima, EffectId, ModelEffects};
 use crate::faults::{FaultPhysics, FaultVector};
 use crate::params::EmaParams;
+use crate::sector_effects::{EmfShape, SensorLoop};
 use core::f32::consts::{FRAC_PI_3, FRAC_PI_6, PI};
 
 const TWO_PI: f32 = 2.0 * PI;
 
 /// Conducting pair `(positive phase, negative phase)` per Hall sector (physics.md §3.2).
-const PAIRS: [(usize, usize); 6] = [(0, 1), (0, 2), (1, 2), (1, 0), (2, 0), (2, 1)];
+pub(crate) const PAIRS: [(usize, usize); 6] = [(0, 1), (0, 2), (1, 2), (1, 0), (2, 0), (2, 1)];
 
 /// `(cos ψ_j, sin ψ_j)` for `ψ_j = j·2π/3`.
 const PHASE_SHIFT: [(f32, f32); 3] = [(1.0, 0.0), (-0.5, 0.866_025_4), (-0.5, -0.866_025_4)];
@@ -137,6 +138,10 @@ pub struct MonitorModel {
     ecc_phase: [(f32, f32); 3],
     /// The optional effect terms switched on ([`crate::effects`]).
     effects: ModelEffects,
+    /// Back-EMF shape and Hall offset (`emf_harmonics`, `hall_misalignment`), `None` when off.
+    emf_shape: Option<EmfShape>,
+    /// Current loop on measured currents (`sensor_offset`), `None` when off.
+    sensor_loop: Option<SensorLoop>,
 }
 
 /// The commutation into a sector, per ampere of the current it carries
@@ -258,6 +263,8 @@ impl MonitorModel {
             eccentricity: f.eccentricity,
             ecc_phase,
             effects: *effects,
+            emf_shape: EmfShape::of(effects),
+            sensor_loop: SensorLoop::of(effects),
         }
     }
 
@@ -288,9 +295,20 @@ impl MonitorModel {
         s.current_ref_a
     }
 
-    /// Hall sector `0..6` of the state's rotor angle.
-    fn sector(s: &ModelState) -> usize {
-        let sector = (s.hall_angle_rad * (1.0 / FRAC_PI_3)) as usize;
+    /// Commutation (Hall) sector `0..6` of the state's rotor angle: the Hall angle advanced by
+    /// `δ_H` when `hall_misalignment` is on ([`crate::sector_effects`]).
+    pub fn commutation_sector(&self, s: &ModelState) -> usize {
+        match &self.emf_shape {
+            Some(shape) if shape.hall_offset_rad != 0.0 => {
+                Self::sector_of(wrap(s.hall_angle_rad + shape.hall_offset_rad))
+            }
+            _ => Self::sector_of(s.hall_angle_rad),
+        }
+    }
+
+    /// Hall sector `0..6` of a Hall angle in `[0, 2π)`.
+    fn sector_of(hall_angle_rad: f32) -> usize {
+        let sector = (hall_angle_rad * (1.0 / FRAC_PI_3)) as usize;
         if sector < 6 {
             sector
         } else {
@@ -313,10 +331,21 @@ impl MonitorModel {
 
     /// Shape functions of the conducting pair at the state's rotor angle: `(K_eq, R_eq, L_eq)`.
     pub fn shape(&self, s: &ModelState) -> (f32, f32, f32) {
-        let sector = Self::sector(s);
-        let (p, q) = PAIRS[sector];
+        let sector = self.commutation_sector(s);
         let k = self.phase_emf_constants(s);
-        (k[p] + k[q], self.pair_r[sector], self.pair_l[sector])
+        (self.pair_k(&k, sector, s), self.pair_r[sector], self.pair_l[sector])
+    }
+
+    /// `K_eq` of `sector`'s pair: `k_p + k_q` on flat tops, `k_p·f_p(θ_e) − k_q·f_q(θ_e)` with the
+    /// back-EMF shape terms ([`crate::sector_effects`]).
+    fn pair_k(&self, k: &[f32; 3], sector: usize, s: &ModelState) -> f32 {
+        match &self.emf_shape {
+            Some(shape) => shape.pair_k(k, sector, s.hall_angle_rad),
+            None => {
+                let (p, q) = PAIRS[sector];
+                k[p] + k[q]
+            }
+        }
     }
 
     /// Advances the model one control period under the surface command `command_rad`.
@@ -324,18 +353,21 @@ impl MonitorModel {
         let i_ref = self.control(s, command_rad, s.surface_angle_rad);
 
         // Electrical: first-order loop toward I_ref, limited by the voltage left across the pair.
-        let sector = Self::sector(s);
+        let sector = self.commutation_sector(s);
         let k_phase = self.phase_emf_constants(s);
-        let (p, q) = PAIRS[sector];
-        let k_eq = k_phase[p] + k_phase[q];
+        let k_eq = self.pair_k(&k_phase, sector, s);
         let dt_over_l = self.pair_dt_over_l[sector];
         let i = s.current_a;
         let w = s.motor_speed_rad_s;
         // Commutation terms only while motoring (before or after this step's current change).
         let motoring = i * w > 0.0 || i_ref * w > 0.0;
         let commutation = if motoring { Some(self.commutation(&k_phase, sector, w)) } else { None };
-        let wanted = i_ref + (i - i_ref) * self.lag_factor - i;
         let back = self.pair_r[sector] * i + k_eq * w;
+        let i_ref = match &self.sensor_loop {
+            Some(sensors) => sensors.target_a(sector, i_ref, back),
+            None => i_ref,
+        };
+        let wanted = i_ref + (i - i_ref) * self.lag_factor - i;
         let mut up = dt_over_l * (self.supply_voltage_v - back);
         let mut down = dt_over_l * (-self.supply_voltage_v - back);
         if let Some(limit) = commutation.and_then(|c| self.commutation_rise_limit(&c, i, w, sector)) {
@@ -395,6 +427,15 @@ impl MonitorModel {
     /// a shorted or eccentric phase changes both, commutation by commutation. `R` is neglected
     /// during `t_c`, as there.
     fn commutation(&self, k: &[f32; 3], sector: usize, w: f32) -> Commutation {
+        let k_flat = k;
+        let shaped;
+        let k = match &self.emf_shape {
+            Some(shape) => {
+                shaped = shape.commutation_k(k, sector, w > 0.0);
+                &shaped
+            }
+            None => k,
+        };
         let (c, o, n) = commutation_roles(sector, w > 0.0);
         let speed = libm::fabsf(w);
         let v = self.supply_voltage_v;
@@ -410,7 +451,11 @@ impl MonitorModel {
             (sector_time_s, 0.0) // never reached with physical values: the whole sector commutates
         };
         let (p, q) = PAIRS[sector];
-        Commutation { time_s_per_a, drop_fraction, sector_time_s, pair_emf_v: (k[p] + k[q]) * speed }
+        let pair_k = match &self.emf_shape {
+            Some(shape) => shape.mean_pair_k(k_flat, sector),
+            None => k[p] + k[q],
+        };
+        Commutation { time_s_per_a, drop_fraction, sector_time_s, pair_emf_v: pair_k * speed }
     }
 
     /// The recovery slope `(V_dc − K_eq|ω| − R_eq|I|)/L_eq` of the new pair after `t_c`.
