@@ -753,6 +753,53 @@ mod tests {
     }
 
     #[test]
+    fn sector_effect_terms_are_absent_when_off_and_shift_the_commutation_when_on() {
+        let p = EmaParams::NOMINAL;
+        let k = FaultVector::HEALTHY;
+        assert_eq!(MonitorModel::with_effects(&p, &k, &ModelEffects::NONE), MonitorModel::new(&p, &k));
+        let hall =
+            MonitorModel::with_effects(&p, &k, &ModelEffects::NONE.with(EffectId::HallMisalignment, 1.0).unwrap());
+        let plain = MonitorModel::new(&p, &k);
+        let mut s = ModelState::at_rest();
+        // 5° electrical before the ideal boundary 0 → 1: the 10° Hall advance has commutated already.
+        s.hall_angle_rad = FRAC_PI_3 - 5f32.to_radians();
+        assert_eq!((plain.commutation_sector(&s), hall.commutation_sector(&s)), (0, 1));
+        // The advanced pair (a+, c−) has c 5° short of its flat top: K_eq = k_0(1 + 25/30).
+        let (ke, _, _) = hall.shape(&s);
+        assert!((ke - 0.13 * (1.0 + 25.0 / 30.0)).abs() < 1e-4, "{ke}");
+        // Direction: forward the advance commutates while the outgoing phase is still on its flat
+        // top (its current decays faster), backward (a lag) when it is already on its ramp
+        // (slower decay, smaller dip of the common phase).
+        let (kp, w) = ([0.13f32; 3], 700.0);
+        let fwd_plain = plain.commutation(&kp, 1, w);
+        let fwd_hall = hall.commutation(&kp, 1, w);
+        assert!(fwd_hall.time_s_per_a < fwd_plain.time_s_per_a);
+        let bwd_plain = plain.commutation(&kp, 0, -w);
+        let bwd_hall = hall.commutation(&kp, 0, -w);
+        assert!(bwd_hall.drop_fraction < bwd_plain.drop_fraction);
+        assert!(bwd_hall.time_s_per_a > bwd_plain.time_s_per_a, "the outgoing phase decays slower");
+    }
+
+    #[test]
+    fn sensor_offset_moves_the_regulated_current() {
+        // Locked rotor, sector 0 (a+, b−): the loop settles on the lower measured-current target
+        // T_a = (I_ref − 0.2)/1.02 (T_b = (I_ref − 0.1)/0.98 is higher).
+        let p = EmaParams::NOMINAL;
+        let mut f = FaultVector::HEALTHY.physical(&p);
+        f.static_friction_n_m = 1e9;
+        f.dynamic_friction_n_m = 1e9;
+        let fx = ModelEffects::NONE.with(EffectId::SensorOffset, 1.0).unwrap();
+        let m = MonitorModel::from_physics_with_effects(&p, &f, &fx);
+        let mut s = ModelState::at_rest();
+        s.hall_angle_rad = 0.5 * FRAC_PI_3;
+        for _ in 0..2000 {
+            m.step(&mut s, 0.001);
+        }
+        let target = (s.current_ref_a - 0.2) / 1.02;
+        assert!((s.current_a - target).abs() < 0.02, "{} vs {target}", s.current_a);
+    }
+
+    #[test]
     fn commutation_roles_follow_the_six_step_table() {
         // forward 0 → 1: (a+, b−) → (a+, c−): a stays, b leaves, c enters
         assert_eq!(commutation_roles(1, true), (0, 1, 2));
