@@ -4,7 +4,8 @@
 //! and without the effect term at the true severity; residual RMS of `I_3eq` after smoothing over
 //! 5 window samples (2 ms). Where the term should bring the residual back near the clean floor it
 //! must at least halve it; `hall_misalignment` only reaches part of that (the commutation-limited
-//! collapse of the fast reversal is not captured; README of the branch), so its bound is looser.
+//! current collapse of the fast reversal, where the outgoing phase conducts through most of each
+//! sector on a shifted EMF ramp, is not captured), so its bound is looser.
 
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::fitness::simulate_window_with_effects;
