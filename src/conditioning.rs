@@ -101,7 +101,15 @@ impl MeasuredEnvelope {
 
     /// Expected measured `I_3eq` for a true pair current `current_a`.
     pub fn expected_a(&self, current_a: f32) -> f32 {
-        let mu = libm::fabsf(current_a);
+        self.conducting_phase_a(current_a) + self.open_phase_a
+    }
+
+    /// Expected rectified reading `F_{σ_pair}(|μ|)` of one conducting phase whose mean reading is
+    /// `mean_a` (`|I|` for an ideal sensor): half of a conducting pair's share of `E[I_3eq]`
+    /// counts each of its two phases this way. Used with sensor errors, when the two phases of
+    /// the pair read different means ([`crate::effects`]).
+    pub fn conducting_phase_a(&self, mean_a: f32) -> f32 {
+        let mu = libm::fabsf(mean_a);
         let x = mu * self.index_per_a;
         let excess = if x < ENVELOPE_TABLE_LEN as f32 {
             let k = x as usize; // x ≥ 0 and below the table length: a valid index
@@ -112,8 +120,73 @@ impl MeasuredEnvelope {
         } else {
             0.0
         };
-        mu + excess + self.open_phase_a
+        mu + excess
     }
+}
+
+/// The expected measured `I_3eq` with current-sensor errors (`sensor_offset`,
+/// [`crate::effects`]): `i_m,j = (1 + g_j)·i_j + o_j`. In a sector with pair `(p, q)` carrying the
+/// true current `I` (signed, `i_p = I`, `i_q = −I`) and the open phase `r` carrying none:
+///
+/// ```text
+/// E[I_3eq] = ½F_{σ_pair}((1 + g_p)·I + o_p) + ½F_{σ_pair}((1 + g_q)·I − o_q) + ½F_{σ_s}(o_r)
+/// ```
+///
+/// (`F` the folded-normal mean of [`MeasuredEnvelope`]): the offsets bias each sector differently,
+/// the open phase by `½|o_r|`. Without errors it is [`MeasuredEnvelope::expected_a`] exactly.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorErrorEnvelope {
+    envelope: MeasuredEnvelope,
+    /// Per sector `(1 + g_p, o_p, 1 + g_q, −o_q)`.
+    pair: [[f32; 4]; 6],
+    /// Per sector `½F_{σ_s}(o_r)` of the open phase.
+    open_a: [f32; 6],
+}
+
+impl SensorErrorEnvelope {
+    /// The envelope of `params` with per-phase sensor gain errors `gain` and offsets `offset_a`.
+    pub fn new(params: &EmaParams, gain: [f32; 3], offset_a: [f32; 3]) -> Self {
+        let envelope = MeasuredEnvelope::of(params);
+        let mut pair = [[0.0; 4]; 6];
+        let mut open_a = [0.0; 6];
+        for (sector, &(p, q)) in crate::model::PAIRS.iter().enumerate() {
+            pair[sector] = [1.0 + gain[p], offset_a[p], 1.0 + gain[q], -offset_a[q]];
+            let r = 3 - p - q;
+            open_a[sector] = 0.5 * folded_normal_mean_a(offset_a[r], params.current_noise_a);
+        }
+        Self { envelope, pair, open_a }
+    }
+
+    /// The envelope of `params` with the `sensor_offset` effect of `effects`; `None` when it is off.
+    pub fn of(params: &EmaParams, effects: &crate::effects::ModelEffects) -> Option<Self> {
+        use crate::effects::{maxima, EffectId};
+        let s = effects.get(EffectId::SensorOffset);
+        if s == 0.0 {
+            return None;
+        }
+        Some(Self::new(params, maxima::SENSOR_GAIN.map(|g| s * g), maxima::SENSOR_OFFSET_A.map(|o| s * o)))
+    }
+
+    /// Expected measured `I_3eq` in commutation sector `sector` for the true pair current `current_a`.
+    pub fn expected_a(&self, sector: usize, current_a: f32) -> f32 {
+        let [gain_p, off_p, gain_q, off_q] = self.pair[sector % 6];
+        0.5 * (self.envelope.conducting_phase_a(gain_p * current_a + off_p)
+            + self.envelope.conducting_phase_a(gain_q * current_a + off_q))
+            + self.open_a[sector % 6]
+    }
+}
+
+/// Mean of a folded normal, `E|X|` for `X ~ N(μ, σ²)`:
+/// `F_σ(μ) = |μ|·erf(|μ|/(σ√2)) + σ√(2/π)·e^{−μ²/(2σ²)}` (`|μ|` when `σ` is not positive or not finite).
+/// Not for the hot loop (`erff`, `expf`): the effect terms evaluate it once per model.
+pub fn folded_normal_mean_a(mean_a: f32, sigma_a: f32) -> f32 {
+    let mu = libm::fabsf(mean_a);
+    let sigma = noise_or_zero(sigma_a);
+    if sigma == 0.0 {
+        return mu;
+    }
+    let z = mu / (sigma * core::f32::consts::SQRT_2);
+    mu * libm::erff(z) + sigma * libm::sqrtf(2.0 / core::f32::consts::PI) * libm::expf(-z * z)
 }
 
 /// Why conditioning refused its input.

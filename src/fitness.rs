@@ -13,7 +13,7 @@
 //! only grows: an evaluation can stop as soon as it exceeds the value it must beat
 //! (early abandoning, see [`crate::optimizer::Objective`]).
 
-use crate::conditioning::{MeasuredEnvelope, MeasuredTrace, DECIMATION};
+use crate::conditioning::{MeasuredEnvelope, MeasuredTrace, SensorErrorEnvelope, DECIMATION};
 use crate::effects::{EffectId, ModelEffects};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::model::{ModelState, MonitorModel};
@@ -46,6 +46,7 @@ pub fn simulate_window_with_effects(
 ) {
     let model = MonitorModel::with_effects(params, k, effects);
     let envelope = MeasuredEnvelope::of(params);
+    let sensors = SensorErrorEnvelope::of(params, effects);
     let dt = model.dt_s();
     let mut state = ModelState::at_rest();
     let mut command = ProfileCursor::new(profile);
@@ -53,7 +54,10 @@ pub fn simulate_window_with_effects(
     for i in 0..samples {
         let mut block = 0.0f32;
         for _ in 0..DECIMATION {
-            block += envelope.expected_a(state.output_current_a);
+            block += match &sensors {
+                Some(e) => e.expected_a(model.commutation_sector(&state), state.output_current_a),
+                None => envelope.expected_a(state.output_current_a),
+            };
             model.step(&mut state, command.command_rad(step as f32 * dt));
             step += 1;
         }

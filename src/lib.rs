@@ -42,6 +42,7 @@ pub mod monitor;
 pub mod optimizer;
 pub mod params;
 pub mod profile;
+mod sector_effects;
 pub mod trace;
 pub mod trig;
 

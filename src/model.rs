@@ -52,12 +52,13 @@
 use crate::effects::{maxima, EffectId, ModelEffects};
 use crate::faults::{FaultPhysics, FaultVector};
 use crate::params::EmaParams;
+use crate::sector_effects::{EmfShape, SensorLoop};
 use core::f32::consts::{FRAC_PI_3, FRAC_PI_6, PI};
 
 const TWO_PI: f32 = 2.0 * PI;
 
 /// Conducting pair `(positive phase, negative phase)` per Hall sector (physics.md §3.2).
-const PAIRS: [(usize, usize); 6] = [(0, 1), (0, 2), (1, 2), (1, 0), (2, 0), (2, 1)];
+pub(crate) const PAIRS: [(usize, usize); 6] = [(0, 1), (0, 2), (1, 2), (1, 0), (2, 0), (2, 1)];
 
 /// `(cos ψ_j, sin ψ_j)` for `ψ_j = j·2π/3`.
 const PHASE_SHIFT: [(f32, f32); 3] = [(1.0, 0.0), (-0.5, 0.866_025_4), (-0.5, -0.866_025_4)];
@@ -137,6 +138,10 @@ pub struct MonitorModel {
     ecc_phase: [(f32, f32); 3],
     /// The optional effect terms switched on ([`crate::effects`]).
     effects: ModelEffects,
+    /// Back-EMF shape and Hall offset (`emf_harmonics`, `hall_misalignment`), `None` when off.
+    emf_shape: Option<EmfShape>,
+    /// Current loop on measured currents (`sensor_offset`), `None` when off.
+    sensor_loop: Option<SensorLoop>,
 }
 
 /// The commutation into a sector, per ampere of the current it carries
@@ -258,6 +263,8 @@ impl MonitorModel {
             eccentricity: f.eccentricity,
             ecc_phase,
             effects: *effects,
+            emf_shape: EmfShape::of(effects),
+            sensor_loop: SensorLoop::of(effects),
         }
     }
 
@@ -288,9 +295,20 @@ impl MonitorModel {
         s.current_ref_a
     }
 
-    /// Hall sector `0..6` of the state's rotor angle.
-    fn sector(s: &ModelState) -> usize {
-        let sector = (s.hall_angle_rad * (1.0 / FRAC_PI_3)) as usize;
+    /// Commutation (Hall) sector `0..6` of the state's rotor angle: the Hall angle advanced by
+    /// `δ_H` when `hall_misalignment` is on ([`crate::sector_effects`]).
+    pub fn commutation_sector(&self, s: &ModelState) -> usize {
+        match &self.emf_shape {
+            Some(shape) if shape.hall_offset_rad != 0.0 => {
+                Self::sector_of(wrap(s.hall_angle_rad + shape.hall_offset_rad))
+            }
+            _ => Self::sector_of(s.hall_angle_rad),
+        }
+    }
+
+    /// Hall sector `0..6` of a Hall angle in `[0, 2π)`.
+    fn sector_of(hall_angle_rad: f32) -> usize {
+        let sector = (hall_angle_rad * (1.0 / FRAC_PI_3)) as usize;
         if sector < 6 {
             sector
         } else {
@@ -313,10 +331,21 @@ impl MonitorModel {
 
     /// Shape functions of the conducting pair at the state's rotor angle: `(K_eq, R_eq, L_eq)`.
     pub fn shape(&self, s: &ModelState) -> (f32, f32, f32) {
-        let sector = Self::sector(s);
-        let (p, q) = PAIRS[sector];
+        let sector = self.commutation_sector(s);
         let k = self.phase_emf_constants(s);
-        (k[p] + k[q], self.pair_r[sector], self.pair_l[sector])
+        (self.pair_k(&k, sector, s), self.pair_r[sector], self.pair_l[sector])
+    }
+
+    /// `K_eq` of `sector`'s pair: `k_p + k_q` on flat tops, `k_p·f_p(θ_e) − k_q·f_q(θ_e)` with the
+    /// back-EMF shape terms ([`crate::sector_effects`]).
+    fn pair_k(&self, k: &[f32; 3], sector: usize, s: &ModelState) -> f32 {
+        match &self.emf_shape {
+            Some(shape) => shape.pair_k(k, sector, s.hall_angle_rad),
+            None => {
+                let (p, q) = PAIRS[sector];
+                k[p] + k[q]
+            }
+        }
     }
 
     /// Advances the model one control period under the surface command `command_rad`.
@@ -324,18 +353,21 @@ impl MonitorModel {
         let i_ref = self.control(s, command_rad, s.surface_angle_rad);
 
         // Electrical: first-order loop toward I_ref, limited by the voltage left across the pair.
-        let sector = Self::sector(s);
+        let sector = self.commutation_sector(s);
         let k_phase = self.phase_emf_constants(s);
-        let (p, q) = PAIRS[sector];
-        let k_eq = k_phase[p] + k_phase[q];
+        let k_eq = self.pair_k(&k_phase, sector, s);
         let dt_over_l = self.pair_dt_over_l[sector];
         let i = s.current_a;
         let w = s.motor_speed_rad_s;
         // Commutation terms only while motoring (before or after this step's current change).
         let motoring = i * w > 0.0 || i_ref * w > 0.0;
         let commutation = if motoring { Some(self.commutation(&k_phase, sector, w)) } else { None };
-        let wanted = i_ref + (i - i_ref) * self.lag_factor - i;
         let back = self.pair_r[sector] * i + k_eq * w;
+        let i_ref = match &self.sensor_loop {
+            Some(sensors) => sensors.target_a(sector, i_ref, back),
+            None => i_ref,
+        };
+        let wanted = i_ref + (i - i_ref) * self.lag_factor - i;
         let mut up = dt_over_l * (self.supply_voltage_v - back);
         let mut down = dt_over_l * (-self.supply_voltage_v - back);
         if let Some(limit) = commutation.and_then(|c| self.commutation_rise_limit(&c, i, w, sector)) {
@@ -395,6 +427,15 @@ impl MonitorModel {
     /// a shorted or eccentric phase changes both, commutation by commutation. `R` is neglected
     /// during `t_c`, as there.
     fn commutation(&self, k: &[f32; 3], sector: usize, w: f32) -> Commutation {
+        let k_flat = k;
+        let shaped;
+        let k = match &self.emf_shape {
+            Some(shape) => {
+                shaped = shape.commutation_k(k, sector, w > 0.0);
+                &shaped
+            }
+            None => k,
+        };
         let (c, o, n) = commutation_roles(sector, w > 0.0);
         let speed = libm::fabsf(w);
         let v = self.supply_voltage_v;
@@ -410,7 +451,11 @@ impl MonitorModel {
             (sector_time_s, 0.0) // never reached with physical values: the whole sector commutates
         };
         let (p, q) = PAIRS[sector];
-        Commutation { time_s_per_a, drop_fraction, sector_time_s, pair_emf_v: (k[p] + k[q]) * speed }
+        let pair_k = match &self.emf_shape {
+            Some(shape) => shape.mean_pair_k(k_flat, sector),
+            None => k[p] + k[q],
+        };
+        Commutation { time_s_per_a, drop_fraction, sector_time_s, pair_emf_v: pair_k * speed }
     }
 
     /// The recovery slope `(V_dc − K_eq|ω| − R_eq|I|)/L_eq` of the new pair after `t_c`.
@@ -705,6 +750,53 @@ mod tests {
         let (dn, tn) = at(-15.0, -686.0);
         assert!((dn + d).abs() < 1e-6 && (tn + torque).abs() < 1e-6, "odd in the current");
         assert_eq!(at(15.0, -686.0), (0.0, 0.0), "nothing when braking");
+    }
+
+    #[test]
+    fn sector_effect_terms_are_absent_when_off_and_shift_the_commutation_when_on() {
+        let p = EmaParams::NOMINAL;
+        let k = FaultVector::HEALTHY;
+        assert_eq!(MonitorModel::with_effects(&p, &k, &ModelEffects::NONE), MonitorModel::new(&p, &k));
+        let hall =
+            MonitorModel::with_effects(&p, &k, &ModelEffects::NONE.with(EffectId::HallMisalignment, 1.0).unwrap());
+        let plain = MonitorModel::new(&p, &k);
+        let mut s = ModelState::at_rest();
+        // 5° electrical before the ideal boundary 0 → 1: the 10° Hall advance has commutated already.
+        s.hall_angle_rad = FRAC_PI_3 - 5f32.to_radians();
+        assert_eq!((plain.commutation_sector(&s), hall.commutation_sector(&s)), (0, 1));
+        // The advanced pair (a+, c−) has c 5° short of its flat top: K_eq = k_0(1 + 25/30).
+        let (ke, _, _) = hall.shape(&s);
+        assert!((ke - 0.13 * (1.0 + 25.0 / 30.0)).abs() < 1e-4, "{ke}");
+        // Direction: forward the advance commutates while the outgoing phase is still on its flat
+        // top (its current decays faster), backward (a lag) when it is already on its ramp
+        // (slower decay, smaller dip of the common phase).
+        let (kp, w) = ([0.13f32; 3], 700.0);
+        let fwd_plain = plain.commutation(&kp, 1, w);
+        let fwd_hall = hall.commutation(&kp, 1, w);
+        assert!(fwd_hall.time_s_per_a < fwd_plain.time_s_per_a);
+        let bwd_plain = plain.commutation(&kp, 0, -w);
+        let bwd_hall = hall.commutation(&kp, 0, -w);
+        assert!(bwd_hall.drop_fraction < bwd_plain.drop_fraction);
+        assert!(bwd_hall.time_s_per_a > bwd_plain.time_s_per_a, "the outgoing phase decays slower");
+    }
+
+    #[test]
+    fn sensor_offset_moves_the_regulated_current() {
+        // Locked rotor, sector 0 (a+, b−): the loop settles on the lower measured-current target
+        // T_a = (I_ref − 0.2)/1.02 (T_b = (I_ref − 0.1)/0.98 is higher).
+        let p = EmaParams::NOMINAL;
+        let mut f = FaultVector::HEALTHY.physical(&p);
+        f.static_friction_n_m = 1e9;
+        f.dynamic_friction_n_m = 1e9;
+        let fx = ModelEffects::NONE.with(EffectId::SensorOffset, 1.0).unwrap();
+        let m = MonitorModel::from_physics_with_effects(&p, &f, &fx);
+        let mut s = ModelState::at_rest();
+        s.hall_angle_rad = 0.5 * FRAC_PI_3;
+        for _ in 0..2000 {
+            m.step(&mut s, 0.001);
+        }
+        let target = (s.current_ref_a - 0.2) / 1.02;
+        assert!((s.current_a - target).abs() < 0.02, "{} vs {target}", s.current_a);
     }
 
     #[test]
