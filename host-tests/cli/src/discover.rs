@@ -300,11 +300,14 @@ fn reset_groups(k: &FaultVector, groups: &[usize]) -> FaultVector {
     out
 }
 
+/// Free parameters of the present fault groups.
+pub fn fault_parameter_count(k: &FaultVector) -> usize {
+    FAULT_GROUPS.iter().filter(|g| group_present(&k.0, **g)).map(|(first, last)| last - first + 1).sum()
+}
+
 /// Free parameters of a model: the present fault groups' and the effects' severities.
 pub fn parameter_count(fit: &ModelFit) -> usize {
-    let faults: usize =
-        FAULT_GROUPS.iter().filter(|g| group_present(&fit.k.0, **g)).map(|(first, last)| last - first + 1).sum();
-    faults + fit.effects.active().count()
+    fault_parameter_count(&fit.k) + fit.effects.active().count()
 }
 
 /// Fits the faults and the severities of `free` on `part`, then keeps only what pays:
@@ -358,9 +361,15 @@ fn fit_d<const W: usize, const D: usize>(
     let mut evaluations = 0;
     // starts: per fault start, the best severity of a scan (the valley in s can be narrow)
     let mut starts: Vec<[f32; D]> = vec![point(start, 0.0)];
+    let electrical = reset_groups(start, &ELECTRICAL_GROUPS);
+    let mechanical = reset_groups(start, &MECHANICAL_GROUPS);
+    for k in [&electrical, &mechanical, &FaultVector::HEALTHY] {
+        if D == FAULT_COUNT {
+            // the reference model gets the same fault starts as every candidate
+            starts.push(point(k, 0.0));
+        }
+    }
     if D > FAULT_COUNT {
-        let electrical = reset_groups(start, &ELECTRICAL_GROUPS);
-        let mechanical = reset_groups(start, &MECHANICAL_GROUPS);
         for k in [start, &electrical, &mechanical, &FaultVector::HEALTHY] {
             let mut best_scan = (f32::INFINITY, point(k, 0.0));
             for j in 1..=SEVERITY_SCAN {
@@ -442,8 +451,8 @@ pub struct Candidate {
     pub bic_held_out: f64,
     /// Share of the structural residual energy (whole recording) it removes.
     pub gap_share: f64,
-    /// The effect explains with fewer parameters what the fit attributed to fault groups (e.g.
-    /// a winding temperature rise read as shorts on all three phases).
+    /// The effect explains what the reference fit attributed to fault groups, with fewer fault
+    /// parameters left (e.g. a winding temperature rise read as shorts on all three phases).
     pub replaces_faults: bool,
     /// The fit with the effect on (fit part).
     pub fit: ModelFit,
@@ -682,51 +691,72 @@ fn structural_energy(s: &Series) -> f64 {
 }
 
 /// One search round: every effect not yet on, fitted on the fit part from `base_fit`, scored
-/// on the held-out part against `base_fit` (itself fitted on the fit part).
+/// on the held-out part against the reference model. The reference is the best model without a
+/// new effect: `base_fit`, or a candidate fit whose new effect ended negligible (set to zero and
+/// re-scored), since every candidate fit also searches the faults from more starts; otherwise a
+/// better fault fit would pass for evidence of an effect.
 #[allow(clippy::too_many_arguments)]
 fn search_round<const W: usize>(
     trace: &MeasuredTrace<W>,
     profile: &Profile,
     on: &[EffectId],
     base_fit: &ModelFit,
-    base_held_out: f32,
-    base_series: &Series,
     n_eff_part: f64,
     threads: usize,
-) -> Round {
-    let candidates: Vec<EffectId> = EffectId::ALL.iter().copied().filter(|e| !on.contains(e)).collect();
+) -> (Round, ModelFit) {
+    let effects: Vec<EffectId> = EffectId::ALL.iter().copied().filter(|e| !on.contains(e)).collect();
     let next = std::sync::atomic::AtomicUsize::new(0);
     let results = std::sync::Mutex::new(Vec::new());
     std::thread::scope(|scope| {
         for _ in 0..threads.max(1) {
             scope.spawn(|| loop {
                 let j = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                let Some(&effect) = candidates.get(j) else { break };
+                let Some(&effect) = effects.get(j) else { break };
                 let mut free: Vec<EffectId> = on.to_vec();
                 free.push(effect);
                 let fit = fit_model(trace, profile, &free, base_fit, Part::Fit, n_eff_part);
-                let extra = parameter_count(&fit) as f64 - parameter_count(base_fit) as f64;
-                let replaces_faults = parameter_count(&fit) < parameter_count(base_fit);
-                let held = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::HeldOut);
-                let e_held = held.error(&fit.k, &fit.effects, f32::INFINITY);
-                let after = series(trace, &EmaParams::NOMINAL, profile, &fit.k, &fit.effects);
-                let before_energy = structural_energy(base_series).max(1e-30);
-                let c = Candidate {
-                    effect,
-                    severity: fit.effects.get(effect),
-                    bic_fit: delta_bic(n_eff_part, base_fit.error, fit.error, extra),
-                    bic_held_out: delta_bic(n_eff_part, base_held_out, e_held, extra),
-                    gap_share: 1.0 - structural_energy(&after) / before_energy,
-                    replaces_faults,
-                    fit,
-                };
                 if let Ok(mut r) = results.lock() {
-                    r.push(c);
+                    r.push((effect, fit));
                 }
             });
         }
     });
-    let mut candidates = results.into_inner().unwrap_or_default();
+    let fits: Vec<(EffectId, ModelFit)> = results.into_inner().unwrap_or_default();
+    let fit_part = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::Fit);
+    let held = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::HeldOut);
+    // the reference: the best fit without a new effect
+    let mut reference = base_fit.clone();
+    for (effect, fit) in &fits {
+        if fit.effects.get(*effect) < MIN_SEVERITY {
+            let mut effects = fit.effects;
+            let _ = effects.set(*effect, 0.0); // 0 is in range
+            let error = fit_part.error(&fit.k, &effects, f32::INFINITY);
+            if error < reference.error {
+                reference = ModelFit { k: fit.k, effects, error, evaluations: 0 };
+            }
+        }
+    }
+    let reference_held_out = held.error(&reference.k, &reference.effects, f32::INFINITY);
+    let reference_energy =
+        structural_energy(&series(trace, &EmaParams::NOMINAL, profile, &reference.k, &reference.effects)).max(1e-30);
+    let reference_parameters = parameter_count(&reference);
+    let mut candidates: Vec<Candidate> = fits
+        .into_iter()
+        .map(|(effect, fit)| {
+            let extra = parameter_count(&fit) as f64 - reference_parameters as f64;
+            let e_held = held.error(&fit.k, &fit.effects, f32::INFINITY);
+            let after = series(trace, &EmaParams::NOMINAL, profile, &fit.k, &fit.effects);
+            Candidate {
+                effect,
+                severity: fit.effects.get(effect),
+                bic_fit: delta_bic(n_eff_part, reference.error, fit.error, extra),
+                bic_held_out: delta_bic(n_eff_part, reference_held_out, e_held, extra),
+                gap_share: 1.0 - structural_energy(&after) / reference_energy,
+                replaces_faults: fault_parameter_count(&fit.k) < fault_parameter_count(&reference.k),
+                fit,
+            }
+        })
+        .collect();
     candidates.sort_by(|a, b| b.bic_held_out.total_cmp(&a.bic_held_out));
     let weight_sum: f64 = 1.0 + candidates.iter().map(|c| (c.bic_held_out.min(1400.0) / 2.0).exp()).sum::<f64>();
     let named = candidates.first().and_then(|c| {
@@ -736,7 +766,7 @@ fn search_round<const W: usize>(
             && (c.gap_share >= MIN_GAP_SHARE || c.replaces_faults);
         pass.then(|| (c.effect, c.severity, (c.bic_held_out.min(1400.0) / 2.0).exp() / weight_sum))
     });
-    Round { candidates, named }
+    (Round { candidates, named }, reference)
 }
 
 /// Runs the whole workflow on a conditioned trace.
@@ -778,11 +808,8 @@ pub fn discover<const W: usize>(
     let mut rounds = Vec::new();
     let mut base_fit = fit_model(trace, profile, &on, &before, Part::Fit, n_eff_part);
     evaluations += u64::from(base_fit.evaluations);
-    let mut base_series = series(trace, &params, profile, &base_fit.k, &base_fit.effects);
     while named.len() < MAX_NAMED {
-        let held = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::HeldOut);
-        let base_held_out = held.error(&base_fit.k, &base_fit.effects, f32::INFINITY);
-        let round = search_round(trace, profile, &on, &base_fit, base_held_out, &base_series, n_eff_part, threads);
+        let (round, reference) = search_round(trace, profile, &on, &base_fit, n_eff_part, threads);
         evaluations += round.candidates.iter().map(|c| u64::from(c.fit.evaluations)).sum::<u64>();
         let winner = round.named;
         let winner_fit = round.candidates.first().map(|c| c.fit.clone());
@@ -791,10 +818,12 @@ pub fn discover<const W: usize>(
             (Some(w), Some(fit)) => {
                 named.push(w);
                 on.push(w.0);
-                base_series = series(trace, &params, profile, &fit.k, &fit.effects);
                 base_fit = fit;
             }
-            _ => break,
+            _ => {
+                base_fit = reference;
+                break;
+            }
         }
     }
     // 4. add: the named effects refitted with the faults on the whole recording
@@ -901,7 +930,7 @@ pub fn to_json(d: &Discovery) -> serde_json::Value {
         "windows": d.windows.iter().map(|w| json!({"start_s": w.start_s, "end_s": w.end_s, "share": w.share, "rms_before": w.rms_before_a, "rms_after": w.rms_after_a})).collect::<Vec<_>>(),
         "regimes": d.regimes.iter().map(|r| json!({"family": r.family, "regime": r.name, "time_share": r.time_share, "energy_share": r.energy_share})).collect::<Vec<_>>(),
         "orders": d.orders.iter().map(|(n, s)| json!({"order": n, "share": s})).collect::<Vec<_>>(),
-        "rounds": d.rounds.iter().map(|r| r.candidates.iter().map(|c| json!({"effect": c.effect.id(), "severity": c.severity, "bic_fit": finite(c.bic_fit), "bic_held_out": finite(c.bic_held_out), "gap_share": c.gap_share, "replaces_faults": c.replaces_faults})).collect::<Vec<_>>()).collect::<Vec<_>>(),
+        "rounds": d.rounds.iter().map(|r| r.candidates.iter().map(|c| json!({"effect": c.effect.id(), "severity": c.severity, "bic_fit": finite(c.bic_fit), "bic_held_out": finite(c.bic_held_out), "gap_share": c.gap_share, "replaces_faults": c.replaces_faults, "k": c.fit.k.0})).collect::<Vec<_>>()).collect::<Vec<_>>(),
         "k_before": d.before.k.0,
         "k_after": d.after.k.0,
         "fitness_before": d.before.error,
