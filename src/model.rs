@@ -137,6 +137,34 @@ pub struct MonitorModel {
     ecc_phase: [(f32, f32); 3],
     /// The optional effect terms switched on ([`crate::effects`]).
     effects: ModelEffects,
+    /// Mechanical and drive effect terms (all zero when off).
+    mech_effects: MechEffects,
+}
+
+/// Constants of the cogging, Stribeck, saturation and dead-time terms (0 = off), precomputed from
+/// the severities in [`MonitorModel::from_physics_with_effects`]:
+///
+/// ```text
+/// cogging     T_cog = A·sin(24·θ_m),  A = s·0.04 N·m (θ_m from 0 at rest, as in the reference);
+///             the model uses its step mean A·sin(24θ_m + x/2)·sin(x/2)/(x/2), x = 24·ω·T
+/// stribeck    breakaway FSJ·(1 + s),  sliding FDJ + S·exp(−ω²/ω_s²),  S = s·(2·FSJ − FDJ)
+/// saturation  k_j ×1/(1 + (I/I_sat)²),  1/I_sat² = (s/30 A)²  (I = |I| of the conducting pair)
+/// dead_time   −sign(i_j)·ΔV on both conducting phases: the pair loses 2ΔV·sign(I), ΔV = s·8 V
+/// ```
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct MechEffects {
+    /// Cogging amplitude `A`.
+    cogging_torque_n_m: f32,
+    /// `24·T`: cogging phase advance per step per rad/s.
+    cogging_phase_per_speed_s: f32,
+    /// Stribeck excess `S` at zero speed.
+    stribeck_excess_n_m: f32,
+    /// `1/ω_s²`.
+    stribeck_inv_speed_sq_s2: f32,
+    /// `1/I_sat²`.
+    saturation_inv_current_sq_per_a2: f32,
+    /// `2ΔV`: the pair's dead-time voltage against its current.
+    dead_time_pair_v: f32,
 }
 
 /// The commutation into a sector, per ampere of the current it carries
@@ -190,6 +218,9 @@ impl MonitorModel {
     /// viscous              C_m += s·5e-4 N·m·s/rad
     /// hinge_stiffness      K_h ×(1 + s)
     /// ```
+    ///
+    /// Cogging, Stribeck, saturation and dead time are terms of [`MonitorModel::step`] whose
+    /// constants are precomputed here (equations at `MechEffects`).
     pub fn from_physics_with_effects(params: &EmaParams, f: &FaultPhysics, effects: &ModelEffects) -> Self {
         let mut nominal = *params;
         let temperature_rise_k = effects.get(EffectId::WindingTemperature) * maxima::WINDING_TEMPERATURE_RISE_K;
@@ -205,6 +236,22 @@ impl MonitorModel {
         if hinge != 0.0 {
             nominal.hinge_stiffness_n_m_per_rad *= 1.0 + hinge * maxima::HINGE_STIFFNESS_GAIN;
         }
+        let s_stribeck = effects.get(EffectId::Stribeck);
+        let (static_friction_n_m, stribeck_excess_n_m) = if s_stribeck != 0.0 {
+            let (fsj, fdj, gain) = (f.static_friction_n_m, f.dynamic_friction_n_m, maxima::STRIBECK_STICTION_GAIN);
+            (fsj * (1.0 + s_stribeck * gain), s_stribeck * ((1.0 + gain) * fsj - fdj))
+        } else {
+            (f.static_friction_n_m, 0.0)
+        };
+        let s_saturation = effects.get(EffectId::Saturation) * (1.0 / maxima::SATURATION_CURRENT_A);
+        let mech_effects = MechEffects {
+            cogging_torque_n_m: effects.get(EffectId::Cogging) * maxima::COGGING_TORQUE_N_M,
+            cogging_phase_per_speed_s: maxima::COGGING_CYCLES_PER_REV * params.control_period_s,
+            stribeck_excess_n_m,
+            stribeck_inv_speed_sq_s2: 1.0 / (maxima::STRIBECK_SPEED_RAD_PER_S * maxima::STRIBECK_SPEED_RAD_PER_S),
+            saturation_inv_current_sq_per_a2: s_saturation * s_saturation,
+            dead_time_pair_v: 2.0 * effects.get(EffectId::DeadTime) * maxima::DEAD_TIME_V,
+        };
         let p = &nominal;
         let mut phase_k = [0.0; 3];
         let mut phase_r = [0.0f32; 3];
@@ -242,7 +289,7 @@ impl MonitorModel {
             kd: p.kd_a_s_per_rad,
             derivative_gain: p.control_period_s / p.derivative_filter_s,
             viscous_n_m_s: p.viscous_friction_n_m_s_per_rad,
-            static_friction_n_m: f.static_friction_n_m,
+            static_friction_n_m,
             dynamic_friction_n_m: f.dynamic_friction_n_m,
             opposing_load_factor: 1.0 / p.efficiency_opposing - 1.0,
             aiding_load_factor: 1.0 - p.efficiency_aiding,
@@ -258,6 +305,7 @@ impl MonitorModel {
             eccentricity: f.eccentricity,
             ecc_phase,
             effects: *effects,
+            mech_effects,
         }
     }
 
@@ -325,7 +373,10 @@ impl MonitorModel {
 
         // Electrical: first-order loop toward I_ref, limited by the voltage left across the pair.
         let sector = Self::sector(s);
-        let k_phase = self.phase_emf_constants(s);
+        let mut k_phase = self.phase_emf_constants(s);
+        if self.mech_effects.saturation_inv_current_sq_per_a2 != 0.0 {
+            self.saturate(&mut k_phase, s.current_a);
+        }
         let (p, q) = PAIRS[sector];
         let k_eq = k_phase[p] + k_phase[q];
         let dt_over_l = self.pair_dt_over_l[sector];
@@ -335,7 +386,10 @@ impl MonitorModel {
         let motoring = i * w > 0.0 || i_ref * w > 0.0;
         let commutation = if motoring { Some(self.commutation(&k_phase, sector, w)) } else { None };
         let wanted = i_ref + (i - i_ref) * self.lag_factor - i;
-        let back = self.pair_r[sector] * i + k_eq * w;
+        let mut back = self.pair_r[sector] * i + k_eq * w;
+        if self.mech_effects.dead_time_pair_v != 0.0 {
+            back += self.mech_effects.dead_time_pair_v * sign(i);
+        }
         let mut up = dt_over_l * (self.supply_voltage_v - back);
         let mut down = dt_over_l * (-self.supply_voltage_v - back);
         if let Some(limit) = commutation.and_then(|c| self.commutation_rise_limit(&c, i, w, sector)) {
@@ -355,7 +409,10 @@ impl MonitorModel {
         // Mechanical: torque balance at the motor shaft with Borello dry friction.
         let torque_motor = k_eq * (s.output_current_a - torque_loss_a);
         let torque_load = -self.hinge_at_motor_n_m_per_rad * s.surface_angle_rad;
-        let torque_active = torque_motor - self.viscous_n_m_s * w;
+        let mut torque_active = torque_motor - self.viscous_n_m_s * w;
+        if self.mech_effects.cogging_torque_n_m != 0.0 {
+            torque_active += self.cogging_n_m(s.motor_angle_wrapped_rad, w);
+        }
         let w_new = self.friction_step(w, torque_active, torque_load);
         s.motor_speed_rad_s = w_new;
         let d_theta = w_new * self.dt_s;
@@ -397,12 +454,12 @@ impl MonitorModel {
     fn commutation(&self, k: &[f32; 3], sector: usize, w: f32) -> Commutation {
         let (c, o, n) = commutation_roles(sector, w > 0.0);
         let speed = libm::fabsf(w);
-        let v = self.supply_voltage_v;
+        let (v, dv) = (self.supply_voltage_v, self.mech_effects.dead_time_pair_v);
         let (e_c, e_o, e_n) = (k[c] * speed, k[o] * speed, k[n] * speed);
         let (y_c, y_o, y_n) = (self.phase_inv_l[c], self.phase_inv_l[o], self.phase_inv_l[n]);
         let inv_y = 1.0 / (y_c + y_o + y_n);
-        let decay = y_o * inv_y * (y_c * (e_c + e_o) + y_n * (v + e_o - e_n));
-        let common = y_c * inv_y * (y_n * (v - e_c - e_n) - y_o * (e_c + e_o));
+        let decay = y_o * inv_y * (y_c * (e_c + e_o + dv) + y_n * (v + e_o - e_n));
+        let common = y_c * inv_y * (y_n * (v - dv - e_c - e_n) - y_o * (e_c + e_o + dv));
         let sector_time_s = self.sector_angle_rad / speed;
         let (time_s_per_a, drop_fraction) = if decay > 0.0 {
             (1.0 / decay, if common < 0.0 { -common / decay } else { 0.0 })
@@ -413,9 +470,11 @@ impl MonitorModel {
         Commutation { time_s_per_a, drop_fraction, sector_time_s, pair_emf_v: (k[p] + k[q]) * speed }
     }
 
-    /// The recovery slope `(V_dc − K_eq|ω| − R_eq|I|)/L_eq` of the new pair after `t_c`.
+    /// The recovery slope `(V_dc − 2ΔV − K_eq|ω| − R_eq|I|)/L_eq` of the new pair after `t_c`.
     fn recovery_a_per_s(&self, sector: usize, k_eq_speed_v: f32, i_abs: f32) -> f32 {
-        (self.supply_voltage_v - k_eq_speed_v - self.pair_r[sector] * i_abs) * self.pair_dt_over_l[sector] * self.inv_dt
+        (self.supply_voltage_v - self.mech_effects.dead_time_pair_v - k_eq_speed_v - self.pair_r[sector] * i_abs)
+            * self.pair_dt_over_l[sector]
+            * self.inv_dt
     }
 
     /// Largest change of `|I|` over one step while motoring above the dip onset: per sector the
@@ -459,6 +518,42 @@ impl MonitorModel {
         }
     }
 
+    /// Saturation effect: `k_j ×1/(1 + (I/I_sat)²)` with the pair current `I` at the step's start
+    /// (the reference model's `I = ½Σ|i_j|`).
+    fn saturate(&self, k: &mut [f32; 3], i: f32) {
+        let factor = 1.0 / (1.0 + i * i * self.mech_effects.saturation_inv_current_sq_per_a2);
+        for kj in k.iter_mut() {
+            *kj *= factor;
+        }
+    }
+
+    /// Cogging effect: the mean of `A·sin(24·θ_m)` over the step from `θ_m` at speed `ω`,
+    /// `A·sin(24θ_m + x/2)·sin(x/2)/(x/2)` with `x = 24·ω·T` (the control step spans up to a third
+    /// of a cogging period at full speed, where the reference model, at 1 µs, sees its mean).
+    fn cogging_n_m(&self, motor_angle_wrapped_rad: f32, w: f32) -> f32 {
+        let fx = &self.mech_effects;
+        let half = 0.5 * fx.cogging_phase_per_speed_s * w;
+        let phase = maxima::COGGING_CYCLES_PER_REV * motor_angle_wrapped_rad + half;
+        let (sin_phase, _) = crate::trig::sin_cos(phase);
+        let mean = if libm::fabsf(half) > 1e-3 { crate::trig::sin_cos(half).0 / half } else { 1.0 };
+        fx.cogging_torque_n_m * sin_phase * mean
+    }
+
+    /// Sliding friction without the load term: `FDJ`, plus the Stribeck excess `S·exp(−ω²/ω_s²)`
+    /// when that effect is on (negligible, < 1e-7·S, and skipped beyond `4ω_s`).
+    fn sliding_friction_n_m(&self, w: f32) -> f32 {
+        let fx = &self.mech_effects;
+        if fx.stribeck_excess_n_m == 0.0 {
+            return self.dynamic_friction_n_m;
+        }
+        let r2 = w * w * fx.stribeck_inv_speed_sq_s2;
+        if r2 < 16.0 {
+            self.dynamic_friction_n_m + fx.stribeck_excess_n_m * libm::expf(-r2)
+        } else {
+            self.dynamic_friction_n_m
+        }
+    }
+
     /// Borello dry friction (physics.md §3.7): the four cases stuck/breakaway/slip/stop.
     /// `torque_active` = motor torque minus viscous; `torque_load` = load reflected to the motor.
     /// The motor is stuck only when `ω` is exactly 0; a slip step that would reverse `ω` stops it.
@@ -471,7 +566,7 @@ impl MonitorModel {
         let net = torque_active + torque_load;
         if w != 0.0 {
             let d = sign(w);
-            let friction = self.dynamic_friction_n_m + load_term(d);
+            let friction = self.sliding_friction_n_m(w) + load_term(d);
             let w_new = w + dt_over_j * (net - d * friction);
             if w_new * w < 0.0 {
                 0.0
@@ -484,7 +579,7 @@ impl MonitorModel {
             if libm::fabsf(net) <= breakaway {
                 0.0
             } else {
-                let friction = self.dynamic_friction_n_m + load_term(d);
+                let friction = self.sliding_friction_n_m(0.0) + load_term(d);
                 dt_over_j * (net - d * friction)
             }
         }
