@@ -802,6 +802,92 @@ mod tests {
         assert_eq!(at(15.0, -686.0), (0.0, 0.0), "nothing when braking");
     }
 
+    fn with_effect(k: [f32; 8], effect: EffectId, severity: f32) -> MonitorModel {
+        let fx = ModelEffects::NONE.with(effect, severity).unwrap();
+        MonitorModel::with_effects(&EmaParams::NOMINAL, &FaultVector(k), &fx)
+    }
+
+    #[test]
+    fn effect_terms_are_off_by_default() {
+        let m = model(FaultVector::HEALTHY.0);
+        assert_eq!(m.mech_effects.cogging_torque_n_m, 0.0);
+        assert_eq!(m.mech_effects.stribeck_excess_n_m, 0.0);
+        assert_eq!(m.mech_effects.saturation_inv_current_sq_per_a2, 0.0);
+        assert_eq!(m.mech_effects.dead_time_pair_v, 0.0);
+        assert_eq!(m.sliding_friction_n_m(0.0), m.dynamic_friction_n_m);
+        let none = MonitorModel::with_effects(&EmaParams::NOMINAL, &FaultVector::HEALTHY, &ModelEffects::NONE);
+        assert_eq!(none, m);
+    }
+
+    #[test]
+    fn cogging_term_is_the_step_mean_of_the_sine() {
+        let m = with_effect(FaultVector::HEALTHY.0, EffectId::Cogging, 0.5); // A = 0.02 N·m
+                                                                             // at rest: A·sin(24θ_m), positive in the torque balance as in the reference model
+        let theta = 0.3f32;
+        assert!((m.cogging_n_m(theta, 0.0) - 0.02 * libm::sinf(24.0 * theta)).abs() < 1e-6);
+        // at 300 rad/s one step spans 0.72 rad of cogging phase: the mean of 200 sub-steps
+        let w = 300.0f32;
+        let n = 200;
+        let mean: f32 =
+            (0..n).map(|j| 0.02 * libm::sinf(24.0 * (theta + w * m.dt_s() * (j as f32 + 0.5) / n as f32))).sum::<f32>()
+                / n as f32;
+        assert!((m.cogging_n_m(theta, w) - mean).abs() < 1e-5, "{} vs {mean}", m.cogging_n_m(theta, w));
+    }
+
+    #[test]
+    fn stribeck_doubles_the_breakaway_and_decays_to_the_sliding_level() {
+        let m = with_effect(FaultVector::HEALTHY.0, EffectId::Stribeck, 1.0); // FSJ 0.10, FDJ 0.07
+        assert!((m.static_friction_n_m - 0.20).abs() < 1e-6);
+        assert!((m.sliding_friction_n_m(0.0) - 0.20).abs() < 1e-6, "FDJ + S = 2·FSJ at rest");
+        assert!((m.sliding_friction_n_m(5.0) - (0.07 + 0.13 * libm::expf(-1.0))).abs() < 1e-6);
+        assert_eq!(m.sliding_friction_n_m(-30.0), 0.07);
+        // 0.15 N·m breaks the healthy shaft loose, not the one with stiction
+        assert_eq!(m.friction_step(0.0, 0.15, 0.0), 0.0);
+        assert!(model(FaultVector::HEALTHY.0).friction_step(0.0, 0.15, 0.0) > 0.0);
+    }
+
+    #[test]
+    fn saturation_costs_a_fifth_of_the_torque_constant_at_15_a() {
+        let m = with_effect(FaultVector::HEALTHY.0, EffectId::Saturation, 1.0); // I_sat = 30 A
+        let mut k = [0.13f32; 3];
+        m.saturate(&mut k, -15.0);
+        assert!(k.iter().all(|&kj| (kj - 0.13 * 0.8).abs() < 1e-6), "{k:?}");
+        let mut k = [0.13f32; 3];
+        with_effect(FaultVector::HEALTHY.0, EffectId::Saturation, 0.5).saturate(&mut k, 15.0);
+        assert!((k[0] - 0.13 / (1.0 + 0.0625)).abs() < 1e-6, "I_sat = 60 A: {k:?}");
+    }
+
+    #[test]
+    fn dead_time_lowers_the_locked_rotor_current_by_2_delta_v_over_r() {
+        // As rl_current_step_at_locked_rotor: 20 V over R_eq = 1 Ω, ΔV = 8 V per phase
+        // → steady state (20 − 16)/1 = 4 A instead of 20 A.
+        let mut p = EmaParams::NOMINAL;
+        p.current_loop_lag_s = 1e-9;
+        p.current_limit_a = 1e6;
+        p.supply_voltage_v = 20.0;
+        let mut f = FaultVector::HEALTHY.physical(&p);
+        f.static_friction_n_m = 1e9;
+        f.dynamic_friction_n_m = 1e9;
+        let fx = ModelEffects::NONE.with(EffectId::DeadTime, 1.0).unwrap();
+        let m = MonitorModel::from_physics_with_effects(&p, &f, &fx);
+        let mut s = ModelState::at_rest();
+        for _ in 0..2000 {
+            m.step(&mut s, 0.5);
+        }
+        assert!((s.current_a - 4.0).abs() < 0.01, "{}", s.current_a);
+        // and it moves the commutation dip onset from 4E = V_dc down to 4E = V_dc − 4ΔV (the common
+        // phase's drive and the outgoing phase's decay each carry ΔV twice)
+        let at_onset = |dead_time_v: f32| (270.0 - 4.0 * dead_time_v) / (4.0 * 0.13);
+        let k = [0.13f32; 3];
+        let dead = with_effect(FaultVector::HEALTHY.0, EffectId::DeadTime, 1.0);
+        assert_eq!(dead.commutation(&k, 0, 0.99 * at_onset(8.0)).drop_fraction, 0.0);
+        assert!(dead.commutation(&k, 0, 1.01 * at_onset(8.0)).drop_fraction > 0.0);
+        let healthy = model(FaultVector::HEALTHY.0);
+        let w = 0.98 * at_onset(0.0);
+        assert_eq!(healthy.commutation(&k, 0, w).drop_fraction, 0.0);
+        assert!(dead.commutation(&k, 0, w).drop_fraction > 0.0);
+    }
+
     #[test]
     fn commutation_roles_follow_the_six_step_table() {
         // forward 0 → 1: (a+, b−) → (a+, c−): a stays, b leaves, c enters
