@@ -45,6 +45,22 @@ pub fn simulate_window_with_effects(
     mut sink: impl FnMut(usize, f32, &ModelState) -> bool,
 ) {
     let model = MonitorModel::with_effects(params, k, effects);
+    // The step's effect terms chosen once per window, not per step (MonitorModel::step_with).
+    if model.has_step_terms() {
+        run_window::<true>(&model, params, profile, samples, &mut sink);
+    } else {
+        run_window::<false>(&model, params, profile, samples, &mut sink);
+    }
+}
+
+/// The loop of [`simulate_window_with_effects`] with (`TERMS`) or without the step's effect terms.
+fn run_window<const TERMS: bool>(
+    model: &MonitorModel,
+    params: &EmaParams,
+    profile: &Profile,
+    samples: usize,
+    sink: &mut impl FnMut(usize, f32, &ModelState) -> bool,
+) {
     let envelope = MeasuredEnvelope::of(params);
     let dt = model.dt_s();
     let mut state = ModelState::at_rest();
@@ -54,7 +70,7 @@ pub fn simulate_window_with_effects(
         let mut block = 0.0f32;
         for _ in 0..DECIMATION {
             block += envelope.expected_a(state.output_current_a);
-            model.step(&mut state, command.command_rad(step as f32 * dt));
+            model.step_with::<TERMS>(&mut state, command.command_rad(step as f32 * dt));
             step += 1;
         }
         if !sink(i, block * (1.0 / DECIMATION as f32), &state) {

@@ -153,6 +153,8 @@ pub struct MonitorModel {
 /// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct MechEffects {
+    /// Any of the four on ([`MonitorModel::has_step_terms`]).
+    on: bool,
     /// Cogging amplitude `A`.
     cogging_torque_n_m: f32,
     /// `24·T`: cogging phase advance per step per rad/s.
@@ -244,14 +246,20 @@ impl MonitorModel {
             (f.static_friction_n_m, 0.0)
         };
         let s_saturation = effects.get(EffectId::Saturation) * (1.0 / maxima::SATURATION_CURRENT_A);
-        let mech_effects = MechEffects {
+        let mut mech_effects = MechEffects {
             cogging_torque_n_m: effects.get(EffectId::Cogging) * maxima::COGGING_TORQUE_N_M,
             cogging_phase_per_speed_s: maxima::COGGING_CYCLES_PER_REV * params.control_period_s,
             stribeck_excess_n_m,
             stribeck_inv_speed_sq_s2: 1.0 / (maxima::STRIBECK_SPEED_RAD_PER_S * maxima::STRIBECK_SPEED_RAD_PER_S),
             saturation_inv_current_sq_per_a2: s_saturation * s_saturation,
             dead_time_pair_v: 2.0 * effects.get(EffectId::DeadTime) * maxima::DEAD_TIME_V,
+            on: false,
         };
+        let fx = &mech_effects;
+        mech_effects.on = fx.cogging_torque_n_m != 0.0
+            || fx.stribeck_excess_n_m != 0.0
+            || fx.saturation_inv_current_sq_per_a2 != 0.0
+            || fx.dead_time_pair_v != 0.0;
         let p = &nominal;
         let mut phase_k = [0.0; 3];
         let mut phase_r = [0.0f32; 3];
@@ -369,12 +377,32 @@ impl MonitorModel {
 
     /// Advances the model one control period under the surface command `command_rad`.
     pub fn step(&self, s: &mut ModelState, command_rad: f32) {
+        if self.has_step_terms() {
+            self.step_with::<true>(s, command_rad);
+        } else {
+            self.step_with::<false>(s, command_rad);
+        }
+    }
+
+    /// `true` when an effect term of [`MonitorModel::step`] is on (cogging, Stribeck, saturation,
+    /// dead time): a loop of steps should then run `step_with::<true>`, otherwise `::<false>`.
+    pub fn has_step_terms(&self) -> bool {
+        self.mech_effects.on
+    }
+
+    /// [`MonitorModel::step`], compiled once without (`MECH = false`: the paper model, bit for bit
+    /// and at its cost) and once with the cogging, Stribeck, saturation and dead-time terms. Choose
+    /// with [`MonitorModel::has_step_terms`] **outside** the loop: a run-time guard per term inside
+    /// it (and the out-of-line `expf` it may call) cost 5–9 % of the on-board identification even
+    /// with every term off (QEMU instruction count).
+    #[inline(always)]
+    pub fn step_with<const MECH: bool>(&self, s: &mut ModelState, command_rad: f32) {
         let i_ref = self.control(s, command_rad, s.surface_angle_rad);
 
         // Electrical: first-order loop toward I_ref, limited by the voltage left across the pair.
         let sector = Self::sector(s);
         let mut k_phase = self.phase_emf_constants(s);
-        if self.mech_effects.saturation_inv_current_sq_per_a2 != 0.0 {
+        if MECH && self.mech_effects.saturation_inv_current_sq_per_a2 != 0.0 {
             self.saturate(&mut k_phase, s.current_a);
         }
         let (p, q) = PAIRS[sector];
@@ -387,7 +415,7 @@ impl MonitorModel {
         let commutation = if motoring { Some(self.commutation(&k_phase, sector, w)) } else { None };
         let wanted = i_ref + (i - i_ref) * self.lag_factor - i;
         let mut back = self.pair_r[sector] * i + k_eq * w;
-        if self.mech_effects.dead_time_pair_v != 0.0 {
+        if MECH && self.mech_effects.dead_time_pair_v != 0.0 {
             back += self.mech_effects.dead_time_pair_v * sign(i);
         }
         let mut up = dt_over_l * (self.supply_voltage_v - back);
@@ -410,10 +438,10 @@ impl MonitorModel {
         let torque_motor = k_eq * (s.output_current_a - torque_loss_a);
         let torque_load = -self.hinge_at_motor_n_m_per_rad * s.surface_angle_rad;
         let mut torque_active = torque_motor - self.viscous_n_m_s * w;
-        if self.mech_effects.cogging_torque_n_m != 0.0 {
+        if MECH && self.mech_effects.cogging_torque_n_m != 0.0 {
             torque_active += self.cogging_n_m(s.motor_angle_wrapped_rad, w);
         }
-        let w_new = self.friction_step(w, torque_active, torque_load);
+        let w_new = self.friction_step_with::<MECH>(w, torque_active, torque_load);
         s.motor_speed_rad_s = w_new;
         let d_theta = w_new * self.dt_s;
         s.motor_angle_rad += d_theta;
@@ -541,9 +569,9 @@ impl MonitorModel {
 
     /// Sliding friction without the load term: `FDJ`, plus the Stribeck excess `S·exp(−ω²/ω_s²)`
     /// when that effect is on (negligible, < 1e-7·S, and skipped beyond `4ω_s`).
-    fn sliding_friction_n_m(&self, w: f32) -> f32 {
+    fn sliding_friction_n_m<const MECH: bool>(&self, w: f32) -> f32 {
         let fx = &self.mech_effects;
-        if fx.stribeck_excess_n_m == 0.0 {
+        if !MECH || fx.stribeck_excess_n_m == 0.0 {
             return self.dynamic_friction_n_m;
         }
         let r2 = w * w * fx.stribeck_inv_speed_sq_s2;
@@ -558,6 +586,16 @@ impl MonitorModel {
     /// `torque_active` = motor torque minus viscous; `torque_load` = load reflected to the motor.
     /// The motor is stuck only when `ω` is exactly 0; a slip step that would reverse `ω` stops it.
     pub fn friction_step(&self, w: f32, torque_active: f32, torque_load: f32) -> f32 {
+        if self.mech_effects.on {
+            self.friction_step_with::<true>(w, torque_active, torque_load)
+        } else {
+            self.friction_step_with::<false>(w, torque_active, torque_load)
+        }
+    }
+
+    /// [`MonitorModel::friction_step`] with (`MECH`) or without the Stribeck term.
+    #[inline(always)]
+    fn friction_step_with<const MECH: bool>(&self, w: f32, torque_active: f32, torque_load: f32) -> f32 {
         let dt_over_j = self.dt_over_j;
         let load_term = |direction: f32| -> f32 {
             let opposing = torque_load * direction < 0.0;
@@ -566,7 +604,7 @@ impl MonitorModel {
         let net = torque_active + torque_load;
         if w != 0.0 {
             let d = sign(w);
-            let friction = self.sliding_friction_n_m(w) + load_term(d);
+            let friction = self.sliding_friction_n_m::<MECH>(w) + load_term(d);
             let w_new = w + dt_over_j * (net - d * friction);
             if w_new * w < 0.0 {
                 0.0
@@ -579,7 +617,7 @@ impl MonitorModel {
             if libm::fabsf(net) <= breakaway {
                 0.0
             } else {
-                let friction = self.sliding_friction_n_m(0.0) + load_term(d);
+                let friction = self.sliding_friction_n_m::<MECH>(0.0) + load_term(d);
                 dt_over_j * (net - d * friction)
             }
         }
@@ -814,7 +852,12 @@ mod tests {
         assert_eq!(m.mech_effects.stribeck_excess_n_m, 0.0);
         assert_eq!(m.mech_effects.saturation_inv_current_sq_per_a2, 0.0);
         assert_eq!(m.mech_effects.dead_time_pair_v, 0.0);
-        assert_eq!(m.sliding_friction_n_m(0.0), m.dynamic_friction_n_m);
+        assert!(!m.has_step_terms());
+        assert!(!with_effect(FaultVector::HEALTHY.0, EffectId::Viscous, 1.0).has_step_terms(), "a parameter");
+        for e in [EffectId::Cogging, EffectId::Stribeck, EffectId::Saturation, EffectId::DeadTime] {
+            assert!(with_effect(FaultVector::HEALTHY.0, e, 0.1).has_step_terms(), "{e:?}");
+        }
+        assert_eq!(m.sliding_friction_n_m::<true>(0.0), m.dynamic_friction_n_m);
         let none = MonitorModel::with_effects(&EmaParams::NOMINAL, &FaultVector::HEALTHY, &ModelEffects::NONE);
         assert_eq!(none, m);
     }
@@ -822,7 +865,7 @@ mod tests {
     #[test]
     fn cogging_term_is_the_step_mean_of_the_sine() {
         let m = with_effect(FaultVector::HEALTHY.0, EffectId::Cogging, 0.5); // A = 0.02 N·m
-                                                                             // at rest: A·sin(24θ_m), positive in the torque balance as in the reference model
+                                                                             // At rest: A·sin(24θ_m), positive in the torque balance as in the reference model.
         let theta = 0.3f32;
         assert!((m.cogging_n_m(theta, 0.0) - 0.02 * libm::sinf(24.0 * theta)).abs() < 1e-6);
         // at 300 rad/s one step spans 0.72 rad of cogging phase: the mean of 200 sub-steps
@@ -838,9 +881,9 @@ mod tests {
     fn stribeck_doubles_the_breakaway_and_decays_to_the_sliding_level() {
         let m = with_effect(FaultVector::HEALTHY.0, EffectId::Stribeck, 1.0); // FSJ 0.10, FDJ 0.07
         assert!((m.static_friction_n_m - 0.20).abs() < 1e-6);
-        assert!((m.sliding_friction_n_m(0.0) - 0.20).abs() < 1e-6, "FDJ + S = 2·FSJ at rest");
-        assert!((m.sliding_friction_n_m(5.0) - (0.07 + 0.13 * libm::expf(-1.0))).abs() < 1e-6);
-        assert_eq!(m.sliding_friction_n_m(-30.0), 0.07);
+        assert!((m.sliding_friction_n_m::<true>(0.0) - 0.20).abs() < 1e-6, "FDJ + S = 2·FSJ at rest");
+        assert!((m.sliding_friction_n_m::<true>(5.0) - (0.07 + 0.13 * libm::expf(-1.0))).abs() < 1e-6);
+        assert_eq!(m.sliding_friction_n_m::<true>(-30.0), 0.07);
         // 0.15 N·m breaks the healthy shaft loose, not the one with stiction
         assert_eq!(m.friction_step(0.0, 0.15, 0.0), 0.0);
         assert!(model(FaultVector::HEALTHY.0).friction_step(0.0, 0.15, 0.0) > 0.0);

@@ -131,7 +131,9 @@ fn no_effect_is_the_paper_model_bit_for_bit() {
     let k = FaultVector([0.3, 0.7, 0.2, 0.9, 0.1, 0.8, 0.1, 0.35]);
     let plain = MonitorModel::new(&EmaParams::NOMINAL, &k);
     let none = MonitorModel::with_effects(&EmaParams::NOMINAL, &k, &ModelEffects::NONE);
-    let (mut a, mut b) = (ModelState::at_rest(), ModelState::at_rest());
+    assert!(!none.has_step_terms());
+    // and the step compiled with the effect terms, run with every severity 0
+    let (mut a, mut b, mut c) = (ModelState::at_rest(), ModelState::at_rest(), ModelState::at_rest());
     let profile = Profile::STANDARD;
     let steps = (profile.duration_s() / plain.dt_s()) as usize;
     let bits = |s: &ModelState| {
@@ -153,7 +155,9 @@ fn no_effect_is_the_paper_model_bit_for_bit() {
         let command = profile.command_rad(step as f32 * plain.dt_s());
         plain.step(&mut a, command);
         none.step(&mut b, command);
+        none.step_with::<true>(&mut c, command);
         assert_eq!(bits(&a), bits(&b), "step {step}");
+        assert_eq!(bits(&a), bits(&c), "step {step}");
     }
     let mut window = Vec::new();
     simulate_window(&EmaParams::NOMINAL, &profile, &k, 2000, |_, v, _| {
