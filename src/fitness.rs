@@ -45,6 +45,23 @@ pub fn simulate_window_with_effects(
     mut sink: impl FnMut(usize, f32, &ModelState) -> bool,
 ) {
     let model = MonitorModel::with_effects(params, k, effects);
+    // The step's effect terms chosen once per window, not per step (MonitorModel::step_with).
+    if model.has_step_terms() {
+        run_window::<true>(&model, params, effects, profile, samples, &mut sink);
+    } else {
+        run_window::<false>(&model, params, effects, profile, samples, &mut sink);
+    }
+}
+
+/// The loop of [`simulate_window_with_effects`] with (`TERMS`) or without the step's effect terms.
+fn run_window<const TERMS: bool>(
+    model: &MonitorModel,
+    params: &EmaParams,
+    effects: &ModelEffects,
+    profile: &Profile,
+    samples: usize,
+    sink: &mut impl FnMut(usize, f32, &ModelState) -> bool,
+) {
     let envelope = MeasuredEnvelope::of(params);
     let sensors = SensorErrorEnvelope::of(params, effects);
     let dt = model.dt_s();
@@ -58,7 +75,7 @@ pub fn simulate_window_with_effects(
                 Some(e) => e.expected_a(model.commutation_sector(&state), state.output_current_a),
                 None => envelope.expected_a(state.output_current_a),
             };
-            model.step(&mut state, command.command_rad(step as f32 * dt));
+            model.step_with::<TERMS>(&mut state, command.command_rad(step as f32 * dt));
             step += 1;
         }
         if !sink(i, block * (1.0 / DECIMATION as f32), &state) {

@@ -142,6 +142,36 @@ pub struct MonitorModel {
     emf_shape: Option<EmfShape>,
     /// Current loop on measured currents (`sensor_offset`), `None` when off.
     sensor_loop: Option<SensorLoop>,
+    /// Mechanical and drive effect terms (all zero when off).
+    mech_effects: MechEffects,
+}
+
+/// Constants of the cogging, Stribeck, saturation and dead-time terms (0 = off), precomputed from
+/// the severities in [`MonitorModel::from_physics_with_effects`]:
+///
+/// ```text
+/// cogging     T_cog = A·sin(24·θ_m),  A = s·0.04 N·m (θ_m from 0 at rest, as in the reference);
+///             the model uses its step mean A·sin(24θ_m + x/2)·sin(x/2)/(x/2), x = 24·ω·T
+/// stribeck    breakaway FSJ·(1 + s),  sliding FDJ + S·exp(−ω²/ω_s²),  S = s·(2·FSJ − FDJ)
+/// saturation  k_j ×1/(1 + (I/I_sat)²),  1/I_sat² = (s/30 A)²  (I = |I| of the conducting pair)
+/// dead_time   −sign(i_j)·ΔV on both conducting phases: the pair loses 2ΔV·sign(I), ΔV = s·8 V
+/// ```
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct MechEffects {
+    /// Any of the four on ([`MonitorModel::has_step_terms`]).
+    on: bool,
+    /// Cogging amplitude `A`.
+    cogging_torque_n_m: f32,
+    /// `24·T`: cogging phase advance per step per rad/s.
+    cogging_phase_per_speed_s: f32,
+    /// Stribeck excess `S` at zero speed.
+    stribeck_excess_n_m: f32,
+    /// `1/ω_s²`.
+    stribeck_inv_speed_sq_s2: f32,
+    /// `1/I_sat²`.
+    saturation_inv_current_sq_per_a2: f32,
+    /// `2ΔV`: the pair's dead-time voltage against its current.
+    dead_time_pair_v: f32,
 }
 
 /// The commutation into a sector, per ampere of the current it carries
@@ -195,6 +225,9 @@ impl MonitorModel {
     /// viscous              C_m += s·5e-4 N·m·s/rad
     /// hinge_stiffness      K_h ×(1 + s)
     /// ```
+    ///
+    /// Cogging, Stribeck, saturation and dead time are terms of [`MonitorModel::step`] whose
+    /// constants are precomputed here (equations at `MechEffects`).
     pub fn from_physics_with_effects(params: &EmaParams, f: &FaultPhysics, effects: &ModelEffects) -> Self {
         let mut nominal = *params;
         let temperature_rise_k = effects.get(EffectId::WindingTemperature) * maxima::WINDING_TEMPERATURE_RISE_K;
@@ -210,6 +243,28 @@ impl MonitorModel {
         if hinge != 0.0 {
             nominal.hinge_stiffness_n_m_per_rad *= 1.0 + hinge * maxima::HINGE_STIFFNESS_GAIN;
         }
+        let s_stribeck = effects.get(EffectId::Stribeck);
+        let (static_friction_n_m, stribeck_excess_n_m) = if s_stribeck != 0.0 {
+            let (fsj, fdj, gain) = (f.static_friction_n_m, f.dynamic_friction_n_m, maxima::STRIBECK_STICTION_GAIN);
+            (fsj * (1.0 + s_stribeck * gain), s_stribeck * ((1.0 + gain) * fsj - fdj))
+        } else {
+            (f.static_friction_n_m, 0.0)
+        };
+        let s_saturation = effects.get(EffectId::Saturation) * (1.0 / maxima::SATURATION_CURRENT_A);
+        let mut mech_effects = MechEffects {
+            cogging_torque_n_m: effects.get(EffectId::Cogging) * maxima::COGGING_TORQUE_N_M,
+            cogging_phase_per_speed_s: maxima::COGGING_CYCLES_PER_REV * params.control_period_s,
+            stribeck_excess_n_m,
+            stribeck_inv_speed_sq_s2: 1.0 / (maxima::STRIBECK_SPEED_RAD_PER_S * maxima::STRIBECK_SPEED_RAD_PER_S),
+            saturation_inv_current_sq_per_a2: s_saturation * s_saturation,
+            dead_time_pair_v: 2.0 * effects.get(EffectId::DeadTime) * maxima::DEAD_TIME_V,
+            on: false,
+        };
+        let fx = &mech_effects;
+        mech_effects.on = fx.cogging_torque_n_m != 0.0
+            || fx.stribeck_excess_n_m != 0.0
+            || fx.saturation_inv_current_sq_per_a2 != 0.0
+            || fx.dead_time_pair_v != 0.0;
         let p = &nominal;
         let mut phase_k = [0.0; 3];
         let mut phase_r = [0.0f32; 3];
@@ -247,7 +302,7 @@ impl MonitorModel {
             kd: p.kd_a_s_per_rad,
             derivative_gain: p.control_period_s / p.derivative_filter_s,
             viscous_n_m_s: p.viscous_friction_n_m_s_per_rad,
-            static_friction_n_m: f.static_friction_n_m,
+            static_friction_n_m,
             dynamic_friction_n_m: f.dynamic_friction_n_m,
             opposing_load_factor: 1.0 / p.efficiency_opposing - 1.0,
             aiding_load_factor: 1.0 - p.efficiency_aiding,
@@ -265,6 +320,7 @@ impl MonitorModel {
             effects: *effects,
             emf_shape: EmfShape::of(effects),
             sensor_loop: SensorLoop::of(effects),
+            mech_effects,
         }
     }
 
@@ -350,11 +406,34 @@ impl MonitorModel {
 
     /// Advances the model one control period under the surface command `command_rad`.
     pub fn step(&self, s: &mut ModelState, command_rad: f32) {
+        if self.has_step_terms() {
+            self.step_with::<true>(s, command_rad);
+        } else {
+            self.step_with::<false>(s, command_rad);
+        }
+    }
+
+    /// `true` when an effect term of [`MonitorModel::step`] is on (cogging, Stribeck, saturation,
+    /// dead time): a loop of steps should then run `step_with::<true>`, otherwise `::<false>`.
+    pub fn has_step_terms(&self) -> bool {
+        self.mech_effects.on
+    }
+
+    /// [`MonitorModel::step`], compiled once without (`MECH = false`: the paper model, bit for bit
+    /// and at its cost) and once with the cogging, Stribeck, saturation and dead-time terms. Choose
+    /// with [`MonitorModel::has_step_terms`] **outside** the loop: a run-time guard per term inside
+    /// it (and the out-of-line `expf` it may call) cost 5–9 % of the on-board identification even
+    /// with every term off (QEMU instruction count).
+    #[inline(always)]
+    pub fn step_with<const MECH: bool>(&self, s: &mut ModelState, command_rad: f32) {
         let i_ref = self.control(s, command_rad, s.surface_angle_rad);
 
         // Electrical: first-order loop toward I_ref, limited by the voltage left across the pair.
         let sector = self.commutation_sector(s);
-        let k_phase = self.phase_emf_constants(s);
+        let mut k_phase = self.phase_emf_constants(s);
+        if MECH && self.mech_effects.saturation_inv_current_sq_per_a2 != 0.0 {
+            self.saturate(&mut k_phase, s.current_a);
+        }
         let k_eq = self.pair_k(&k_phase, sector, s);
         let dt_over_l = self.pair_dt_over_l[sector];
         let i = s.current_a;
@@ -362,7 +441,10 @@ impl MonitorModel {
         // Commutation terms only while motoring (before or after this step's current change).
         let motoring = i * w > 0.0 || i_ref * w > 0.0;
         let commutation = if motoring { Some(self.commutation(&k_phase, sector, w)) } else { None };
-        let back = self.pair_r[sector] * i + k_eq * w;
+        let mut back = self.pair_r[sector] * i + k_eq * w;
+        if MECH && self.mech_effects.dead_time_pair_v != 0.0 {
+            back += self.mech_effects.dead_time_pair_v * sign(i);
+        }
         let i_ref = match &self.sensor_loop {
             Some(sensors) => sensors.target_a(sector, i_ref, back),
             None => i_ref,
@@ -387,8 +469,11 @@ impl MonitorModel {
         // Mechanical: torque balance at the motor shaft with Borello dry friction.
         let torque_motor = k_eq * (s.output_current_a - torque_loss_a);
         let torque_load = -self.hinge_at_motor_n_m_per_rad * s.surface_angle_rad;
-        let torque_active = torque_motor - self.viscous_n_m_s * w;
-        let w_new = self.friction_step(w, torque_active, torque_load);
+        let mut torque_active = torque_motor - self.viscous_n_m_s * w;
+        if MECH && self.mech_effects.cogging_torque_n_m != 0.0 {
+            torque_active += self.cogging_n_m(s.motor_angle_wrapped_rad, w);
+        }
+        let w_new = self.friction_step_with::<MECH>(w, torque_active, torque_load);
         s.motor_speed_rad_s = w_new;
         let d_theta = w_new * self.dt_s;
         s.motor_angle_rad += d_theta;
@@ -438,12 +523,12 @@ impl MonitorModel {
         };
         let (c, o, n) = commutation_roles(sector, w > 0.0);
         let speed = libm::fabsf(w);
-        let v = self.supply_voltage_v;
+        let (v, dv) = (self.supply_voltage_v, self.mech_effects.dead_time_pair_v);
         let (e_c, e_o, e_n) = (k[c] * speed, k[o] * speed, k[n] * speed);
         let (y_c, y_o, y_n) = (self.phase_inv_l[c], self.phase_inv_l[o], self.phase_inv_l[n]);
         let inv_y = 1.0 / (y_c + y_o + y_n);
-        let decay = y_o * inv_y * (y_c * (e_c + e_o) + y_n * (v + e_o - e_n));
-        let common = y_c * inv_y * (y_n * (v - e_c - e_n) - y_o * (e_c + e_o));
+        let decay = y_o * inv_y * (y_c * (e_c + e_o + dv) + y_n * (v + e_o - e_n));
+        let common = y_c * inv_y * (y_n * (v - dv - e_c - e_n) - y_o * (e_c + e_o + dv));
         let sector_time_s = self.sector_angle_rad / speed;
         let (time_s_per_a, drop_fraction) = if decay > 0.0 {
             (1.0 / decay, if common < 0.0 { -common / decay } else { 0.0 })
@@ -458,9 +543,11 @@ impl MonitorModel {
         Commutation { time_s_per_a, drop_fraction, sector_time_s, pair_emf_v: pair_k * speed }
     }
 
-    /// The recovery slope `(V_dc − K_eq|ω| − R_eq|I|)/L_eq` of the new pair after `t_c`.
+    /// The recovery slope `(V_dc − 2ΔV − K_eq|ω| − R_eq|I|)/L_eq` of the new pair after `t_c`.
     fn recovery_a_per_s(&self, sector: usize, k_eq_speed_v: f32, i_abs: f32) -> f32 {
-        (self.supply_voltage_v - k_eq_speed_v - self.pair_r[sector] * i_abs) * self.pair_dt_over_l[sector] * self.inv_dt
+        (self.supply_voltage_v - self.mech_effects.dead_time_pair_v - k_eq_speed_v - self.pair_r[sector] * i_abs)
+            * self.pair_dt_over_l[sector]
+            * self.inv_dt
     }
 
     /// Largest change of `|I|` over one step while motoring above the dip onset: per sector the
@@ -504,10 +591,56 @@ impl MonitorModel {
         }
     }
 
+    /// Saturation effect: `k_j ×1/(1 + (I/I_sat)²)` with the pair current `I` at the step's start
+    /// (the reference model's `I = ½Σ|i_j|`).
+    fn saturate(&self, k: &mut [f32; 3], i: f32) {
+        let factor = 1.0 / (1.0 + i * i * self.mech_effects.saturation_inv_current_sq_per_a2);
+        for kj in k.iter_mut() {
+            *kj *= factor;
+        }
+    }
+
+    /// Cogging effect: the mean of `A·sin(24·θ_m)` over the step from `θ_m` at speed `ω`,
+    /// `A·sin(24θ_m + x/2)·sin(x/2)/(x/2)` with `x = 24·ω·T` (the control step spans up to a third
+    /// of a cogging period at full speed, where the reference model, at 1 µs, sees its mean).
+    fn cogging_n_m(&self, motor_angle_wrapped_rad: f32, w: f32) -> f32 {
+        let fx = &self.mech_effects;
+        let half = 0.5 * fx.cogging_phase_per_speed_s * w;
+        let phase = maxima::COGGING_CYCLES_PER_REV * motor_angle_wrapped_rad + half;
+        let (sin_phase, _) = crate::trig::sin_cos(phase);
+        let mean = if libm::fabsf(half) > 1e-3 { crate::trig::sin_cos(half).0 / half } else { 1.0 };
+        fx.cogging_torque_n_m * sin_phase * mean
+    }
+
+    /// Sliding friction without the load term: `FDJ`, plus the Stribeck excess `S·exp(−ω²/ω_s²)`
+    /// when that effect is on (negligible, < 1e-7·S, and skipped beyond `4ω_s`).
+    fn sliding_friction_n_m<const MECH: bool>(&self, w: f32) -> f32 {
+        let fx = &self.mech_effects;
+        if !MECH || fx.stribeck_excess_n_m == 0.0 {
+            return self.dynamic_friction_n_m;
+        }
+        let r2 = w * w * fx.stribeck_inv_speed_sq_s2;
+        if r2 < 16.0 {
+            self.dynamic_friction_n_m + fx.stribeck_excess_n_m * libm::expf(-r2)
+        } else {
+            self.dynamic_friction_n_m
+        }
+    }
+
     /// Borello dry friction (physics.md §3.7): the four cases stuck/breakaway/slip/stop.
     /// `torque_active` = motor torque minus viscous; `torque_load` = load reflected to the motor.
     /// The motor is stuck only when `ω` is exactly 0; a slip step that would reverse `ω` stops it.
     pub fn friction_step(&self, w: f32, torque_active: f32, torque_load: f32) -> f32 {
+        if self.mech_effects.on {
+            self.friction_step_with::<true>(w, torque_active, torque_load)
+        } else {
+            self.friction_step_with::<false>(w, torque_active, torque_load)
+        }
+    }
+
+    /// [`MonitorModel::friction_step`] with (`MECH`) or without the Stribeck term.
+    #[inline(always)]
+    fn friction_step_with<const MECH: bool>(&self, w: f32, torque_active: f32, torque_load: f32) -> f32 {
         let dt_over_j = self.dt_over_j;
         let load_term = |direction: f32| -> f32 {
             let opposing = torque_load * direction < 0.0;
@@ -516,7 +649,7 @@ impl MonitorModel {
         let net = torque_active + torque_load;
         if w != 0.0 {
             let d = sign(w);
-            let friction = self.dynamic_friction_n_m + load_term(d);
+            let friction = self.sliding_friction_n_m::<MECH>(w) + load_term(d);
             let w_new = w + dt_over_j * (net - d * friction);
             if w_new * w < 0.0 {
                 0.0
@@ -529,7 +662,7 @@ impl MonitorModel {
             if libm::fabsf(net) <= breakaway {
                 0.0
             } else {
-                let friction = self.dynamic_friction_n_m + load_term(d);
+                let friction = self.sliding_friction_n_m::<MECH>(0.0) + load_term(d);
                 dt_over_j * (net - d * friction)
             }
         }
@@ -750,6 +883,97 @@ mod tests {
         let (dn, tn) = at(-15.0, -686.0);
         assert!((dn + d).abs() < 1e-6 && (tn + torque).abs() < 1e-6, "odd in the current");
         assert_eq!(at(15.0, -686.0), (0.0, 0.0), "nothing when braking");
+    }
+
+    fn with_effect(k: [f32; 8], effect: EffectId, severity: f32) -> MonitorModel {
+        let fx = ModelEffects::NONE.with(effect, severity).unwrap();
+        MonitorModel::with_effects(&EmaParams::NOMINAL, &FaultVector(k), &fx)
+    }
+
+    #[test]
+    fn effect_terms_are_off_by_default() {
+        let m = model(FaultVector::HEALTHY.0);
+        assert_eq!(m.mech_effects.cogging_torque_n_m, 0.0);
+        assert_eq!(m.mech_effects.stribeck_excess_n_m, 0.0);
+        assert_eq!(m.mech_effects.saturation_inv_current_sq_per_a2, 0.0);
+        assert_eq!(m.mech_effects.dead_time_pair_v, 0.0);
+        assert!(!m.has_step_terms());
+        assert!(!with_effect(FaultVector::HEALTHY.0, EffectId::Viscous, 1.0).has_step_terms(), "a parameter");
+        for e in [EffectId::Cogging, EffectId::Stribeck, EffectId::Saturation, EffectId::DeadTime] {
+            assert!(with_effect(FaultVector::HEALTHY.0, e, 0.1).has_step_terms(), "{e:?}");
+        }
+        assert_eq!(m.sliding_friction_n_m::<true>(0.0), m.dynamic_friction_n_m);
+        let none = MonitorModel::with_effects(&EmaParams::NOMINAL, &FaultVector::HEALTHY, &ModelEffects::NONE);
+        assert_eq!(none, m);
+    }
+
+    #[test]
+    fn cogging_term_is_the_step_mean_of_the_sine() {
+        let m = with_effect(FaultVector::HEALTHY.0, EffectId::Cogging, 0.5); // A = 0.02 N·m
+                                                                             // At rest: A·sin(24θ_m), positive in the torque balance as in the reference model.
+        let theta = 0.3f32;
+        assert!((m.cogging_n_m(theta, 0.0) - 0.02 * libm::sinf(24.0 * theta)).abs() < 1e-6);
+        // at 300 rad/s one step spans 0.72 rad of cogging phase: the mean of 200 sub-steps
+        let w = 300.0f32;
+        let n = 200;
+        let mean: f32 =
+            (0..n).map(|j| 0.02 * libm::sinf(24.0 * (theta + w * m.dt_s() * (j as f32 + 0.5) / n as f32))).sum::<f32>()
+                / n as f32;
+        assert!((m.cogging_n_m(theta, w) - mean).abs() < 1e-5, "{} vs {mean}", m.cogging_n_m(theta, w));
+    }
+
+    #[test]
+    fn stribeck_doubles_the_breakaway_and_decays_to_the_sliding_level() {
+        let m = with_effect(FaultVector::HEALTHY.0, EffectId::Stribeck, 1.0); // FSJ 0.10, FDJ 0.07
+        assert!((m.static_friction_n_m - 0.20).abs() < 1e-6);
+        assert!((m.sliding_friction_n_m::<true>(0.0) - 0.20).abs() < 1e-6, "FDJ + S = 2·FSJ at rest");
+        assert!((m.sliding_friction_n_m::<true>(5.0) - (0.07 + 0.13 * libm::expf(-1.0))).abs() < 1e-6);
+        assert_eq!(m.sliding_friction_n_m::<true>(-30.0), 0.07);
+        // 0.15 N·m breaks the healthy shaft loose, not the one with stiction
+        assert_eq!(m.friction_step(0.0, 0.15, 0.0), 0.0);
+        assert!(model(FaultVector::HEALTHY.0).friction_step(0.0, 0.15, 0.0) > 0.0);
+    }
+
+    #[test]
+    fn saturation_costs_a_fifth_of_the_torque_constant_at_15_a() {
+        let m = with_effect(FaultVector::HEALTHY.0, EffectId::Saturation, 1.0); // I_sat = 30 A
+        let mut k = [0.13f32; 3];
+        m.saturate(&mut k, -15.0);
+        assert!(k.iter().all(|&kj| (kj - 0.13 * 0.8).abs() < 1e-6), "{k:?}");
+        let mut k = [0.13f32; 3];
+        with_effect(FaultVector::HEALTHY.0, EffectId::Saturation, 0.5).saturate(&mut k, 15.0);
+        assert!((k[0] - 0.13 / (1.0 + 0.0625)).abs() < 1e-6, "I_sat = 60 A: {k:?}");
+    }
+
+    #[test]
+    fn dead_time_lowers_the_locked_rotor_current_by_2_delta_v_over_r() {
+        // As rl_current_step_at_locked_rotor: 20 V over R_eq = 1 Ω, ΔV = 8 V per phase
+        // → steady state (20 − 16)/1 = 4 A instead of 20 A.
+        let mut p = EmaParams::NOMINAL;
+        p.current_loop_lag_s = 1e-9;
+        p.current_limit_a = 1e6;
+        p.supply_voltage_v = 20.0;
+        let mut f = FaultVector::HEALTHY.physical(&p);
+        f.static_friction_n_m = 1e9;
+        f.dynamic_friction_n_m = 1e9;
+        let fx = ModelEffects::NONE.with(EffectId::DeadTime, 1.0).unwrap();
+        let m = MonitorModel::from_physics_with_effects(&p, &f, &fx);
+        let mut s = ModelState::at_rest();
+        for _ in 0..2000 {
+            m.step(&mut s, 0.5);
+        }
+        assert!((s.current_a - 4.0).abs() < 0.01, "{}", s.current_a);
+        // and it moves the commutation dip onset from 4E = V_dc down to 4E = V_dc − 4ΔV (the common
+        // phase's drive and the outgoing phase's decay each carry ΔV twice)
+        let at_onset = |dead_time_v: f32| (270.0 - 4.0 * dead_time_v) / (4.0 * 0.13);
+        let k = [0.13f32; 3];
+        let dead = with_effect(FaultVector::HEALTHY.0, EffectId::DeadTime, 1.0);
+        assert_eq!(dead.commutation(&k, 0, 0.99 * at_onset(8.0)).drop_fraction, 0.0);
+        assert!(dead.commutation(&k, 0, 1.01 * at_onset(8.0)).drop_fraction > 0.0);
+        let healthy = model(FaultVector::HEALTHY.0);
+        let w = 0.98 * at_onset(0.0);
+        assert_eq!(healthy.commutation(&k, 0, w).drop_fraction, 0.0);
+        assert!(dead.commutation(&k, 0, w).drop_fraction > 0.0);
     }
 
     #[test]
