@@ -72,8 +72,8 @@ fn run_window<const TERMS: bool>(
         let mut block = 0.0f32;
         for _ in 0..DECIMATION {
             block += match &sensors {
-                Some(e) => e.expected_a(model.commutation_sector(&state), state.output_current_a),
-                None => envelope.expected_a(state.output_current_a),
+                Some(e) if TERMS => e.expected_a(model.commutation_sector(&state), state.output_current_a),
+                _ => envelope.expected_a(state.output_current_a),
             };
             model.step_with::<TERMS>(&mut state, command.command_rad(step as f32 * dt));
             step += 1;

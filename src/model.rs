@@ -414,9 +414,9 @@ impl MonitorModel {
     }
 
     /// `true` when an effect term of [`MonitorModel::step`] is on (cogging, Stribeck, saturation,
-    /// dead time): a loop of steps should then run `step_with::<true>`, otherwise `::<false>`.
+    /// dead time, back-EMF shape, Hall offset, sensor errors): a loop of steps should then run `step_with::<true>`, otherwise `::<false>`.
     pub fn has_step_terms(&self) -> bool {
-        self.mech_effects.on
+        self.mech_effects.on || self.emf_shape.is_some() || self.sensor_loop.is_some()
     }
 
     /// [`MonitorModel::step`], compiled once without (`MECH = false`: the paper model, bit for bit
@@ -429,25 +429,30 @@ impl MonitorModel {
         let i_ref = self.control(s, command_rad, s.surface_angle_rad);
 
         // Electrical: first-order loop toward I_ref, limited by the voltage left across the pair.
-        let sector = self.commutation_sector(s);
+        let sector = if MECH { self.commutation_sector(s) } else { Self::sector_of(s.hall_angle_rad) };
         let mut k_phase = self.phase_emf_constants(s);
         if MECH && self.mech_effects.saturation_inv_current_sq_per_a2 != 0.0 {
             self.saturate(&mut k_phase, s.current_a);
         }
-        let k_eq = self.pair_k(&k_phase, sector, s);
+        let k_eq = if MECH {
+            self.pair_k(&k_phase, sector, s)
+        } else {
+            let (p, q) = PAIRS[sector];
+            k_phase[p] + k_phase[q]
+        };
         let dt_over_l = self.pair_dt_over_l[sector];
         let i = s.current_a;
         let w = s.motor_speed_rad_s;
         // Commutation terms only while motoring (before or after this step's current change).
         let motoring = i * w > 0.0 || i_ref * w > 0.0;
-        let commutation = if motoring { Some(self.commutation(&k_phase, sector, w)) } else { None };
+        let commutation = if motoring { Some(self.commutation::<MECH>(&k_phase, sector, w)) } else { None };
         let mut back = self.pair_r[sector] * i + k_eq * w;
         if MECH && self.mech_effects.dead_time_pair_v != 0.0 {
             back += self.mech_effects.dead_time_pair_v * sign(i);
         }
         let i_ref = match &self.sensor_loop {
-            Some(sensors) => sensors.target_a(sector, i_ref, back),
-            None => i_ref,
+            Some(sensors) if MECH => sensors.target_a(sector, i_ref, back),
+            _ => i_ref,
         };
         let wanted = i_ref + (i - i_ref) * self.lag_factor - i;
         let mut up = dt_over_l * (self.supply_voltage_v - back);
@@ -511,19 +516,19 @@ impl MonitorModel {
     /// Equal phases give Carlson's `t_c = 3L|I|/(V_dc + 2E)`, `ΔI = |I|(4E − V_dc)/(V_dc + 2E)`;
     /// a shorted or eccentric phase changes both, commutation by commutation. `R` is neglected
     /// during `t_c`, as there.
-    fn commutation(&self, k: &[f32; 3], sector: usize, w: f32) -> Commutation {
+    fn commutation<const MECH: bool>(&self, k: &[f32; 3], sector: usize, w: f32) -> Commutation {
         let k_flat = k;
         let shaped;
         let k = match &self.emf_shape {
-            Some(shape) => {
+            Some(shape) if MECH => {
                 shaped = shape.commutation_k(k, sector, w > 0.0);
                 &shaped
             }
-            None => k,
+            _ => k,
         };
         let (c, o, n) = commutation_roles(sector, w > 0.0);
         let speed = libm::fabsf(w);
-        let (v, dv) = (self.supply_voltage_v, self.mech_effects.dead_time_pair_v);
+        let (v, dv) = (self.supply_voltage_v, if MECH { self.mech_effects.dead_time_pair_v } else { 0.0 });
         let (e_c, e_o, e_n) = (k[c] * speed, k[o] * speed, k[n] * speed);
         let (y_c, y_o, y_n) = (self.phase_inv_l[c], self.phase_inv_l[o], self.phase_inv_l[n]);
         let inv_y = 1.0 / (y_c + y_o + y_n);
@@ -537,8 +542,8 @@ impl MonitorModel {
         };
         let (p, q) = PAIRS[sector];
         let pair_k = match &self.emf_shape {
-            Some(shape) => shape.mean_pair_k(k_flat, sector),
-            None => k[p] + k[q],
+            Some(shape) if MECH => shape.mean_pair_k(k_flat, sector),
+            _ => k[p] + k[q],
         };
         Commutation { time_s_per_a, drop_fraction, sector_time_s, pair_emf_v: pair_k * speed }
     }
@@ -860,8 +865,8 @@ mod tests {
     fn commutation_dip_starts_at_a_quarter_of_the_bus_voltage() {
         let m = model(FaultVector::HEALTHY.0);
         let k = [0.13f32; 3];
-        let at = |i: f32, w: f32| m.commutation_losses(&m.commutation(&k, 0, w), i, w, 0);
-        let limit = |i: f32, w: f32| m.commutation_rise_limit(&m.commutation(&k, 0, w), i, w, 0);
+        let at = |i: f32, w: f32| m.commutation_losses(&m.commutation::<true>(&k, 0, w), i, w, 0);
+        let limit = |i: f32, w: f32| m.commutation_rise_limit(&m.commutation::<true>(&k, 0, w), i, w, 0);
         let onset = 270.0 / (4.0 * 0.13); // 4E = V_dc, E = k_0 ω
         assert_eq!(at(15.0, 0.98 * onset).0, 0.0);
         assert!(at(15.0, 1.05 * onset).0 > 0.0);
@@ -968,12 +973,12 @@ mod tests {
         let at_onset = |dead_time_v: f32| (270.0 - 4.0 * dead_time_v) / (4.0 * 0.13);
         let k = [0.13f32; 3];
         let dead = with_effect(FaultVector::HEALTHY.0, EffectId::DeadTime, 1.0);
-        assert_eq!(dead.commutation(&k, 0, 0.99 * at_onset(8.0)).drop_fraction, 0.0);
-        assert!(dead.commutation(&k, 0, 1.01 * at_onset(8.0)).drop_fraction > 0.0);
+        assert_eq!(dead.commutation::<true>(&k, 0, 0.99 * at_onset(8.0)).drop_fraction, 0.0);
+        assert!(dead.commutation::<true>(&k, 0, 1.01 * at_onset(8.0)).drop_fraction > 0.0);
         let healthy = model(FaultVector::HEALTHY.0);
         let w = 0.98 * at_onset(0.0);
-        assert_eq!(healthy.commutation(&k, 0, w).drop_fraction, 0.0);
-        assert!(dead.commutation(&k, 0, w).drop_fraction > 0.0);
+        assert_eq!(healthy.commutation::<true>(&k, 0, w).drop_fraction, 0.0);
+        assert!(dead.commutation::<true>(&k, 0, w).drop_fraction > 0.0);
     }
 
     #[test]
@@ -995,11 +1000,11 @@ mod tests {
         // top (its current decays faster), backward (a lag) when it is already on its ramp
         // (slower decay, smaller dip of the common phase).
         let (kp, w) = ([0.13f32; 3], 700.0);
-        let fwd_plain = plain.commutation(&kp, 1, w);
-        let fwd_hall = hall.commutation(&kp, 1, w);
+        let fwd_plain = plain.commutation::<true>(&kp, 1, w);
+        let fwd_hall = hall.commutation::<true>(&kp, 1, w);
         assert!(fwd_hall.time_s_per_a < fwd_plain.time_s_per_a);
-        let bwd_plain = plain.commutation(&kp, 0, -w);
-        let bwd_hall = hall.commutation(&kp, 0, -w);
+        let bwd_plain = plain.commutation::<true>(&kp, 0, -w);
+        let bwd_hall = hall.commutation::<true>(&kp, 0, -w);
         assert!(bwd_hall.drop_fraction < bwd_plain.drop_fraction);
         assert!(bwd_hall.time_s_per_a > bwd_plain.time_s_per_a, "the outgoing phase decays slower");
     }
@@ -1047,10 +1052,10 @@ mod tests {
         let m = model([0.0, 0.0, 0.6, 0.0, 0.0, 0.0, 0.5, 0.5]); // s_a = 0.3
         let k = [0.13 * 0.7, 0.13, 0.13];
         let w = 700.0;
-        let a_leaves = m.commutation(&k, 2, w); // forward 1 → 2: a leaves
-        let a_stays = m.commutation(&k, 1, w); // forward 0 → 1: b leaves
+        let a_leaves = m.commutation::<true>(&k, 2, w); // forward 1 → 2: a leaves
+        let a_stays = m.commutation::<true>(&k, 1, w); // forward 0 → 1: b leaves
         assert!(a_leaves.time_s_per_a < a_stays.time_s_per_a);
-        let healthy = model(FaultVector::HEALTHY.0).commutation(&[0.13; 3], 1, w);
+        let healthy = model(FaultVector::HEALTHY.0).commutation::<true>(&[0.13; 3], 1, w);
         let e = 0.13 * w;
         assert!((healthy.time_s_per_a - 3.0 * 2e-3 / (270.0 + 2.0 * e)).abs() < 1e-9);
         assert!((healthy.drop_fraction - (4.0 * e - 270.0) / (270.0 + 2.0 * e)).abs() < 1e-5);
