@@ -60,6 +60,10 @@ pub const BIC_STRONG: f64 = 10.0;
 pub const MIN_SEVERITY: f32 = 0.03;
 /// Share of the structural residual energy an effect must remove to be named.
 pub const MIN_GAP_SHARE: f64 = 0.25;
+/// A fitted severity at or above this sits at the library's documented maximum: the effect behind
+/// the residual is stronger than, or different from, the library's (a DC-link sag fits as dead
+/// time at its bound), so it is not named.
+pub const PINNED_SEVERITY: f32 = 0.98;
 /// Largest number of effects named.
 pub const MAX_NAMED: usize = 2;
 /// Structural residual RMS of the monitor model on clean reference-model recordings of the
@@ -465,6 +469,8 @@ pub struct Round {
     pub candidates: Vec<Candidate>,
     /// The winner's posterior weight, when one is named.
     pub named: Option<(EffectId, f32, f64)>,
+    /// The best candidate had the evidence but fitted at its bound ([`PINNED_SEVERITY`]).
+    pub pinned: Option<EffectId>,
 }
 
 /// `ΔBIC = n·ln(E0/E1) − (p1 − p0)·ln(n)`: positive when the second model pays for its extra
@@ -759,14 +765,18 @@ fn search_round<const W: usize>(
         .collect();
     candidates.sort_by(|a, b| b.bic_held_out.total_cmp(&a.bic_held_out));
     let weight_sum: f64 = 1.0 + candidates.iter().map(|c| (c.bic_held_out.min(1400.0) / 2.0).exp()).sum::<f64>();
-    let named = candidates.first().and_then(|c| {
-        let pass = c.bic_held_out > BIC_STRONG
+    let evidence = |c: &Candidate| {
+        c.bic_held_out > BIC_STRONG
             && c.bic_fit > BIC_STRONG
             && c.severity >= MIN_SEVERITY
-            && (c.gap_share >= MIN_GAP_SHARE || c.replaces_faults);
-        pass.then(|| (c.effect, c.severity, (c.bic_held_out.min(1400.0) / 2.0).exp() / weight_sum))
+            && (c.gap_share >= MIN_GAP_SHARE || c.replaces_faults)
+    };
+    let named = candidates.first().and_then(|c| {
+        (evidence(c) && c.severity < PINNED_SEVERITY)
+            .then(|| (c.effect, c.severity, (c.bic_held_out.min(1400.0) / 2.0).exp() / weight_sum))
     });
-    (Round { candidates, named }, reference)
+    let pinned = candidates.first().and_then(|c| (evidence(c) && c.severity >= PINNED_SEVERITY).then_some(c.effect));
+    (Round { candidates, named, pinned }, reference)
 }
 
 /// Runs the whole workflow on a conditioned trace.
@@ -950,19 +960,32 @@ fn finite(x: f64) -> serde_json::Value {
     }
 }
 
+/// The effects that had the evidence but fitted at their bound, for the verdict.
+fn pinned_note(d: &Discovery) -> String {
+    let pinned: Vec<&str> = d.rounds.iter().filter_map(|r| r.pinned).map(|e| e.id()).collect();
+    if pinned.is_empty() {
+        String::new()
+    } else {
+        format!(
+            " (closest library effect: {}, but only at its documented maximum: the effect is stronger or different)",
+            pinned.join(", ")
+        )
+    }
+}
+
 /// One line: what was found.
 pub fn verdict(d: &Discovery) -> String {
     if d.named.is_empty() {
         match &d.unexplained {
             None => "no missing effect found".to_string(),
-            Some(u) => format!("no library effect explains the gap: {u}"),
+            Some(u) => format!("no library effect explains the gap: {u}{}", pinned_note(d)),
         }
     } else {
         let names: Vec<String> =
             d.named.iter().map(|(e, s, c)| format!("{} (severity {s:.2}, confidence {c:.2})", e.id())).collect();
         match &d.unexplained {
             None => format!("missing: {}", names.join(" and ")),
-            Some(u) => format!("missing: {}; {u}", names.join(" and ")),
+            Some(u) => format!("missing: {}; {u}{}", names.join(" and "), pinned_note(d)),
         }
     }
 }
