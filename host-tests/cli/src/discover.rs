@@ -9,7 +9,8 @@
 //! 2. **Where**: the 25 ms windows holding most of the structural residual energy, and its share
 //!    per operating regime (direction, speed, reversals, current level) against the regime's
 //!    share of time; the share of the raw residual carried by rotor-angle orders (1, 2, 6 per
-//!    electrical turn, 24 per mechanical turn: cogging) by least squares on `sin/cos(n·θ)`.
+//!    electrical turn; 6 per electrical turn is also cogging's 24 per mechanical turn) by least
+//!    squares on `sin/cos(n·θ)`.
 //! 3. **Name**: every library effect ([`EffectId::ALL`]) is fitted with the faults
 //!    ([`fit_model`]: compass searches from the current fit and from its electrical or mechanical
 //!    faults reset, at the best severity of a scan, then model selection and a polish) on alternate 50 ms chunks of the recording, and scored on the held-out chunks:
@@ -117,8 +118,6 @@ pub struct Series {
     pub current_a: Vec<f64>,
     /// Model electrical angle `θ_e` (rad).
     pub electrical_angle_rad: Vec<f64>,
-    /// Model motor angle `θ_m` (rad).
-    pub motor_angle_rad: Vec<f64>,
 }
 
 /// Runs the model with `k` and `effects` along `trace`.
@@ -141,7 +140,6 @@ pub fn series<const W: usize>(
         s.speed_rad_s.push(f64::from(state.motor_speed_rad_s));
         s.current_a.push(f64::from(state.output_current_a));
         s.electrical_angle_rad.push(f64::from(state.hall_angle_rad) + std::f64::consts::FRAC_PI_6);
-        s.motor_angle_rad.push(f64::from(state.motor_angle_rad));
         true
     });
     s.structural_a = moving_mean(&s.residual_a, SMOOTH_BLOCKS);
@@ -635,8 +633,8 @@ pub fn orders(s: &Series) -> Vec<(&'static str, f64)> {
     vec![
         ("1 x electrical", order_share(r, &s.electrical_angle_rad, 1.0)),
         ("2 x electrical", order_share(r, &s.electrical_angle_rad, 2.0)),
-        ("6 x electrical", order_share(r, &s.electrical_angle_rad, 6.0)),
-        ("24 x mechanical (cogging)", order_share(r, &s.motor_angle_rad, 24.0)),
+        // 24 per mechanical turn (cogging, 12 slots / 8 poles) is 6 per electrical turn: one row
+        ("6 x electrical = 24 x mechanical", order_share(r, &s.electrical_angle_rad, 6.0)),
     ]
 }
 
