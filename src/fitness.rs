@@ -14,7 +14,7 @@
 //! (early abandoning, see [`crate::optimizer::Objective`]).
 
 use crate::conditioning::{MeasuredEnvelope, MeasuredTrace, SensorErrorEnvelope, DECIMATION};
-use crate::effects::{EffectId, ModelEffects};
+use crate::effects::ModelEffects;
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::model::{ModelState, MonitorModel};
 use crate::optimizer::Objective;
@@ -184,66 +184,6 @@ fn clamp_unit(x: f32, hi: f32) -> f32 {
 impl<const W: usize> Objective<FAULT_COUNT> for CurrentFit<'_, W> {
     fn cost(&mut self, x: &[f32; FAULT_COUNT], abandon_above: f32) -> f32 {
         self.error_abandoning(&FaultVector(*x), abandon_above)
-    }
-}
-
-/// Effect slots of an [`EffectFit`]: how many effect severities are fitted beside the faults.
-pub const EFFECT_SLOTS: usize = 2;
-
-/// Parameters of an [`EffectFit`]: the 8 faults, then one severity per effect slot.
-pub const EFFECT_FIT_DIMENSION: usize = FAULT_COUNT + EFFECT_SLOTS;
-
-/// The fitness with up to [`EFFECT_SLOTS`] effect terms fitted together with the fault vector:
-/// an [`Objective`] over `x = (k_1 … k_8, s_1, s_2)`, `s_j` the severity of slot `j`'s effect
-/// (an empty slot's coordinate is ignored: it does not change the cost). Effects already on in the
-/// base [`CurrentFit`] stay on at their severities unless a slot names them.
-#[derive(Clone, Debug)]
-pub struct EffectFit<'a, const W: usize> {
-    fit: CurrentFit<'a, W>,
-    base: ModelEffects,
-    slots: [Option<EffectId>; EFFECT_SLOTS],
-}
-
-impl<'a, const W: usize> EffectFit<'a, W> {
-    /// Fits the effects in `slots` beside the faults of `fit`.
-    pub fn new(fit: CurrentFit<'a, W>, slots: [Option<EffectId>; EFFECT_SLOTS]) -> Self {
-        let base = fit.effects;
-        Self { fit, base, slots }
-    }
-
-    /// The fault vector and the effect terms a point `x` stands for (severities clamped to `[0, 1]`).
-    pub fn split(&self, x: &[f32; EFFECT_FIT_DIMENSION]) -> (FaultVector, ModelEffects) {
-        let mut k = [0.0; FAULT_COUNT];
-        k.copy_from_slice(&x[..FAULT_COUNT]);
-        let mut effects = self.base;
-        for (slot, &severity) in self.slots.iter().zip(&x[FAULT_COUNT..]) {
-            if let Some(effect) = slot {
-                let s = if severity > 1.0 {
-                    1.0
-                } else if severity > 0.0 {
-                    severity
-                } else {
-                    0.0
-                };
-                // in [0, 1] by construction: set cannot fail
-                let _ = effects.set(*effect, s);
-            }
-        }
-        (FaultVector(k), effects)
-    }
-
-    /// `E` at `x`, evaluated to the end.
-    pub fn error(&self, x: &[f32; EFFECT_FIT_DIMENSION]) -> f32 {
-        let (k, effects) = self.split(x);
-        self.fit.clone().with_effects(effects).error(&k)
-    }
-}
-
-impl<const W: usize> Objective<EFFECT_FIT_DIMENSION> for EffectFit<'_, W> {
-    fn cost(&mut self, x: &[f32; EFFECT_FIT_DIMENSION], abandon_above: f32) -> f32 {
-        let (k, effects) = self.split(x);
-        self.fit.effects = effects;
-        self.fit.error_abandoning(&k, abandon_above)
     }
 }
 
