@@ -12,16 +12,19 @@
 //!    electrical turn; 6 per electrical turn is also cogging's 24 per mechanical turn) by least
 //!    squares on `sin/cos(n·θ)`.
 //! 3. **Name**: every library effect ([`EffectId::ALL`]) is fitted with the faults
-//!    ([`fit_model`]: compass searches from the current fit and from its electrical or mechanical
-//!    faults reset, at the best severity of a scan, then model selection and a polish) on alternate 50 ms chunks of the recording, and scored on the held-out chunks:
-//!    `ΔBIC = n_eff·ln(E_before/E_after) − Δp·ln(n_eff)` on each part (`Δp` the change in free parameters, `n_eff` the residual's
-//!    effective sample count, [`CurrentFit::effective_samples`]). An effect is named only when
-//!    the held-out and the fit ΔBIC exceed [`BIC_STRONG`] (Kass & Raftery's "very strong"), the
-//!    fitted severity is not negligible, and either the structural residual it removes is a real
-//!    part of the gap ([`MIN_GAP_SHARE`]) or it explains with fewer parameters what the fit had
-//!    attributed to faults (a winding temperature rise read as shorts on three phases). Confidence is the winner's posterior weight among "no effect" and
-//!    all candidates, `exp(ΔBIC_j/2)/(1 + Σ exp(ΔBIC/2))`. The search repeats for a second
-//!    effect on top of the first.
+//!    ([`fit_model`]: compass searches from the current fit and from it with its electrical or
+//!    mechanical faults reset, at the best severity of a scan, then model selection and a
+//!    polish) on alternate 50 ms chunks of the recording, and scored on the held-out chunks:
+//!    `ΔBIC = n_eff·ln(E_before/E_after) − Δp·ln(n_eff)` on each part (`Δp` the change in free
+//!    parameters, `n_eff` the residual's effective sample count,
+//!    [`CurrentFit::effective_samples`]). An effect is named only when the held-out ΔBIC exceeds
+//!    [`BIC_STRONG`] (Kass & Raftery's "very strong") and the in-sample one [`BIC_FIT_STRONG`]
+//!    ("strong"), the fitted severity is neither negligible nor at its bound
+//!    ([`PINNED_SEVERITY`]), and either the structural residual it removes is a real part of the
+//!    gap ([`MIN_GAP_SHARE`]) or it leaves fewer fault parameters than the fit without it (a
+//!    winding temperature rise read as shorts on three phases). Confidence is the winner's
+//!    posterior weight among "no effect" and all candidates, `exp(ΔBIC_j/2)/(1 + Σ exp(ΔBIC/2))`.
+//!    The search repeats for a second effect on top of the first.
 //! 4. **Add**: the named effects are refitted with the faults on the whole recording.
 //! 5. **Show**: structural and raw residual RMS before/after, overall and in the windows of step
 //!    2; with `--truth`, the paper's Err% of the fault vector before/after.
@@ -57,6 +60,9 @@ pub const WINDOW_S: f64 = 0.025;
 pub const CHUNK_BLOCKS: usize = 125;
 /// Held-out ΔBIC above which an effect may be named (Kass & Raftery 1995: > 10 is very strong).
 pub const BIC_STRONG: f64 = 10.0;
+/// In-sample ΔBIC it must also reach (Kass & Raftery: > 6 is strong); the held-out part, which
+/// the fit never saw, carries the decisive evidence.
+pub const BIC_FIT_STRONG: f64 = 6.0;
 /// Severity below which a fitted effect counts as absent.
 pub const MIN_SEVERITY: f32 = 0.03;
 /// Share of the structural residual energy an effect must remove to be named.
@@ -316,7 +322,8 @@ pub fn parameter_count(fit: &ModelFit) -> usize {
 /// 1. a compass search (≤ 300 evaluations) from `start` and from `start` with its electrical or
 ///    mechanical fault groups (or all) reset to healthy, each at the best severity of a scan of
 ///    the new effect's (an effect already on in `start` starts at its severity): the valley in
-///    severity can be narrow, and an electrical fault can mimic an effect;
+///    severity can be narrow, and an electrical fault can mimic an effect; the end points are
+///    compared by BIC (`n_eff·ln E + p·ln n_eff`), so an equal fit with fewer parameters wins;
 /// 2. model selection as on board: each present fault group is set healthy, the rest refitted
 ///    ([`SELECTION_REFIT`]), and the group dropped unless it pays its BIC price with `n_eff`
 ///    effective samples;
@@ -386,14 +393,24 @@ fn fit_d<const W: usize, const D: usize>(
         }
     }
     let local = PatternConfig { initial_step: 0.05, min_step: 1e-3, max_evaluations: 300 };
-    let (mut best, mut best_cost) = (point(start, 0.0), f32::INFINITY);
+    // the local optima compared by BIC, not by E alone: three shorts and a hot winding can fit
+    // equally well, and the one with fewer parameters is the better explanation
+    let ln_n = n_eff.max(2.0).ln();
+    let bic = |x: &[f32; D], c: f32| {
+        let effects = x[FAULT_COUNT..].iter().filter(|s| **s >= MIN_SEVERITY).count();
+        let mut k = [0.0; FAULT_COUNT];
+        k.copy_from_slice(&x[..FAULT_COUNT]);
+        n_eff * f64::from(c).ln() + (fault_parameter_count(&FaultVector(k)) + effects) as f64 * ln_n
+    };
+    let (mut best, mut best_cost, mut best_bic) = (point(start, 0.0), f32::INFINITY, f64::INFINITY);
     for x in starts {
         if let Ok(mut search) = PatternSearch::new(bounds, local, x, None, [true; D]) {
             optimizer::run(&mut search, &mut objective, u32::MAX);
             evaluations += search.evaluations();
             let (x, c) = search.best();
-            if c < best_cost {
-                (best, best_cost) = (*x, c);
+            let score = bic(x, c);
+            if c.is_finite() && score < best_bic {
+                (best, best_cost, best_bic) = (*x, c, score);
             }
         }
     }
@@ -765,7 +782,7 @@ fn search_round<const W: usize>(
     let weight_sum: f64 = 1.0 + candidates.iter().map(|c| (c.bic_held_out.min(1400.0) / 2.0).exp()).sum::<f64>();
     let evidence = |c: &Candidate| {
         c.bic_held_out > BIC_STRONG
-            && c.bic_fit > BIC_STRONG
+            && c.bic_fit > BIC_FIT_STRONG
             && c.severity >= MIN_SEVERITY
             && (c.gap_share >= MIN_GAP_SHARE || c.replaces_faults)
     };

@@ -81,6 +81,7 @@ fn effects_the_faults_had_absorbed_are_named_and_the_fault_vector_repaired() {
         (Effect::SensorOffset, EffectId::SensorOffset, 0.9, FRICTION),
         (Effect::Stribeck, EffectId::Stribeck, 0.9, HEALTHY),
         (Effect::Stribeck, EffectId::Stribeck, 0.9, FRICTION),
+        (Effect::WindingTemperature, EffectId::WindingTemperature, 0.8, HEALTHY),
         (Effect::WindingTemperature, EffectId::WindingTemperature, 0.8, FRICTION),
     ];
     for (j, (effect, id, severity, faults)) in cases.into_iter().enumerate() {
