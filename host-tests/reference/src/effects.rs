@@ -189,38 +189,45 @@ impl Effects {
     }
 }
 
-/// Maxima of the effects (`s = 1`), the single source of the numbers in the docs.
+/// Maxima of the effects (`s = 1`). The ten library effects' numbers come from the monitor's own
+/// table (`ema_monitor::effects::maxima`, widened from `f32`), so the severity the discrepancy
+/// workflow estimates means the same physical magnitude on both sides; compliance and bus sag
+/// (outside the library) are the reference model's alone.
 pub mod maxima {
+    use ema_monitor::effects::maxima as lib;
+
     /// Cogging torque amplitude, N·m.
-    pub const COGGING_TORQUE_N_M: f64 = 0.04;
+    pub const COGGING_TORQUE_N_M: f64 = lib::COGGING_TORQUE_N_M as f64;
     /// Cogging cycles per mechanical revolution (LCM of 12 slots and 8 poles).
-    pub const COGGING_CYCLES_PER_REV: f64 = 24.0;
+    pub const COGGING_CYCLES_PER_REV: f64 = lib::COGGING_CYCLES_PER_REV as f64;
     /// Stiction increase: breakaway `FSJ·(1 + s·STRIBECK_STICTION_GAIN)`.
-    pub const STRIBECK_STICTION_GAIN: f64 = 1.0;
+    pub const STRIBECK_STICTION_GAIN: f64 = lib::STRIBECK_STICTION_GAIN as f64;
     /// Stribeck velocity at the motor, rad/s.
-    pub const STRIBECK_SPEED_RAD_PER_S: f64 = 5.0;
+    pub const STRIBECK_SPEED_RAD_PER_S: f64 = lib::STRIBECK_SPEED_RAD_PER_S as f64;
     /// Extra viscous coefficient at the motor, N·m·s/rad.
-    pub const VISCOUS_N_M_S_PER_RAD: f64 = 5.0e-4;
+    pub const VISCOUS_N_M_S_PER_RAD: f64 = lib::VISCOUS_N_M_S_PER_RAD as f64;
     /// Winding temperature rise, K.
-    pub const WINDING_TEMPERATURE_RISE_K: f64 = 100.0;
+    pub const WINDING_TEMPERATURE_RISE_K: f64 = lib::WINDING_TEMPERATURE_RISE_K as f64;
     /// Copper resistance temperature coefficient, 1/K.
-    pub const COPPER_ALPHA_PER_K: f64 = 3.93e-3;
+    pub const COPPER_ALPHA_PER_K: f64 = lib::COPPER_ALPHA_PER_K as f64;
     /// NdFeB back-EMF temperature coefficient, 1/K (negative).
-    pub const MAGNET_BETA_PER_K: f64 = -1.1e-3;
+    pub const MAGNET_BETA_PER_K: f64 = lib::MAGNET_BETA_PER_K as f64;
     /// Flat-top narrowing of the back-EMF trapezoid, electrical degrees.
-    pub const EMF_FLAT_TOP_NARROWING_DEG: f64 = 40.0;
+    pub const EMF_FLAT_TOP_NARROWING_DEG: f64 = lib::EMF_FLAT_TOP_NARROWING_DEG as f64;
     /// Dead-time and device voltage error per phase, V.
-    pub const DEAD_TIME_V: f64 = 8.0;
+    pub const DEAD_TIME_V: f64 = lib::DEAD_TIME_V as f64;
     /// Current-sensor offsets of phases a, b, c, A.
-    pub const SENSOR_OFFSET_A: [f64; 3] = [0.2, -0.1, 0.15];
+    pub const SENSOR_OFFSET_A: [f64; 3] =
+        [lib::SENSOR_OFFSET_A[0] as f64, lib::SENSOR_OFFSET_A[1] as f64, lib::SENSOR_OFFSET_A[2] as f64];
     /// Current-sensor gain errors of phases a, b, c (relative).
-    pub const SENSOR_GAIN: [f64; 3] = [0.02, -0.02, 0.01];
+    pub const SENSOR_GAIN: [f64; 3] =
+        [lib::SENSOR_GAIN[0] as f64, lib::SENSOR_GAIN[1] as f64, lib::SENSOR_GAIN[2] as f64];
     /// Hinge stiffness increase: `K_h·(1 + s·HINGE_STIFFNESS_GAIN)`.
-    pub const HINGE_STIFFNESS_GAIN: f64 = 1.0;
+    pub const HINGE_STIFFNESS_GAIN: f64 = lib::HINGE_STIFFNESS_GAIN as f64;
     /// Saturation current at `s = 1`, A (`I_sat = SATURATION_CURRENT_A / s`).
-    pub const SATURATION_CURRENT_A: f64 = 30.0;
+    pub const SATURATION_CURRENT_A: f64 = lib::SATURATION_CURRENT_A as f64;
     /// Hall offset, electrical degrees.
-    pub const HALL_OFFSET_DEG: f64 = 10.0;
+    pub const HALL_OFFSET_DEG: f64 = lib::HALL_OFFSET_DEG as f64;
     /// Transmission mode frequency at `s = 1`, Hz (`f_r = COMPLIANCE_MODE_HZ / s`).
     pub const COMPLIANCE_MODE_HZ: f64 = 50.0;
     /// Transmission damping ratio.
