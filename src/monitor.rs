@@ -131,7 +131,7 @@ pub const SELECTION_REFIT: PatternConfig = PatternConfig { initial_step: 0.01, m
 const PRESENT_ABOVE: f32 = 1e-4;
 
 /// `true` when group `g` of `k` differs from the healthy vector.
-fn group_present(k: &[f32; FAULT_COUNT], (first, last): (usize, usize)) -> bool {
+pub fn group_present(k: &[f32; FAULT_COUNT], (first, last): (usize, usize)) -> bool {
     if first == PHASE_INDEX - 1 {
         return k[first] > PRESENT_ABOVE;
     }
@@ -139,7 +139,7 @@ fn group_present(k: &[f32; FAULT_COUNT], (first, last): (usize, usize)) -> bool 
 }
 
 /// `k` with group `g` set back to healthy.
-fn without_group(k: &[f32; FAULT_COUNT], (first, last): (usize, usize)) -> [f32; FAULT_COUNT] {
+pub fn without_group(k: &[f32; FAULT_COUNT], (first, last): (usize, usize)) -> [f32; FAULT_COUNT] {
     let mut out = *k;
     out[first..=last].copy_from_slice(&FaultVector::HEALTHY.0[first..=last]);
     out
@@ -148,7 +148,7 @@ fn without_group(k: &[f32; FAULT_COUNT], (first, last): (usize, usize)) -> [f32;
 /// Bayesian information criterion for dropping a group of `parameters`: with Gaussian residuals of
 /// `n` effective samples, `ΔBIC = n·ln(E_without/E_with) − parameters·ln(n)`; the group stays only
 /// when `ΔBIC > 0`, i.e. when it explains more than its parameters' price (Schwarz 1978).
-fn group_pays(error_with: f32, error_without: f32, parameters: usize, effective_samples: f32) -> bool {
+pub fn group_pays(error_with: f32, error_without: f32, parameters: usize, effective_samples: f32) -> bool {
     if !(error_with > 0.0 && error_without.is_finite() && effective_samples > 1.0) {
         return error_without > error_with;
     }

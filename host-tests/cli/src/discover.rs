@@ -40,7 +40,8 @@ use clap::Args;
 use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
 use ema_monitor::fitness::{simulate_window_with_effects, CurrentFit};
 use ema_monitor::monitor::{
-    fault_bounds, Identification, IdentifyConfig, FAULT_GROUPS, ONBOARD_POPULATION, SELECTION_REFIT,
+    fault_bounds, group_pays, group_present, without_group, Identification, IdentifyConfig, FAULT_GROUPS,
+    ONBOARD_POPULATION, SELECTION_REFIT,
 };
 use ema_monitor::optimizer::pattern::{PatternConfig, PatternSearch};
 use ema_monitor::optimizer::{self, Bounds, Objective, Optimizer};
@@ -289,23 +290,15 @@ const SEVERITY_SCAN: usize = 20;
 const ELECTRICAL_GROUPS: [usize; 4] = [2, 3, 4, 5];
 const MECHANICAL_GROUPS: [usize; 2] = [0, 1];
 
-/// A group counts as present when one of its parameters is this far from healthy.
-const PRESENT_ABOVE: f32 = 1e-4;
-
-fn group_present(k: &[f32], (first, last): (usize, usize)) -> bool {
-    if first == 5 {
-        return k[5] > PRESENT_ABOVE; // the eccentricity phase counts through the magnitude only
-    }
-    (first..=last).any(|i| (k[i] - FaultVector::HEALTHY.0[i]).abs() > PRESENT_ABOVE)
+/// The fault part of a point `x = (k_1 … k_8, s_1 …)`.
+fn faults_of<const D: usize>(x: &[f32; D]) -> [f32; FAULT_COUNT] {
+    let mut k = [0.0; FAULT_COUNT];
+    k.copy_from_slice(&x[..FAULT_COUNT]);
+    k
 }
 
 fn reset_groups(k: &FaultVector, groups: &[usize]) -> FaultVector {
-    let mut out = *k;
-    for &g in groups {
-        let (first, last) = FAULT_GROUPS[g];
-        out.0[first..=last].copy_from_slice(&FaultVector::HEALTHY.0[first..=last]);
-    }
-    out
+    FaultVector(groups.iter().fold(k.0, |k, &g| without_group(&k, FAULT_GROUPS[g])))
 }
 
 /// Free parameters of the present fault groups.
@@ -368,29 +361,33 @@ fn fit_d<const W: usize, const D: usize>(
     };
     let start = &start_fit.k;
     let mut evaluations = 0;
-    // starts: per fault start, the best severity of a scan (the valley in s can be narrow)
+    // starts: the current fit, and per fault start (the current fit, with its electrical or
+    // mechanical groups reset, healthy) the best severity of a scan of the new effect (the valley
+    // in s can be narrow); the reference (no new effect) starts from each fault start as is
+    let fault_starts = [
+        *start,
+        reset_groups(start, &ELECTRICAL_GROUPS),
+        reset_groups(start, &MECHANICAL_GROUPS),
+        FaultVector::HEALTHY,
+    ];
     let mut starts: Vec<[f32; D]> = vec![point(start, 0.0)];
-    let electrical = reset_groups(start, &ELECTRICAL_GROUPS);
-    let mechanical = reset_groups(start, &MECHANICAL_GROUPS);
-    for k in [&electrical, &mechanical, &FaultVector::HEALTHY] {
+    for (j, k) in fault_starts.iter().enumerate() {
         if D == FAULT_COUNT {
-            // the reference model gets the same fault starts as every candidate
-            starts.push(point(k, 0.0));
-        }
-    }
-    if D > FAULT_COUNT {
-        for k in [start, &electrical, &mechanical, &FaultVector::HEALTHY] {
-            let mut best_scan = (f32::INFINITY, point(k, 0.0));
-            for j in 1..=SEVERITY_SCAN {
-                let x = point(k, j as f32 / SEVERITY_SCAN as f32);
-                let c = Objective::<D>::cost(&mut objective, &x, best_scan.0);
-                evaluations += 1;
-                if c < best_scan.0 {
-                    best_scan = (c, x);
-                }
+            if j > 0 {
+                starts.push(point(k, 0.0));
             }
-            starts.push(best_scan.1);
+            continue;
         }
+        let mut best_scan = (f32::INFINITY, point(k, 0.0));
+        for step in 1..=SEVERITY_SCAN {
+            let x = point(k, step as f32 / SEVERITY_SCAN as f32);
+            let c = Objective::<D>::cost(&mut objective, &x, best_scan.0);
+            evaluations += 1;
+            if c < best_scan.0 {
+                best_scan = (c, x);
+            }
+        }
+        starts.push(best_scan.1);
     }
     let local = PatternConfig { initial_step: 0.05, min_step: 1e-3, max_evaluations: 300 };
     // the local optima compared by BIC, not by E alone: three shorts and a hot winding can fit
@@ -398,9 +395,7 @@ fn fit_d<const W: usize, const D: usize>(
     let ln_n = n_eff.max(2.0).ln();
     let bic = |x: &[f32; D], c: f32| {
         let effects = x[FAULT_COUNT..].iter().filter(|s| **s >= MIN_SEVERITY).count();
-        let mut k = [0.0; FAULT_COUNT];
-        k.copy_from_slice(&x[..FAULT_COUNT]);
-        n_eff * f64::from(c).ln() + (fault_parameter_count(&FaultVector(k)) + effects) as f64 * ln_n
+        n_eff * f64::from(c).ln() + (fault_parameter_count(&FaultVector(faults_of(x))) + effects) as f64 * ln_n
     };
     let (mut best, mut best_cost, mut best_bic) = (point(start, 0.0), f32::INFINITY, f64::INFINITY);
     for x in starts {
@@ -414,25 +409,23 @@ fn fit_d<const W: usize, const D: usize>(
             }
         }
     }
-    // model selection over the fault groups
-    for (g, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
-        if !group_present(&best, (first, last)) {
+    // model selection over the fault groups, with the on-board criterion
+    for (g, &group) in FAULT_GROUPS.iter().enumerate() {
+        if !group_present(&faults_of(&best), group) {
             continue;
         }
         let mut movable = [true; D];
         for (h, &(f, l)) in FAULT_GROUPS.iter().enumerate() {
-            let m = h != g && group_present(&best, (f, l));
+            let m = h != g && group_present(&faults_of(&best), (f, l));
             movable[f..=l].iter_mut().for_each(|x| *x = m);
         }
         let mut without = best;
-        without[first..=last].copy_from_slice(&FaultVector::HEALTHY.0[first..=last]);
+        without[..FAULT_COUNT].copy_from_slice(&without_group(&faults_of(&best), group));
         if let Ok(mut search) = PatternSearch::new(bounds, SELECTION_REFIT, without, None, movable) {
             optimizer::run(&mut search, &mut objective, u32::MAX);
             evaluations += search.evaluations();
             let (x, c) = search.best();
-            let price = (last - first + 1) as f64 * n_eff.max(2.0).ln();
-            let pays = c.is_finite() && best_cost > 0.0 && n_eff * (f64::from(c) / f64::from(best_cost)).ln() > price;
-            if !pays {
+            if !group_pays(best_cost, c, group.1 - group.0 + 1, n_eff as f32) {
                 (best, best_cost) = (*x, c);
             }
         }
@@ -440,7 +433,7 @@ fn fit_d<const W: usize, const D: usize>(
     // polish what is left
     let mut movable = [true; D];
     for &(f, l) in FAULT_GROUPS.iter() {
-        let m = group_present(&best, (f, l));
+        let m = group_present(&faults_of(&best), (f, l));
         movable[f..=l].iter_mut().for_each(|x| *x = m);
     }
     let polish = PatternConfig { initial_step: 0.02, min_step: 2e-4, max_evaluations: 400 };
