@@ -130,18 +130,24 @@ pub const SELECTION_REFIT: PatternConfig = PatternConfig { initial_step: 0.01, m
 /// eccentricity only counts through its magnitude).
 const PRESENT_ABOVE: f32 = 1e-4;
 
-/// `true` when group `g` of `k` differs from the healthy vector.
+/// `true` when the group `(first, last)` of [`FAULT_GROUPS`] differs in `k` from the healthy
+/// vector (indices outside the vector count as healthy).
 pub fn group_present(k: &[f32; FAULT_COUNT], (first, last): (usize, usize)) -> bool {
     if first == PHASE_INDEX - 1 {
-        return k[first] > PRESENT_ABOVE;
+        return k.get(first).is_some_and(|&x| x > PRESENT_ABOVE);
     }
-    (first..=last).any(|i| libm::fabsf(k[i] - FaultVector::HEALTHY.0[i]) > PRESENT_ABOVE)
+    let healthy = FaultVector::HEALTHY.0;
+    (first..=last)
+        .any(|i| matches!((k.get(i), healthy.get(i)), (Some(x), Some(h)) if libm::fabsf(x - h) > PRESENT_ABOVE))
 }
 
-/// `k` with group `g` set back to healthy.
+/// `k` with the group `(first, last)` of [`FAULT_GROUPS`] set back to healthy (indices outside
+/// the vector are ignored).
 pub fn without_group(k: &[f32; FAULT_COUNT], (first, last): (usize, usize)) -> [f32; FAULT_COUNT] {
     let mut out = *k;
-    out[first..=last].copy_from_slice(&FaultVector::HEALTHY.0[first..=last]);
+    for (x, h) in out.iter_mut().zip(FaultVector::HEALTHY.0).skip(first).take((last + 1).saturating_sub(first)) {
+        *x = h;
+    }
     out
 }
 
@@ -643,6 +649,18 @@ mod tests {
         assert!(r.evaluations > global && r.evaluations <= global + selection + polish);
         let kept = id.kept_groups();
         assert!(kept[0] && kept[3] && kept[6], "a noise-free trace keeps its real faults: {kept:?}");
+    }
+
+    #[test]
+    fn group_helpers_follow_the_groups_and_ignore_indices_outside_the_vector() {
+        let k = [0.2, 0.0, 0.0, 0.3, 0.0, 0.0, 0.9, 0.5]; // friction, short B, a phase without eccentricity
+        let present: [bool; 7] = core::array::from_fn(|g| group_present(&k, FAULT_GROUPS[g]));
+        assert_eq!(present, [true, false, false, true, false, false, false]);
+        assert_eq!(without_group(&k, FAULT_GROUPS[3]), [0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.9, 0.5]);
+        assert_eq!(without_group(&k, FAULT_GROUPS[5]), [0.2, 0.0, 0.0, 0.3, 0.0, 0.0, 0.5, 0.5]);
+        assert!(!group_present(&k, (8, 9)));
+        assert_eq!(without_group(&k, (7, 12)), [0.2, 0.0, 0.0, 0.3, 0.0, 0.0, 0.9, 0.5]);
+        assert_eq!(without_group(&k, (3, 2)), k);
     }
 
     #[test]
