@@ -9,7 +9,7 @@ use crate::acquisition::{AcquisitionError, PhaseCurrents};
 use crate::conditioning::{ConditioningError, MeasuredTrace, DECIMATION};
 use crate::effects::ModelEffects;
 use crate::faults::{FaultVector, FAULT_COUNT};
-use crate::fitness::CurrentFit;
+use crate::fitness::{CurrentFit, FAST_REGIME_WEIGHT};
 use crate::health::HealthReport;
 use crate::optimizer::de::{DeConfig, DifferentialEvolution};
 use crate::optimizer::ga::{GaConfig, Genetic};
@@ -73,13 +73,21 @@ pub struct IdentifyConfig {
     /// Effect terms the monitor model runs with ([`ModelEffects::NONE`]: the paper's model); set
     /// by a promoted discovery (`ema discover`), fixed during the identification.
     pub effects: ModelEffects,
+    /// Weight `ρ` of the fast-regime samples in the fitness, in `(0, 1]` (1: the paper's fitness;
+    /// [`crate::fitness::FAST_REGIME_WEIGHT`] by default).
+    pub fast_regime_weight: f32,
 }
 
 impl Default for IdentifyConfig {
     /// The paper's global search (PSO, 200 iterations, tolerance 1e-9), then model selection and
-    /// the polish.
+    /// the polish, on the fitness with the fast regime weighted by [`FAST_REGIME_WEIGHT`].
     fn default() -> Self {
-        Self { model_selection: true, polish: Some(PatternConfig::default()), ..Self::paper() }
+        Self {
+            model_selection: true,
+            polish: Some(PatternConfig::default()),
+            fast_regime_weight: FAST_REGIME_WEIGHT,
+            ..Self::paper()
+        }
     }
 }
 
@@ -95,6 +103,7 @@ impl IdentifyConfig {
             model_selection: false,
             polish: None,
             effects: ModelEffects::NONE,
+            fast_regime_weight: 1.0,
         }
     }
 
@@ -174,6 +183,8 @@ pub enum MonitorError {
     Params,
     /// The trace is longer than the command profile that drives the model.
     TraceLongerThanProfile,
+    /// The fast-regime weight is not in `(0, 1]`.
+    FastRegimeWeight,
     /// A frame was refused by acquisition (sensor fault): `frame` is its index.
     Acquisition {
         /// What acquisition found.
@@ -190,6 +201,7 @@ impl core::fmt::Display for MonitorError {
             MonitorError::Optimizer(e) => write!(f, "optimizer settings refused: {e}"),
             MonitorError::Params => f.write_str("an actuator parameter is not finite or not physical"),
             MonitorError::TraceLongerThanProfile => f.write_str("the trace is longer than the command profile"),
+            MonitorError::FastRegimeWeight => f.write_str("the fast-regime weight is not in (0, 1]"),
             MonitorError::Acquisition { error, frame } => write!(f, "frame {frame} refused by acquisition: {error}"),
         }
     }
@@ -398,8 +410,12 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                 )
             }
         };
+        let fit = CurrentFit::new(trace, params, profile)
+            .with_effects(config.effects)
+            .with_fast_regime_weight(config.fast_regime_weight)
+            .ok_or(MonitorError::FastRegimeWeight)?;
         Ok(Self {
-            fit: CurrentFit::new(trace, params, profile).with_effects(config.effects),
+            fit,
             solver,
             params,
             config: *config,
@@ -746,5 +762,10 @@ mod tests {
             &IdentifyConfig::default(),
         );
         assert!(matches!(r, Err(MonitorError::Conditioning(ConditioningError::Finished))));
+        for weight in [0.0, 2.0, f32::NAN] {
+            let config = IdentifyConfig { fast_regime_weight: weight, ..IdentifyConfig::default() };
+            let r = Identification::<ONBOARD_WINDOW, 8>::new(&trace, EmaParams::NOMINAL, Profile::STANDARD, &config);
+            assert!(matches!(r, Err(MonitorError::FastRegimeWeight)), "{weight}");
+        }
     }
 }
