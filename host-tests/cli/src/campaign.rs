@@ -83,9 +83,14 @@ pub struct CampaignArgs {
     /// Iteration limit of each identification (the paper: 200).
     #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(1..))]
     pub max_iterations: u32,
-    /// The paper's global search alone: no model selection, no polish.
+    /// The paper's method alone: its fitness (fast-regime weight 1), the global search, no model
+    /// selection, no polish.
     #[arg(long)]
     pub paper_only: bool,
+    /// Weight of the fast-regime samples (step and reversal transients) in the fitness, in (0, 1]
+    /// [default: the monitor's, 0.1; 1 with --paper-only].
+    #[arg(long, value_name = "RHO")]
+    pub fast_regime_weight: Option<f32>,
     /// Master seed of every draw.
     #[arg(long, default_value_t = 2018)]
     pub seed: u64,
@@ -232,11 +237,12 @@ pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
 /// The identification settings of `ema campaign`'s flags (algorithm and seed are per run).
 pub fn identify_config(args: &CampaignArgs) -> IdentifyConfig {
     let base = IdentifyConfig { max_iterations: args.max_iterations, ..IdentifyConfig::default() };
-    if args.paper_only {
-        IdentifyConfig { model_selection: false, polish: None, ..base }
+    let base = if args.paper_only {
+        IdentifyConfig { model_selection: false, polish: None, fast_regime_weight: 1.0, ..base }
     } else {
         base
-    }
+    };
+    IdentifyConfig { fast_regime_weight: args.fast_regime_weight.unwrap_or(base.fast_regime_weight), ..base }
 }
 
 /// Simulates and identifies one planned run.
@@ -389,10 +395,11 @@ fn table(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> String {
     }
     let _ = write!(
         out,
-        "\nErr% by the paper's formula; ours: {} runs per cell, reference model with noise, max {} iterations, {}, seed {}.",
+        "\nErr% by the paper's formula; ours: {} runs per cell, reference model with noise, max {} iterations, {}, fast-regime weight {}, seed {}.",
         args.runs,
         args.max_iterations,
         if args.paper_only { "global search only" } else { "then model selection and polish" },
+        identify_config(args).fast_regime_weight,
         args.seed
     );
     out
@@ -416,6 +423,7 @@ fn summary_json(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> serde
         .collect();
     json!({"runs_per_cell": args.runs, "max_iterations": args.max_iterations, "seed": args.seed,
            "model_selection_and_polish": !args.paper_only,
+           "fast_regime_weight": identify_config(args).fast_regime_weight,
            "cells": cells, "paper_table_ii": paper})
 }
 
@@ -524,6 +532,9 @@ pub fn bar_chart(title: &str, unit: &str, summary: &BTreeMap<CellKey, Cell>, val
 pub fn run(args: &CampaignArgs) -> Result<String, CliError> {
     if args.algorithms.is_empty() {
         return Err(CliError::flag("--algorithms", "give at least one of pso, ga, de"));
+    }
+    if let Some(weight) = args.fast_regime_weight {
+        crate::identify::check_fast_regime_weight(weight)?;
     }
     let plans = plan(args)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));

@@ -799,7 +799,8 @@ pub fn discover<const W: usize>(
     let start = Instant::now();
     let params = EmaParams::NOMINAL;
     // 1. the current model, as on board (whole recording)
-    let config = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
+    // Every sample at full weight: the discrepancies discover looks for live in the fast regime too.
+    let config = IdentifyConfig { seed, fast_regime_weight: 1.0, ..IdentifyConfig::onboard() };
     let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> = Box::new(
         Identification::new(trace, params, *profile, &config)
             .map_err(|e| CliError::Input { path: file.to_path_buf(), message: e.to_string() })?,

@@ -84,9 +84,14 @@ pub struct IdentifyArgs {
     /// Command profile the recording was made with: `standard` or a profile file.
     #[arg(long, default_value = "standard")]
     pub profile: String,
-    /// The paper's global search alone: no model selection, no polish.
+    /// The paper's method alone: its fitness (fast-regime weight 1), the global search, no model
+    /// selection, no polish.
     #[arg(long)]
     pub paper_only: bool,
+    /// Weight of the fast-regime samples (step and reversal transients) in the fitness, in (0, 1]
+    /// [default: the monitor's, 0.1; 1 with --paper-only].
+    #[arg(long, value_name = "RHO")]
+    pub fast_regime_weight: Option<f32>,
     /// Print JSON instead of the readable report.
     #[arg(long)]
     pub json: bool,
@@ -118,7 +123,10 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
         ..base
     };
     if args.paper_only {
-        config = IdentifyConfig { model_selection: false, polish: None, ..config };
+        config = IdentifyConfig { model_selection: false, polish: None, fast_regime_weight: 1.0, ..config };
+    }
+    if let Some(weight) = args.fast_regime_weight {
+        config.fast_regime_weight = check_fast_regime_weight(weight)?;
     }
     let outcome = match (&args.firmware_trace, &args.file) {
         (Some(path), _) => identify_firmware_trace(path, &config)?,
@@ -130,6 +138,15 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
         (None, None) => return Err(CliError::flag("FILE", "give a recording CSV or --firmware-trace FILE")),
     };
     Ok(render(&outcome, &config.effects, args))
+}
+
+/// `--fast-regime-weight` checked: in `(0, 1]`.
+pub fn check_fast_regime_weight(weight: f32) -> Result<f32, CliError> {
+    if weight > 0.0 && weight <= 1.0 {
+        Ok(weight)
+    } else {
+        Err(CliError::flag("--fast-regime-weight", format!("{weight} is not in (0, 1]")))
+    }
 }
 
 /// Reads a model configuration file with the core's parser (the firmware build's `EMA_MODEL_CONFIG`);

@@ -16,6 +16,7 @@ fn args(runs: u32, modes: &[&str]) -> CampaignArgs {
         multi: 0,
         max_iterations: 2,
         paper_only: false,
+        fast_regime_weight: None,
         seed: 2018,
         threads: Some(1),
         modes: modes.iter().map(|m| m.to_string()).collect(),
