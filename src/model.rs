@@ -764,6 +764,14 @@ mod tests {
         assert!(max - min > 0.13 * 0.3 && max - min < 2.0 * 0.13 * 0.3 + 1e-3, "{min}..{max}");
     }
 
+    /// The model of `p` with its rotor locked by an enormous breakaway friction, `effects` on.
+    fn locked_rotor(p: &EmaParams, effects: &ModelEffects) -> MonitorModel {
+        let mut f = FaultVector::HEALTHY.physical(p);
+        f.static_friction_n_m = 1e9;
+        f.dynamic_friction_n_m = 1e9;
+        MonitorModel::from_physics_with_effects(p, &f, effects)
+    }
+
     #[test]
     fn rl_current_step_at_locked_rotor() {
         // Rotor locked by an enormous breakaway friction, ideal current loop, no current limit:
@@ -772,10 +780,7 @@ mod tests {
         p.current_loop_lag_s = 1e-9;
         p.current_limit_a = 1e6;
         p.supply_voltage_v = 10.0; // 10 A steady state through R_eq = 1 Ω
-        let mut f = FaultVector::HEALTHY.physical(&p);
-        f.static_friction_n_m = 1e9;
-        f.dynamic_friction_n_m = 1e9;
-        let m = MonitorModel::from_physics(&p, &f);
+        let m = locked_rotor(&p, &ModelEffects::NONE);
         let mut s = ModelState::at_rest();
         let (r, l) = (1.0f32, 4e-3f32);
         for k in 1..=400 {
@@ -958,11 +963,7 @@ mod tests {
         p.current_loop_lag_s = 1e-9;
         p.current_limit_a = 1e6;
         p.supply_voltage_v = 20.0;
-        let mut f = FaultVector::HEALTHY.physical(&p);
-        f.static_friction_n_m = 1e9;
-        f.dynamic_friction_n_m = 1e9;
-        let fx = ModelEffects::NONE.with(EffectId::DeadTime, 1.0).unwrap();
-        let m = MonitorModel::from_physics_with_effects(&p, &f, &fx);
+        let m = locked_rotor(&p, &ModelEffects::NONE.with(EffectId::DeadTime, 1.0).unwrap());
         let mut s = ModelState::at_rest();
         for _ in 0..2000 {
             m.step(&mut s, 0.5);
@@ -1014,11 +1015,7 @@ mod tests {
         // Locked rotor, sector 0 (a+, b−): the loop settles on the lower measured-current target
         // T_a = (I_ref − 0.2)/1.02 (T_b = (I_ref − 0.1)/0.98 is higher).
         let p = EmaParams::NOMINAL;
-        let mut f = FaultVector::HEALTHY.physical(&p);
-        f.static_friction_n_m = 1e9;
-        f.dynamic_friction_n_m = 1e9;
-        let fx = ModelEffects::NONE.with(EffectId::SensorOffset, 1.0).unwrap();
-        let m = MonitorModel::from_physics_with_effects(&p, &f, &fx);
+        let m = locked_rotor(&p, &ModelEffects::NONE.with(EffectId::SensorOffset, 1.0).unwrap());
         let mut s = ModelState::at_rest();
         s.hall_angle_rad = 0.5 * FRAC_PI_3;
         for _ in 0..2000 {
