@@ -45,6 +45,11 @@ pub const FAST_REGIME_SPEED_RAD_S: f32 = 300.0;
 /// evidence lies mostly in the fast regime (README, "identification campaign").
 pub const FAST_REGIME_WEIGHT: f32 = 0.1;
 
+/// `true` when `weight` is a fast-regime weight the fitness accepts: in `(0, 1]` (NaN is not).
+pub fn fast_regime_weight_is_valid(weight: f32) -> bool {
+    weight > 0.0 && weight <= 1.0
+}
+
 /// Most fast-regime intervals a fitness keeps (the standard manoeuvre has 2; later ones weigh 1).
 pub const MAX_FAST_INTERVALS: usize = 8;
 
@@ -159,7 +164,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
     /// intervals come from one run of the healthy model (one evaluation's cost). A weight outside
     /// `(0, 1]` (or NaN) is refused: `None`.
     pub fn with_fast_regime_weight(mut self, weight: f32) -> Option<Self> {
-        if !(weight > 0.0 && weight <= 1.0) {
+        if !fast_regime_weight_is_valid(weight) {
             return None;
         }
         self.fast_intervals.clear();

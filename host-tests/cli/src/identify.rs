@@ -140,9 +140,9 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
     Ok(render(&outcome, &config.effects, args))
 }
 
-/// `--fast-regime-weight` checked: in `(0, 1]`.
+/// `--fast-regime-weight` checked by the core's rule, the flag named in the error.
 pub fn check_fast_regime_weight(weight: f32) -> Result<f32, CliError> {
-    if weight > 0.0 && weight <= 1.0 {
+    if ema_monitor::fitness::fast_regime_weight_is_valid(weight) {
         Ok(weight)
     } else {
         Err(CliError::flag("--fast-regime-weight", format!("{weight} is not in (0, 1]")))

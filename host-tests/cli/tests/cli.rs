@@ -38,6 +38,16 @@ fn bad_flags_are_refused_with_one_line() {
     refused(&["simulate"], &["--out"]);
     refused(&["simulate", "--out", out, "--bogus"], &["--bogus"]);
     refused(&[], &["subcommand"]);
+    for weight in ["0", "1.5", "NaN"] {
+        refused(
+            &["identify", "--firmware-trace", "../traces/standard.ematrace", "--fast-regime-weight", weight],
+            &["--fast-regime-weight", "not in (0, 1]"],
+        );
+        refused(
+            &["campaign", "--runs", "1", "--fast-regime-weight", weight],
+            &["--fast-regime-weight", "not in (0, 1]"],
+        );
+    }
     refused(&["simulate", "--profile", "no-such-profile", "--out", out], &["--profile", "no-such-profile", "neither"]);
     let missing_dir = dir.join("missing").join("out.csv");
     refused(&["simulate", "--out", missing_dir.to_str().expect("utf-8")], &["cannot write", "missing"]);
