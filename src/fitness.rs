@@ -38,11 +38,12 @@ use heapless::Vec;
 pub const FAST_REGIME_SPEED_RAD_S: f32 = 300.0;
 
 /// The weight `ρ` of a fast-regime sample in the monitor's fitness ([`CurrentFit::with_fast_regime_weight`]).
-/// Chosen from PSO campaigns at the on-board budget (2026-11-23; a prototype with the intervals
-/// fixed by hand, master seed 2018): high-severity mean Err% 6.34 at 1, 5.43 at 0.5, 3.04 at 0.25,
-/// 2.31 at 0.1, confirmed on master seed 1 (3.87 at 1, 2.29 at 0.1). 0.1 removes the spurious
-/// eccentricities of high short circuits and low gains; the price is low eccentricities, whose
-/// evidence lies mostly in the fast regime (README, "identification campaign").
+/// Chosen from PSO campaigns at the on-board budget (`ema campaign --algorithms pso --runs 10
+/// --max-iterations 40 --fast-regime-weight ρ`, 2026-11-23): low / high mean Err% 1.79 / 6.34 at
+/// 1, 2.78 / 4.04 at 0.5, 3.34 / 4.41 at 0.25, 3.05 / 2.33 at 0.1; on master seed 1 (`--seed 1`)
+/// 2.68 / 3.87 at 1, 3.35 / 2.11 at 0.1. 0.1 removes the spurious eccentricities of high short
+/// circuits and low gains; the price is low eccentricities, whose evidence lies mostly in the
+/// fast regime (README, "identification campaign").
 pub const FAST_REGIME_WEIGHT: f32 = 0.1;
 
 /// `true` when `weight` is a fast-regime weight the fitness accepts: in `(0, 1]` (NaN is not).
