@@ -352,7 +352,7 @@ impl MonitorModel {
     }
 
     /// Commutation (Hall) sector `0..6` of the state's rotor angle: the Hall angle advanced by
-    /// `δ_H` when `hall_misalignment` is on ([`crate::sector_effects`]).
+    /// `δ_H` when `hall_misalignment` is on (module `sector_effects`).
     pub fn commutation_sector(&self, s: &ModelState) -> usize {
         match &self.emf_shape {
             Some(shape) if shape.hall_offset_rad != 0.0 => {

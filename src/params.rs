@@ -2,7 +2,7 @@
 //!
 //! One table shared by the monitor model (this crate, `f32`) and the reference model
 //! (`host-tests/ema-reference`, which converts to `f64`). Origin: `shared/design/physics.md` §6.2
-//! (tag [P], a physically consistent proposal, no published table exists), except the nominal
+//! (tag \[P\], a physically consistent proposal, no published table exists), except the nominal
 //! backlash, chosen so that the paper's "1 to 100 times nominal" range ends at 5 mrad.
 //!
 //! Derived values: electrical time constant L/R = 4 ms; torque constant of the conducting pair
