@@ -237,12 +237,7 @@ pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
 /// The identification settings of `ema campaign`'s flags (algorithm and seed are per run).
 pub fn identify_config(args: &CampaignArgs) -> IdentifyConfig {
     let base = IdentifyConfig { max_iterations: args.max_iterations, ..IdentifyConfig::default() };
-    let base = if args.paper_only {
-        IdentifyConfig { model_selection: false, polish: None, fast_regime_weight: 1.0, ..base }
-    } else {
-        base
-    };
-    IdentifyConfig { fast_regime_weight: args.fast_regime_weight.unwrap_or(base.fast_regime_weight), ..base }
+    crate::identify::method_flags(base, args.paper_only, args.fast_regime_weight)
 }
 
 /// Simulates and identifies one planned run.

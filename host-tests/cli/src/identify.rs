@@ -112,7 +112,10 @@ pub struct Outcome {
 /// Runs `ema identify`.
 pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
     let base = if args.firmware_trace.is_some() { IdentifyConfig::onboard() } else { IdentifyConfig::default() };
-    let mut config = IdentifyConfig {
+    if let Some(weight) = args.fast_regime_weight {
+        check_fast_regime_weight(weight)?;
+    }
+    let config = IdentifyConfig {
         algorithm: args.algorithm.into(),
         seed: args.seed,
         max_iterations: args.max_iterations.unwrap_or(base.max_iterations),
@@ -122,12 +125,7 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
         },
         ..base
     };
-    if args.paper_only {
-        config = IdentifyConfig { model_selection: false, polish: None, fast_regime_weight: 1.0, ..config };
-    }
-    if let Some(weight) = args.fast_regime_weight {
-        config.fast_regime_weight = check_fast_regime_weight(weight)?;
-    }
+    let config = method_flags(config, args.paper_only, args.fast_regime_weight);
     let outcome = match (&args.firmware_trace, &args.file) {
         (Some(path), _) => identify_firmware_trace(path, &config)?,
         (None, Some(path)) => {
@@ -140,10 +138,22 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
     Ok(render(&outcome, &config.effects, args))
 }
 
+/// What `--paper-only` and `--fast-regime-weight` (checked before, [`check_fast_regime_weight`])
+/// make of `config` in `ema identify` and `ema campaign`: the paper's method alone (its fitness,
+/// weight 1; no model selection, no polish), then the flag's weight when given.
+pub fn method_flags(config: IdentifyConfig, paper_only: bool, fast_regime_weight: Option<f32>) -> IdentifyConfig {
+    let config = if paper_only {
+        IdentifyConfig { model_selection: false, polish: None, fast_regime_weight: 1.0, ..config }
+    } else {
+        config
+    };
+    IdentifyConfig { fast_regime_weight: fast_regime_weight.unwrap_or(config.fast_regime_weight), ..config }
+}
+
 /// `--fast-regime-weight` checked by the core's rule, the flag named in the error.
-pub fn check_fast_regime_weight(weight: f32) -> Result<f32, CliError> {
+pub fn check_fast_regime_weight(weight: f32) -> Result<(), CliError> {
     if ema_monitor::fitness::fast_regime_weight_is_valid(weight) {
-        Ok(weight)
+        Ok(())
     } else {
         Err(CliError::flag("--fast-regime-weight", format!("{weight} is not in (0, 1]")))
     }
