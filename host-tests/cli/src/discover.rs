@@ -411,16 +411,17 @@ fn fit_d<const W: usize, const D: usize>(
     }
     // model selection over the fault groups, with the on-board criterion
     for (g, &group) in FAULT_GROUPS.iter().enumerate() {
-        if !group_present(&faults_of(&best), group) {
+        let k = faults_of(&best);
+        if !group_present(&k, group) {
             continue;
         }
         let mut movable = [true; D];
         for (h, &(f, l)) in FAULT_GROUPS.iter().enumerate() {
-            let m = h != g && group_present(&faults_of(&best), (f, l));
+            let m = h != g && group_present(&k, (f, l));
             movable[f..=l].iter_mut().for_each(|x| *x = m);
         }
         let mut without = best;
-        without[..FAULT_COUNT].copy_from_slice(&without_group(&faults_of(&best), group));
+        without[..FAULT_COUNT].copy_from_slice(&without_group(&k, group));
         if let Ok(mut search) = PatternSearch::new(bounds, SELECTION_REFIT, without, None, movable) {
             optimizer::run(&mut search, &mut objective, u32::MAX);
             evaluations += search.evaluations();
@@ -432,8 +433,9 @@ fn fit_d<const W: usize, const D: usize>(
     }
     // polish what is left
     let mut movable = [true; D];
+    let k = faults_of(&best);
     for &(f, l) in FAULT_GROUPS.iter() {
-        let m = group_present(&faults_of(&best), (f, l));
+        let m = group_present(&k, (f, l));
         movable[f..=l].iter_mut().for_each(|x| *x = m);
     }
     let polish = PatternConfig { initial_step: 0.02, min_step: 2e-4, max_evaluations: 400 };
