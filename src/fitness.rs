@@ -132,7 +132,7 @@ pub struct CurrentFit<'a, const W: usize> {
 
 /// The weight `ρ_i` of each window sample in turn (samples asked for in increasing order).
 #[derive(Clone, Debug)]
-pub struct RegimeWeights<'f> {
+struct RegimeWeights<'f> {
     intervals: &'f [(u32, u32)],
     next: usize,
     weight: f32,
@@ -140,7 +140,7 @@ pub struct RegimeWeights<'f> {
 
 impl RegimeWeights<'_> {
     /// `ρ_i` of window sample `i`; `i` must not decrease between calls.
-    pub fn at(&mut self, i: usize) -> f32 {
+    fn at(&mut self, i: usize) -> f32 {
         let i = i as u32;
         while let Some(&(_, end)) = self.intervals.get(self.next) {
             if i < end {
@@ -201,7 +201,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
     }
 
     /// A walker over the sample weights `ρ_i`.
-    pub fn regime_weights(&self) -> RegimeWeights<'_> {
+    fn regime_weights(&self) -> RegimeWeights<'_> {
         RegimeWeights { intervals: &self.fast_intervals, next: 0, weight: self.fast_weight }
     }
 
