@@ -528,9 +528,7 @@ pub fn run(args: &CampaignArgs) -> Result<String, CliError> {
     if args.algorithms.is_empty() {
         return Err(CliError::flag("--algorithms", "give at least one of pso, ga, de"));
     }
-    if let Some(weight) = args.fast_regime_weight {
-        crate::identify::check_fast_regime_weight(weight)?;
-    }
+    crate::identify::check_fast_regime_weight(args.fast_regime_weight)?;
     let plans = plan(args)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     if threads == 0 {

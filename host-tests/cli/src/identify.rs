@@ -112,9 +112,7 @@ pub struct Outcome {
 /// Runs `ema identify`.
 pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
     let base = if args.firmware_trace.is_some() { IdentifyConfig::onboard() } else { IdentifyConfig::default() };
-    if let Some(weight) = args.fast_regime_weight {
-        check_fast_regime_weight(weight)?;
-    }
+    check_fast_regime_weight(args.fast_regime_weight)?;
     let config = IdentifyConfig {
         algorithm: args.algorithm.into(),
         seed: args.seed,
@@ -150,12 +148,13 @@ pub fn method_flags(config: IdentifyConfig, paper_only: bool, fast_regime_weight
     IdentifyConfig { fast_regime_weight: fast_regime_weight.unwrap_or(config.fast_regime_weight), ..config }
 }
 
-/// `--fast-regime-weight` checked by the core's rule, the flag named in the error.
-pub fn check_fast_regime_weight(weight: f32) -> Result<(), CliError> {
-    if ema_monitor::fitness::fast_regime_weight_is_valid(weight) {
-        Ok(())
-    } else {
-        Err(CliError::flag("--fast-regime-weight", format!("{weight} is not in (0, 1]")))
+/// `--fast-regime-weight`, when given, checked by the core's rule, the flag named in the error.
+pub fn check_fast_regime_weight(weight: Option<f32>) -> Result<(), CliError> {
+    match weight {
+        Some(w) if !ema_monitor::fitness::fast_regime_weight_is_valid(w) => {
+            Err(CliError::flag("--fast-regime-weight", format!("{w} is not in (0, 1]")))
+        }
+        _ => Ok(()),
     }
 }
 
