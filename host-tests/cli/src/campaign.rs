@@ -33,6 +33,7 @@ use serde_json::json;
 use crate::error::CliError;
 use crate::identify::{identify_recording, AlgorithmArg};
 use crate::recording_io::Recording;
+use crate::simulate::resolve_profile;
 
 /// Order of the algorithms in the table: the paper's two, then differential evolution (not in the paper).
 const ALGORITHM_ORDER: [&str; 3] = ["pso", "ga", "de"];
@@ -91,6 +92,10 @@ pub struct CampaignArgs {
     /// [default: the monitor's, 0.1; 1 with --paper-only].
     #[arg(long, value_name = "RHO")]
     pub fast_regime_weight: Option<f32>,
+    /// Command profile of every run (the manoeuvre the reference model flies and the monitor
+    /// model is driven by): `standard` or a profile file (`ema simulate --help` has the format).
+    #[arg(long, value_name = "NAME|FILE", default_value = "standard")]
+    pub profile: String,
     /// Master seed of every draw.
     #[arg(long, default_value_t = 2018)]
     pub seed: u64,
@@ -240,15 +245,15 @@ pub fn identify_config(args: &CampaignArgs) -> IdentifyConfig {
     crate::identify::method_flags(base, args.paper_only, args.fast_regime_weight)
 }
 
-/// Simulates and identifies one planned run.
+/// Simulates and identifies one planned run under `profile`.
 /// `base` gives the identification's settings; the algorithm and the seed come from the plan.
-pub fn execute(p: &Plan, base: &IdentifyConfig) -> Result<RunResult, CliError> {
-    let config = SimConfig { faults: p.truth, seed: p.seed, ..SimConfig::default() };
+pub fn execute(p: &Plan, base: &IdentifyConfig, profile: &Profile) -> Result<RunResult, CliError> {
+    let config = SimConfig { faults: p.truth, seed: p.seed, profile: *profile, ..SimConfig::default() };
     let rec = simulate(&config).map_err(|e| CliError::Simulation(e.to_string()))?;
     let recording = Recording::from_reference(&rec, Vec::new());
     let identify = IdentifyConfig { algorithm: Algorithm::from(p.algorithm), seed: p.seed, ..*base };
     let label = PathBuf::from(format!("campaign run {} {} {} #{}", alg_name(p.algorithm), p.mode, p.level, p.run));
-    let outcome = identify_recording(&recording, &label, &Profile::STANDARD, &identify)?;
+    let outcome = identify_recording(&recording, &label, profile, &identify)?;
     let estimate = outcome.report.faults;
     Ok(RunResult {
         plan: p.clone(),
@@ -267,10 +272,11 @@ fn alg_name(a: AlgorithmArg) -> &'static str {
     }
 }
 
-/// Runs every planned run on `threads` workers; results in plan order.
+/// Runs every planned run under `profile` on `threads` workers; results in plan order.
 pub fn run_all(
     plans: &[Plan],
     base: &IdentifyConfig,
+    profile: &Profile,
     threads: usize,
     progress: bool,
 ) -> Result<Vec<RunResult>, CliError> {
@@ -292,7 +298,7 @@ pub fn run_all(
             scope.spawn(|| loop {
                 let i = next.fetch_add(1, Ordering::Relaxed);
                 let Some(p) = plans.get(i) else { break };
-                let r = execute(p, base);
+                let r = execute(p, base, profile);
                 if let Ok(mut all) = results.lock() {
                     all[i] = Some(r);
                 }
@@ -390,8 +396,9 @@ fn table(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> String {
     }
     let _ = write!(
         out,
-        "\nErr% by the paper's formula; ours: {} runs per cell, reference model with noise, max {} iterations, {}, fast-regime weight {}, seed {}.",
+        "\nErr% by the paper's formula; ours: {} runs per cell, reference model with noise, profile {}, max {} iterations, {}, fast-regime weight {}, seed {}.",
         args.runs,
+        args.profile,
         args.max_iterations,
         if args.paper_only { "global search only" } else { "then model selection and polish" },
         identify_config(args).fast_regime_weight,
@@ -416,7 +423,7 @@ fn summary_json(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> serde
                    "total_err_percent": r.total_err_percent, "seconds": r.seconds})
         })
         .collect();
-    json!({"runs_per_cell": args.runs, "max_iterations": args.max_iterations, "seed": args.seed,
+    json!({"runs_per_cell": args.runs, "profile": args.profile, "max_iterations": args.max_iterations, "seed": args.seed,
            "model_selection_and_polish": !args.paper_only,
            "fast_regime_weight": identify_config(args).fast_regime_weight,
            "cells": cells, "paper_table_ii": paper})
@@ -529,12 +536,13 @@ pub fn run(args: &CampaignArgs) -> Result<String, CliError> {
         return Err(CliError::flag("--algorithms", "give at least one of pso, ga, de"));
     }
     crate::identify::check_fast_regime_weight(args.fast_regime_weight)?;
+    let profile = resolve_profile(&args.profile)?;
     let plans = plan(args)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     if threads == 0 {
         return Err(CliError::flag("--threads", "must be at least 1"));
     }
-    let results = run_all(&plans, &identify_config(args), threads, true)?;
+    let results = run_all(&plans, &identify_config(args), &profile, threads, true)?;
     let summary = summarize(&results);
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).map_err(|source| CliError::Io { path: dir.clone(), source })?;

@@ -1,13 +1,14 @@
 //! `ema campaign`: plan determinism, CSV contents, the paper's table, charts, bad flags.
 
 mod common;
-use common::refused;
+use common::{refused, s as path_str, scratch};
 
 use ema_cli::campaign::{
     self, bar_chart, identify_config, plan, run_all, runs_csv, summarize, CampaignArgs, PAPER_TABLE_II,
 };
 use ema_cli::identify::AlgorithmArg;
-use ema_monitor::FaultVector;
+use ema_monitor::{FaultVector, Profile};
+use ema_reference::{simulate, SimConfig};
 
 fn args(runs: u32, modes: &[&str]) -> CampaignArgs {
     CampaignArgs {
@@ -17,6 +18,7 @@ fn args(runs: u32, modes: &[&str]) -> CampaignArgs {
         max_iterations: 2,
         paper_only: false,
         fast_regime_weight: None,
+        profile: "standard".to_string(),
         seed: 2018,
         threads: Some(1),
         modes: modes.iter().map(|m| m.to_string()).collect(),
@@ -84,8 +86,8 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
     // the global search alone, so every run spends exactly its budget
     let a = CampaignArgs { paper_only: true, ..args(1, &["friction", "gain"]) };
     let plans = plan(&a).expect("valid");
-    let one = run_all(&plans, &identify_config(&a), 1, false).expect("runs");
-    let two = run_all(&plans, &identify_config(&a), 2, false).expect("runs");
+    let one = run_all(&plans, &identify_config(&a), &Profile::STANDARD, 1, false).expect("runs");
+    let two = run_all(&plans, &identify_config(&a), &Profile::STANDARD, 2, false).expect("runs");
     // every column but `identification_s` (second to last), which is wall time
     let strip = |csv: String| -> Vec<Vec<String>> {
         csv.lines()
@@ -114,8 +116,14 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
         assert_eq!(f[23], "100", "2 iterations × 50 particles");
     }
     // model selection and the polish come on top of the global search's budget
-    let refined =
-        run_all(&plans, &identify_config(&CampaignArgs { paper_only: false, ..a.clone() }), 2, false).expect("runs");
+    let refined = run_all(
+        &plans,
+        &identify_config(&CampaignArgs { paper_only: false, ..a.clone() }),
+        &Profile::STANDARD,
+        2,
+        false,
+    )
+    .expect("runs");
     assert!(
         refined.iter().all(|r| r.evaluations > 100),
         "{:?}",
@@ -154,8 +162,42 @@ fn differential_evolution_runs_on_the_same_recordings_and_gets_its_own_rows() {
     assert!(!table.contains("| ga |"), "{table}");
 }
 
+/// `--profile FILE`: every run flies that manoeuvre (its length) and is identified under it,
+/// exactly as `ema simulate --profile` + `ema identify --profile` would do it (identification
+/// refuses a recording whose command is not the profile's).
+#[test]
+fn a_profile_file_drives_every_run() {
+    let dir = scratch("campaign", "profile");
+    let file = dir.join("short.profile");
+    std::fs::write(&file, "hold 0 0\nramp 0.01 0 0.3\nsine 0.2 0.057 0.02 6\nend 0.5\n").expect("writable");
+    let profile = ema_cli::simulate::resolve_profile(path_str(&file)).expect("a valid profile");
+    let a = CampaignArgs { paper_only: true, profile: path_str(&file).to_string(), ..args(1, &["friction"]) };
+    let plans = plan(&a).expect("valid");
+    let config = identify_config(&a);
+    let flown = run_all(&plans, &config, &profile, 1, false).expect("runs");
+    for (p, r) in plans.iter().zip(&flown) {
+        let rec = simulate(&SimConfig { faults: p.truth, seed: p.seed, profile, ..SimConfig::default() }).expect("sim");
+        assert!((rec.samples.len() as f32 - 0.5 / 1e-4).abs() <= 1.0, "{} samples", rec.samples.len());
+        let recording = ema_cli::recording_io::Recording::from_reference(&rec, Vec::new());
+        let by_hand = ema_cli::identify::identify_recording(
+            &recording,
+            std::path::Path::new("by hand"),
+            &profile,
+            &ema_monitor::monitor::IdentifyConfig { seed: p.seed, ..config },
+        )
+        .expect("identifies");
+        assert_eq!((r.estimate, r.evaluations), (by_hand.report.faults, by_hand.report.evaluations), "{}", p.mode);
+    }
+    let table = campaign::run(&a).expect("runs");
+    assert!(table.contains(&format!("profile {}", path_str(&file))), "{table}");
+}
+
 #[test]
 fn bad_flags_are_refused() {
+    refused(
+        &["campaign", "--profile", "no-such.profile", "--runs", "1", "--modes", "gain"],
+        &["--profile", "no-such.profile"],
+    );
     refused(&["campaign", "--runs", "0"], &["--runs"]);
     refused(&["campaign", "--algorithms", "sa"], &["sa"]);
     refused(&["campaign", "--modes", "bogus", "--runs", "1"], &["--modes", "bogus"]);
