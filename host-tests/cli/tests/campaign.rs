@@ -177,7 +177,8 @@ fn a_profile_file_drives_every_run() {
     let flown = run_all(&plans, &config, &profile, 1, false).expect("runs");
     for (p, r) in plans.iter().zip(&flown) {
         let rec = simulate(&SimConfig { faults: p.truth, seed: p.seed, profile, ..SimConfig::default() }).expect("sim");
-        assert!((rec.samples.len() as f32 - 0.5 / 1e-4).abs() <= 1.0, "{} samples", rec.samples.len());
+        let samples = profile.duration_s() / ema_monitor::EmaParams::NOMINAL.control_period_s;
+        assert!((rec.samples.len() as f32 - samples).abs() <= 1.0, "{} samples for {samples}", rec.samples.len());
         let recording = ema_cli::recording_io::Recording::from_reference(&rec, Vec::new());
         let by_hand = ema_cli::identify::identify_recording(
             &recording,
