@@ -40,7 +40,11 @@ pub fn equivalent_current_a(ia_a: f32, ib_a: f32, ic_a: f32) -> f32 {
 ///   controller puts on the current from the position transducer's noise (the derivative on
 ///   measurement amplifies it): `σ_j = Kd·(α/T)·σ_θ·√(2/(2−α))`, `α = T/τ_D`,
 ///   `σ_θ² = σ_pos² + q²/12` (noise and resolution `q`); the pair reads `F_{σ_pair}(|I|)` each, with
-///   `σ_pair² = σ_j² + σ_s²` (the proportional path adds `Kp·σ_θ` ≈ 0.008 A, neglected);
+///   `σ_pair² = σ_j² + σ_s² + h²/3` (the proportional path adds `Kp·σ_θ` ≈ 0.008 A, neglected);
+///   `h²/3` is the hysteresis current ripple, a triangle wave of half band `h` (RMS `h/√3` =
+///   0.173 A): the reference model with noise off shows `½Σ|i_j| − |I_ref|` with an SD of
+///   0.14–0.25 A in regulation. Without it the model reads below the measurement on slow,
+///   low-current samples and the identification turns that into friction (k1 0.01–0.02 high);
 /// - the open phase reads sensor noise only, `F_{σ_s}(0)`;
 ///
 /// so `E[I_3eq] = F_{σ_pair}(|I|) + ½F_{σ_s}(0)`, where `F_σ(μ) = μ·erf(μ/(σ√2)) + σ√(2/π)e^{−μ²/(2σ²)}`
@@ -96,7 +100,8 @@ impl MeasuredEnvelope {
         let jitter =
             params.kd_a_s_per_rad * (alpha / params.control_period_s) * sigma_theta * libm::sqrtf(2.0 / (2.0 - alpha));
         let sensor = params.current_noise_a;
-        Self::new(libm::sqrtf(jitter * jitter + sensor * sensor), sensor)
+        let ripple = params.hysteresis_half_band_a * (1.0 / 1.732_050_8); // h/√3
+        Self::new(libm::sqrtf(jitter * jitter + sensor * sensor + ripple * ripple), sensor)
     }
 
     /// Expected measured `I_3eq` for a true pair current `current_a`.

@@ -14,12 +14,12 @@
 //! 3. **Name**: every library effect ([`EffectId::ALL`]) is fitted with the faults
 //!    ([`fit_model`]: compass searches from the current fit and from it with its electrical or
 //!    mechanical faults reset, at the best severity of a scan, then model selection and a
-//!    polish) on alternate 50 ms chunks of the recording, and scored on the held-out chunks:
+//!    polish) on alternate 25 ms chunks of the recording, and scored on the held-out chunks:
 //!    `ΔBIC = n_eff·ln(E_before/E_after) − Δp·ln(n_eff)` on each part (`Δp` the change in free
 //!    parameters, `n_eff` the residual's effective sample count,
 //!    [`CurrentFit::effective_samples`]). An effect is named only when the held-out ΔBIC exceeds
 //!    [`BIC_STRONG`] (Kass & Raftery's "very strong") and the in-sample one [`BIC_FIT_STRONG`]
-//!    ("strong"), the fitted severity is neither negligible nor at its bound
+//!    ("strong"; only positive, [`BIC_FIT_REPLACING`], for an effect that replaces faults), the fitted severity is neither negligible nor at its bound
 //!    ([`PINNED_SEVERITY`]), and either the structural residual it removes is a real part of the
 //!    gap ([`MIN_GAP_SHARE`]) or it leaves fewer fault parameters than the fit without it (a
 //!    winding temperature rise read as shorts on three phases). Confidence is the winner's
@@ -57,13 +57,21 @@ use crate::simulate::{parse_faults, resolve_profile};
 pub const SMOOTH_BLOCKS: usize = 5;
 /// Length of the "where" windows (s).
 pub const WINDOW_S: f64 = 0.025;
-/// Blocks per chunk of the fit / held-out split (125 × 0.4 ms = 50 ms).
-pub const CHUNK_BLOCKS: usize = 125;
+/// Blocks per chunk of the fit / held-out split (62 × 0.4 ms ≈ 25 ms, the length of the "where"
+/// windows: a signature confined to one transient, a Stribeck dip at the ramp's start, falls in
+/// both parts; with 50 ms chunks it fell in one fit chunk and the held-out part never saw it).
+pub const CHUNK_BLOCKS: usize = 62;
 /// Held-out ΔBIC above which an effect may be named (Kass & Raftery 1995: > 10 is very strong).
 pub const BIC_STRONG: f64 = 10.0;
 /// In-sample ΔBIC it must also reach (Kass & Raftery: > 6 is strong); the held-out part, which
 /// the fit never saw, carries the decisive evidence.
 pub const BIC_FIT_STRONG: f64 = 6.0;
+/// In-sample ΔBIC an effect that *replaces* fault parameters must reach: positive, BIC prefers it.
+/// Such a candidate competes with faults fitted to the same chunks that mimic it there, so the two
+/// fit the fit part about equally and its in-sample ΔBIC is about `Δp·(ln n_eff − 1)` ≈ 6.5 per
+/// parameter replaced, with χ² scatter: the "strong" bar would decide by chance. The held-out
+/// part, where the mimicry fails, decides ([`BIC_STRONG`]).
+pub const BIC_FIT_REPLACING: f64 = 0.0;
 /// Severity below which a fitted effect counts as absent.
 pub const MIN_SEVERITY: f32 = 0.03;
 /// Share of the structural residual energy an effect must remove to be named.
@@ -311,6 +319,33 @@ pub fn parameter_count(fit: &ModelFit) -> usize {
     fault_parameter_count(&fit.k) + fit.effects.active().count()
 }
 
+/// `x` with every present fault group that does not pay its BIC price as it stands (set healthy,
+/// nothing refitted: one evaluation per group) set healthy, and its cost. A compass search leaves
+/// groups a step or two off healthy where nothing pulls them back; counted as parameters, they
+/// would make the better fit lose the comparison of local optima by BIC.
+fn prune_groups<const W: usize, const D: usize>(
+    objective: &mut PartFit<'_, W>,
+    mut x: [f32; D],
+    mut cost: f32,
+    n_eff: f64,
+    evaluations: &mut u32,
+) -> ([f32; D], f32) {
+    for &group in FAULT_GROUPS.iter() {
+        let k = faults_of(&x);
+        if !group_present(&k, group) {
+            continue;
+        }
+        let mut without = x;
+        without[..FAULT_COUNT].copy_from_slice(&without_group(&k, group));
+        let c = Objective::<D>::cost(objective, &without, f32::INFINITY);
+        *evaluations += 1;
+        if !group_pays(cost, c, group.1 - group.0 + 1, n_eff as f32) {
+            (x, cost) = (without, c);
+        }
+    }
+    (x, cost)
+}
+
 /// Fits the faults and the severities of `free` on `part`, then keeps only what pays:
 /// 1. a compass search (≤ 300 evaluations) from `start` and from `start` with its electrical or
 ///    mechanical fault groups (or all) reset to healthy, each at the best severity of a scan of
@@ -403,9 +438,10 @@ fn fit_d<const W: usize, const D: usize>(
             optimizer::run(&mut search, &mut objective, u32::MAX);
             evaluations += search.evaluations();
             let (x, c) = search.best();
-            let score = bic(x, c);
+            let (x, c) = prune_groups(&mut objective, *x, c, n_eff, &mut evaluations);
+            let score = bic(&x, c);
             if c.is_finite() && score < best_bic {
-                (best, best_cost, best_bic) = (*x, c, score);
+                (best, best_cost, best_bic) = (x, c, score);
             }
         }
     }
@@ -777,7 +813,7 @@ fn search_round<const W: usize>(
     let weight_sum: f64 = 1.0 + candidates.iter().map(|c| (c.bic_held_out.min(1400.0) / 2.0).exp()).sum::<f64>();
     let evidence = |c: &Candidate| {
         c.bic_held_out > BIC_STRONG
-            && c.bic_fit > BIC_FIT_STRONG
+            && c.bic_fit > if c.replaces_faults { BIC_FIT_REPLACING } else { BIC_FIT_STRONG }
             && c.severity >= MIN_SEVERITY
             && (c.gap_share >= MIN_GAP_SHARE || c.replaces_faults)
     };
