@@ -39,7 +39,8 @@ pub const FAST_REGIME_SPEED_RAD_S: f32 = 300.0;
 
 /// The weight `ρ` of a fast-regime sample in the monitor's fitness ([`CurrentFit::with_fast_regime_weight`]).
 /// Chosen from PSO campaigns at the on-board budget (`ema campaign --algorithms pso --runs 10
-/// --max-iterations 40 --fast-regime-weight ρ`, 2026-11-23): low / high mean Err% 1.79 / 6.34 at
+/// --max-iterations 40 --fast-regime-weight ρ`, 2026-11-23, session 4, before the hysteresis ripple
+/// entered [`MeasuredEnvelope`]; with it, 2.79 / 2.31 at 0.1): low / high mean Err% 1.79 / 6.34 at
 /// 1, 2.78 / 4.04 at 0.5, 3.34 / 4.41 at 0.25, 3.05 / 2.33 at 0.1; on master seed 1 (`--seed 1`)
 /// 2.68 / 3.87 at 1, 3.35 / 2.11 at 0.1. 0.1 removes the spurious eccentricities of high short
 /// circuits and low gains; the price is low eccentricities, whose evidence lies mostly in the

@@ -319,28 +319,44 @@ pub fn parameter_count(fit: &ModelFit) -> usize {
     fault_parameter_count(&fit.k) + fit.effects.active().count()
 }
 
-/// `x` with every present fault group that does not pay its BIC price as it stands (set healthy,
-/// nothing refitted: one evaluation per group) set healthy, and its cost. A compass search leaves
-/// groups a step or two off healthy where nothing pulls them back; counted as parameters, they
-/// would make the better fit lose the comparison of local optima by BIC.
-fn prune_groups<const W: usize, const D: usize>(
+/// Model selection as on board, on one point `x` of cost `cost`: each present fault group is set
+/// healthy, the rest (the other present groups and the effects) refitted ([`SELECTION_REFIT`]),
+/// and the group dropped unless it pays its BIC price with `n_eff` effective samples. A group
+/// that does not pay even with nothing refitted (one evaluation) is dropped without the refit.
+fn select_groups<const W: usize, const D: usize>(
     objective: &mut PartFit<'_, W>,
+    bounds: Bounds<D>,
     mut x: [f32; D],
     mut cost: f32,
     n_eff: f64,
     evaluations: &mut u32,
 ) -> ([f32; D], f32) {
-    for &group in FAULT_GROUPS.iter() {
+    for (g, &group) in FAULT_GROUPS.iter().enumerate() {
         let k = faults_of(&x);
         if !group_present(&k, group) {
             continue;
         }
+        let parameters = group.1 - group.0 + 1;
         let mut without = x;
         without[..FAULT_COUNT].copy_from_slice(&without_group(&k, group));
         let c = Objective::<D>::cost(objective, &without, f32::INFINITY);
         *evaluations += 1;
-        if !group_pays(cost, c, group.1 - group.0 + 1, n_eff as f32) {
+        if !group_pays(cost, c, parameters, n_eff as f32) {
             (x, cost) = (without, c);
+            continue;
+        }
+        let mut movable = [true; D];
+        for (h, &(f, l)) in FAULT_GROUPS.iter().enumerate() {
+            let m = h != g && group_present(&k, (f, l));
+            movable[f..=l].iter_mut().for_each(|x| *x = m);
+        }
+        if let Ok(mut search) = PatternSearch::new(bounds, SELECTION_REFIT, without, None, movable) {
+            optimizer::run(&mut search, objective, u32::MAX);
+            *evaluations += search.evaluations();
+            let (refit, c) = search.best();
+            if !group_pays(cost, c, parameters, n_eff as f32) {
+                (x, cost) = (*refit, c);
+            }
         }
     }
     (x, cost)
@@ -350,12 +366,12 @@ fn prune_groups<const W: usize, const D: usize>(
 /// 1. a compass search (≤ 300 evaluations) from `start` and from `start` with its electrical or
 ///    mechanical fault groups (or all) reset to healthy, each at the best severity of a scan of
 ///    the new effect's (an effect already on in `start` starts at its severity): the valley in
-///    severity can be narrow, and an electrical fault can mimic an effect; the end points are
-///    compared by BIC (`n_eff·ln E + p·ln n_eff`), so an equal fit with fewer parameters wins;
-/// 2. model selection as on board: each present fault group is set healthy, the rest refitted
-///    ([`SELECTION_REFIT`]), and the group dropped unless it pays its BIC price with `n_eff`
-///    effective samples;
-/// 3. a compass polish (≤ 400 evaluations) of what is left.
+///    severity can be narrow, and an electrical fault can mimic an effect;
+/// 2. model selection as on board at each end point ([`select_groups`]): a compass search leaves
+///    groups a step off healthy (a gain of 0.50625) that would count as parameters;
+/// 3. the end points compared by BIC (`n_eff·ln E + p·ln n_eff`), so an equal fit with fewer
+///    parameters wins (a hot winding over three shorts), and a compass polish (≤ 400
+///    evaluations) of the winner.
 pub fn fit_model<const W: usize>(
     trace: &MeasuredTrace<W>,
     profile: &Profile,
@@ -408,7 +424,7 @@ fn fit_d<const W: usize, const D: usize>(
     let mut starts: Vec<[f32; D]> = vec![point(start, 0.0)];
     for (j, k) in fault_starts.iter().enumerate() {
         if D == FAULT_COUNT {
-            if j > 0 {
+            if j > 0 && !starts.contains(&point(k, 0.0)) {
                 starts.push(point(k, 0.0));
             }
             continue;
@@ -422,7 +438,9 @@ fn fit_d<const W: usize, const D: usize>(
                 best_scan = (c, x);
             }
         }
-        starts.push(best_scan.1);
+        if !starts.contains(&best_scan.1) {
+            starts.push(best_scan.1); // a start already searched would end where it ended
+        }
     }
     let local = PatternConfig { initial_step: 0.05, min_step: 1e-3, max_evaluations: 300 };
     // the local optima compared by BIC, not by E alone: three shorts and a hot winding can fit
@@ -438,32 +456,10 @@ fn fit_d<const W: usize, const D: usize>(
             optimizer::run(&mut search, &mut objective, u32::MAX);
             evaluations += search.evaluations();
             let (x, c) = search.best();
-            let (x, c) = prune_groups(&mut objective, *x, c, n_eff, &mut evaluations);
+            let (x, c) = select_groups(&mut objective, bounds, *x, c, n_eff, &mut evaluations);
             let score = bic(&x, c);
             if c.is_finite() && score < best_bic {
                 (best, best_cost, best_bic) = (x, c, score);
-            }
-        }
-    }
-    // model selection over the fault groups, with the on-board criterion
-    for (g, &group) in FAULT_GROUPS.iter().enumerate() {
-        let k = faults_of(&best);
-        if !group_present(&k, group) {
-            continue;
-        }
-        let mut movable = [true; D];
-        for (h, &(f, l)) in FAULT_GROUPS.iter().enumerate() {
-            let m = h != g && group_present(&k, (f, l));
-            movable[f..=l].iter_mut().for_each(|x| *x = m);
-        }
-        let mut without = best;
-        without[..FAULT_COUNT].copy_from_slice(&without_group(&k, group));
-        if let Ok(mut search) = PatternSearch::new(bounds, SELECTION_REFIT, without, None, movable) {
-            optimizer::run(&mut search, &mut objective, u32::MAX);
-            evaluations += search.evaluations();
-            let (x, c) = search.best();
-            if !group_pays(best_cost, c, group.1 - group.0 + 1, n_eff as f32) {
-                (best, best_cost) = (*x, c);
             }
         }
     }
