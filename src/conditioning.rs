@@ -401,6 +401,35 @@ mod tests {
     }
 
     #[test]
+    fn nominal_envelope_includes_the_hysteresis_ripple() {
+        // Monte Carlo of the nominal actuator's pair current: I + controller jitter + the
+        // hysteresis triangle ripple (uniform on [−h, h] at a random phase) + sensor noise.
+        let p = EmaParams::NOMINAL;
+        let env = MeasuredEnvelope::of(&p);
+        let h = p.hysteresis_half_band_a;
+        let sensor = p.current_noise_a;
+        let pair_jitter = 0.29f32; // σ_j of the derivative path (test below)
+        let without_ripple = MeasuredEnvelope::new(libm::sqrtf(pair_jitter * pair_jitter + sensor * sensor), sensor);
+        let mut normal = Normal(0x2545_F491_4F6C_DD1D);
+        for current in [0.0f32, 0.2, 0.5, 1.0] {
+            let n = 200_000;
+            let mut sum = 0.0f64;
+            for _ in 0..n {
+                let pair = current + pair_jitter * normal.draw() + h * (2.0 * normal.uniform() - 1.0);
+                let (na, nb, nc) = (sensor * normal.draw(), sensor * normal.draw(), sensor * normal.draw());
+                sum += f64::from(equivalent_current_a(pair + na, -pair + nb, nc));
+            }
+            let mc = (sum / n as f64) as f32;
+            // standard error ≈ 0.34/√n ≈ 8e-4 A; the folded normal for jitter + uniform ripple
+            // is an approximation; without the ripple the envelope reads 0.02–0.04 A low here
+            assert!((env.expected_a(current) - mc).abs() < 4e-3, "I = {current}: {} vs {mc}", env.expected_a(current));
+            if current < 0.6 {
+                assert!(mc - without_ripple.expected_a(current) > 0.01, "I = {current}: the ripple matters");
+            }
+        }
+    }
+
+    #[test]
     fn controller_jitter_matches_the_derivative_path_formula() {
         // Drive the real controller with a noisy, quantized position at rest and measure the RMS
         // of its derivative action Kd·D: the σ_j of `MeasuredEnvelope::of`.
