@@ -19,10 +19,11 @@
 //!    parameters, `n_eff` the residual's effective sample count,
 //!    [`CurrentFit::effective_samples`]). An effect is named only when the held-out ΔBIC exceeds
 //!    [`BIC_STRONG`] (Kass & Raftery's "very strong") and the in-sample one [`BIC_FIT_STRONG`]
-//!    ("strong"; only positive, [`BIC_FIT_REPLACING`], for an effect that replaces faults), the fitted severity is neither negligible nor at its bound
-//!    ([`PINNED_SEVERITY`]), and either the structural residual it removes is a real part of the
-//!    gap ([`MIN_GAP_SHARE`]) or it leaves fewer fault parameters than the fit without it (a
-//!    winding temperature rise read as shorts on three phases). Confidence is the winner's
+//!    ("strong"; only positive, [`BIC_FIT_REPLACING`], for an effect that replaces faults), the
+//!    fitted severity is neither negligible nor at its bound ([`PINNED_SEVERITY`]), and either
+//!    the structural residual it removes is a real part of the gap ([`MIN_GAP_SHARE`]) or it
+//!    leaves fewer fault parameters than the fit without it (a winding temperature rise read as
+//!    shorts on three phases). Confidence is the winner's
 //!    posterior weight among "no effect" and all candidates, `exp(ΔBIC_j/2)/(1 + Σ exp(ΔBIC/2))`.
 //!    The search repeats for a second effect on top of the first.
 //! 4. **Add**: the named effects are refitted with the faults on the whole recording.
@@ -370,9 +371,9 @@ fn select_groups<const W: usize, const D: usize>(
         if let Ok(mut search) = PatternSearch::new(bounds, SELECTION_REFIT, without, None, movable) {
             optimizer::run(&mut search, objective, u32::MAX);
             *evaluations += search.evaluations();
-            let (refit, c) = search.best();
+            let (refitted, c) = search.best();
             if !group_pays(cost, c, parameters, n_eff as f32) {
-                (x, cost) = (*refit, c);
+                (x, cost) = (*refitted, c);
             }
         }
     }
@@ -385,11 +386,11 @@ fn select_groups<const W: usize, const D: usize>(
 ///    the new effect's (an effect already on in `start` starts at its severity): the valley in
 ///    severity can be narrow, and an electrical fault can mimic an effect;
 /// 2. at each end point, the fault groups that do not pay even with nothing refitted set healthy
-///    ([`select_groups`] without the refit): a compass search leaves groups a step off healthy
+///    (`select_groups` without the refit): a compass search leaves groups a step off healthy
 ///    that would count as parameters; the end points are then compared by BIC
 ///    (`n_eff·ln E + p·ln n_eff`), so an equal fit with fewer parameters wins (a hot winding over
 ///    three shorts);
-/// 3. model selection as on board on the winner ([`select_groups`] with the refit; at every end
+/// 3. model selection as on board on the winner (`select_groups` with the refit; at every end
 ///    point it cost 70 % more evaluations and changed one verdict of `scripts/discover-matrix`:
 ///    a Hall misalignment named at severity 0.56 for 1, the fault vector's Err% worse),
 ///    and a compass polish (≤ 400 evaluations).
