@@ -105,6 +105,7 @@ impl MeasuredEnvelope {
     }
 
     /// Expected measured `I_3eq` for a true pair current `current_a`.
+    #[cfg_attr(not(target_os = "none"), inline)]
     pub fn expected_a(&self, current_a: f32) -> f32 {
         self.conducting_phase_a(current_a) + self.open_phase_a
     }

@@ -24,6 +24,15 @@
 //! the discrepancy workflow adds to the model. Shared definitions: [`params`] (nominal
 //! actuator), [`faults`] (the fault vector and its physical mapping), [`profile`] (the test
 //! manoeuvre), [`trace`] (the ADC format).
+//!
+//! **Inlining.** The fitness loop is generic, so it is compiled in the caller's crate; the
+//! non-generic helpers it calls every model step (the rotor-angle sine, the command profile, the
+//! expected envelope, the phases' back-EMF constants) carry `#[inline]` on hosted targets only,
+//! where the host tool is built without link-time optimization: without the hint they were
+//! out-of-line calls, and one fitness evaluation took 5–10 % longer (`cargo bench -p ema-cli
+//! --bench fitness`, before and after, 2026-11-23). The firmware is built with fat LTO, which
+//! inlines on its own; the hint there cost 1 % more instructions and 0.8 kB more stack (QEMU), so
+//! it is not given (`target_os = "none"`). Inlining changes no result: no float contraction.
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]

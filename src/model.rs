@@ -373,6 +373,7 @@ impl MonitorModel {
     }
 
     /// Back-EMF constants `k_j(θ_m)` of the three phases at the state's rotor angle.
+    #[cfg_attr(not(target_os = "none"), inline)]
     fn phase_emf_constants(&self, s: &ModelState) -> [f32; 3] {
         let mut k = self.phase_k;
         if self.eccentricity > 0.0 {

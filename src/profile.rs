@@ -52,6 +52,7 @@ impl Segment {
         }
     }
 
+    #[cfg_attr(not(target_os = "none"), inline)]
     fn value_rad(&self, t_s: f32) -> f32 {
         match *self {
             Segment::Hold { value_rad, .. } => value_rad,
@@ -189,6 +190,7 @@ impl<'a> ProfileCursor<'a> {
     }
 
     /// Commanded surface position at `t_s`, which must not be earlier than the previous call's.
+    #[cfg_attr(not(target_os = "none"), inline)]
     pub fn command_rad(&mut self, t_s: f32) -> f32 {
         while let Some(next) = self.segments.get(self.active + 1) {
             if next.start_s() > t_s {

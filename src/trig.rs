@@ -22,6 +22,7 @@ const DP2: f32 = f32::from_bits(0x39fd_a000); // 4.837512969970703125e-4
 const DP3: f32 = f32::from_bits(0x33a2_2169); // 7.54978995489e-8
 
 /// `(sin x, cos x)`.
+#[cfg_attr(not(target_os = "none"), inline)]
 pub fn sin_cos(x: f32) -> (f32, f32) {
     let q = x * FRAC_2_PI;
     // round to nearest without libm: the model's arguments are far below 2^23
@@ -40,6 +41,7 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
 }
 
 /// `sin x`.
+#[cfg_attr(not(target_os = "none"), inline)]
 pub fn sin(x: f32) -> f32 {
     sin_cos(x).0
 }
