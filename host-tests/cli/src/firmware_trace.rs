@@ -22,7 +22,7 @@
 //! `--effect`), so the firmware can replay it: `EMA_TRACE=X.ematrace cargo run --release`. The
 //! recording must be what the firmware replays: 10 kHz, the standard profile's command, and exactly
 //! [`FIRMWARE_TRACE_FRAMES`] rows. Each current goes through
-//! [`amps_to_counts`](ema_monitor::trace::amps_to_counts), which gives back the recorded ADC code
+//! [`amps_to_counts`], which gives back the recorded ADC code
 //! exactly for a quantized recording (the default), so packing the CSV of the built-in run
 //! reproduces `traces/standard.ematrace` byte for byte.
 
