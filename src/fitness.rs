@@ -16,10 +16,11 @@
 //! **Fast-regime weight** (ours, [`CurrentFit::with_fast_regime_weight`]; the paper's fitness is
 //! weight 1): in the step and reversal transients (the healthy model's `|ω_m|` above
 //! [`FAST_REGIME_SPEED_RAD_S`]) the residual is dominated by what the monitor model gets only
-//! approximately (commutation-limited current, the rotor angle drifting by up to a sector at
-//! 800 rad/s; README, "mismatch floor"), not by noise, and that error is correlated over many
-//! samples. Least squares that weighs those samples like the rest lets the mismatch pull the
-//! estimate: high short circuits drew a spurious eccentricity from it and low ones read 0.02 low.
+//! approximately (the current within each commutation sector above the dip onset, which it
+//! represents by sector means; README, "mismatch floor"), not by noise, and that error is
+//! correlated over many samples. Least squares that weighs those samples like the rest lets the
+//! mismatch pull the estimate: high short circuits drew a spurious eccentricity from it and low
+//! ones read 0.02 low.
 //! Their terms are multiplied by `ρ` ([`FAST_REGIME_WEIGHT`] in the monitor's configuration):
 //! `E(k) = (1/n)·Σ_i ρ_i·w_i·r_i²`, `ρ_i = ρ` in the fast regime, 1 elsewhere.
 

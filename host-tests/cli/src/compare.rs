@@ -7,12 +7,19 @@
 //! equivalent-current residual overall and per manoeuvre segment, RMS of the position residual,
 //! and the fitness `E` at the true vector against `E` at the healthy vector (how much of the fault's
 //! signature stands above the floor).
+//!
+//! `--rotor-angle reference` forces the reference model's rotor angle (mechanical for the
+//! eccentricity shape, electrical for the commutation sector) into the monitor model at every step,
+//! its mechanics left as they are: what is left is the monitor model's electrical error, with the
+//! drift of its rotor angle taken out.
 
-use clap::Args;
-use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
-use ema_monitor::fitness::{simulate_window, CurrentFit};
+use clap::{Args, ValueEnum};
+use ema_monitor::conditioning::{MeasuredEnvelope, MeasuredTrace, DECIMATION};
+use ema_monitor::fitness::CurrentFit;
+use ema_monitor::model::{ModelState, MonitorModel};
+use ema_monitor::profile::ProfileCursor;
 use ema_monitor::{EmaParams, FaultVector, Profile};
-use ema_reference::{simulate, SimConfig};
+use ema_reference::{simulate, SimConfig, Truth};
 use serde_json::json;
 
 use crate::error::CliError;
@@ -27,6 +34,18 @@ pub struct CompareArgs {
     /// Print JSON instead of the Markdown table.
     #[arg(long)]
     pub json: bool,
+    /// Which rotor angle the monitor model's shape functions and commutation use.
+    #[arg(long, value_enum, default_value_t = RotorAngle::Model)]
+    pub rotor_angle: RotorAngle,
+}
+
+/// The rotor angle the monitor model runs with in `ema compare`.
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RotorAngle {
+    /// Its own, integrated from its own speed (as on board)
+    Model,
+    /// The reference model's, forced in at every step (the mechanics stay the monitor model's)
+    Reference,
 }
 
 /// Manoeuvre segments of the standard profile, `(name, start_s, end_s)`.
@@ -68,8 +87,47 @@ pub struct CaseResult {
     pub fitness_healthy: f32,
 }
 
-/// Runs one case.
-pub fn compare_case(name: &str, faults: FaultVector, seed: u64) -> Result<CaseResult, CliError> {
+/// The monitor model's run of the fitness (`fitness::simulate_window`: the expected envelope of
+/// `I_out`, then a step; [`DECIMATION`] steps per window sample) for `samples` window samples:
+/// each sample's block mean and the surface angle at its end. With [`RotorAngle::Reference`] the
+/// rotor angle of `truth` (one entry per step) is forced in before every step.
+pub fn model_run(
+    params: &EmaParams,
+    profile: &Profile,
+    faults: &FaultVector,
+    samples: usize,
+    rotor: RotorAngle,
+    truth: &[Truth],
+) -> Vec<(f32, f32)> {
+    let model = MonitorModel::new(params, faults);
+    let envelope = MeasuredEnvelope::of(params);
+    let mut state = ModelState::at_rest();
+    let mut command = ProfileCursor::new(profile);
+    let mut step = 0usize;
+    let mut out = Vec::with_capacity(samples);
+    for _ in 0..samples {
+        let mut block = 0.0f32;
+        for _ in 0..DECIMATION {
+            block += envelope.expected_a(state.output_current_a);
+            if let (RotorAngle::Reference, Some(t)) = (rotor, truth.get(step)) {
+                state.motor_angle_wrapped_rad = wrapped(t.motor_angle_rad);
+                state.hall_angle_rad = wrapped(t.electrical_angle_rad - std::f64::consts::FRAC_PI_6);
+            }
+            model.step(&mut state, command.command_rad(step as f32 * model.dt_s()));
+            step += 1;
+        }
+        out.push((block * (1.0 / DECIMATION as f32), state.surface_angle_rad));
+    }
+    out
+}
+
+/// An angle (rad) wrapped into `[0, 2π)` as the monitor model keeps it.
+fn wrapped(angle_rad: f64) -> f32 {
+    angle_rad.rem_euclid(std::f64::consts::TAU) as f32
+}
+
+/// Runs one case with the monitor model's rotor angle from `rotor`.
+pub fn compare_case(name: &str, faults: FaultVector, seed: u64, rotor: RotorAngle) -> Result<CaseResult, CliError> {
     let params = EmaParams::NOMINAL;
     let profile = Profile::STANDARD;
     let config = SimConfig { faults, seed, ..SimConfig::default() };
@@ -87,7 +145,8 @@ pub fn compare_case(name: &str, faults: FaultVector, seed: u64) -> Result<CaseRe
     let mut pos_sq = 0.0f64;
     let mut pos_n = 0usize;
     let window_dt = f64::from(params.control_period_s) * DECIMATION as f64;
-    simulate_window(&params, &profile, &faults, n, |i, model_a, state| {
+    let run = model_run(&params, &profile, &faults, n, rotor, &rec.truth);
+    for (i, &(model_a, surface_angle_rad)) in run.iter().enumerate() {
         let r = f64::from(trace.current_a()[i]) - f64::from(model_a);
         sum_sq += r * r;
         let t = (i as f64 + 0.5) * window_dt;
@@ -96,12 +155,11 @@ pub fn compare_case(name: &str, faults: FaultVector, seed: u64) -> Result<CaseRe
             seg_n[seg] += 1;
         }
         if let Some(s) = rec.samples.get((i + 1) * DECIMATION) {
-            let d = s.position_rad - f64::from(state.surface_angle_rad);
+            let d = s.position_rad - f64::from(surface_angle_rad);
             pos_sq += d * d;
             pos_n += 1;
         }
-        true
-    });
+    }
     let fit = CurrentFit::new(&*trace, params, profile);
     let rms = |s: f64, n: usize| if n == 0 { 0.0 } else { (s / n as f64).sqrt() };
     Ok(CaseResult {
@@ -117,8 +175,10 @@ pub fn compare_case(name: &str, faults: FaultVector, seed: u64) -> Result<CaseRe
 
 /// Runs `ema compare`.
 pub fn run(args: &CompareArgs) -> Result<String, CliError> {
-    let results: Vec<CaseResult> =
-        cases().into_iter().map(|(name, k)| compare_case(&name, k, args.seed)).collect::<Result<_, _>>()?;
+    let results: Vec<CaseResult> = cases()
+        .into_iter()
+        .map(|(name, k)| compare_case(&name, k, args.seed, args.rotor_angle))
+        .collect::<Result<_, _>>()?;
     if args.json {
         let rows: Vec<serde_json::Value> = results
             .iter()
@@ -141,8 +201,48 @@ pub fn run(args: &CompareArgs) -> Result<String, CliError> {
         ));
     }
     out.push_str(&format!(
-        "\nreference model: standard profile, noise on, seed {}; monitor model given the true k.",
-        args.seed
+        "\nreference model: standard profile, noise on, seed {}; monitor model given the true k, {}.",
+        args.seed,
+        match args.rotor_angle {
+            RotorAngle::Model => "its own rotor angle",
+            RotorAngle::Reference => "the reference model's rotor angle forced in",
+        }
     ));
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ema_monitor::fitness::simulate_window;
+
+    fn eccentric() -> (FaultVector, ema_reference::Recording) {
+        let faults = FaultVector([0.0, 0.0, 0.0, 0.0, 0.0, 0.8, 0.3, 0.5]);
+        let rec = simulate(&SimConfig { faults, seed: 1, ..SimConfig::default() }).expect("simulates");
+        (faults, rec)
+    }
+
+    #[test]
+    fn the_model_run_is_the_fitness_run_bit_for_bit() {
+        let (faults, rec) = eccentric();
+        let (params, profile, n) = (EmaParams::NOMINAL, Profile::STANDARD, 2125);
+        let ours = model_run(&params, &profile, &faults, n, RotorAngle::Model, &rec.truth);
+        let mut fitness = Vec::new();
+        simulate_window(&params, &profile, &faults, n, |_, value, state| {
+            fitness.push((value.to_bits(), state.surface_angle_rad.to_bits()));
+            true
+        });
+        let ours: Vec<(u32, u32)> = ours.iter().map(|(a, b)| (a.to_bits(), b.to_bits())).collect();
+        assert_eq!(ours, fitness);
+    }
+
+    #[test]
+    fn the_reference_rotor_angle_changes_the_eccentric_model_run() {
+        let (faults, rec) = eccentric();
+        let (params, profile, n) = (EmaParams::NOMINAL, Profile::STANDARD, 2125);
+        let own = model_run(&params, &profile, &faults, n, RotorAngle::Model, &rec.truth);
+        let forced = model_run(&params, &profile, &faults, n, RotorAngle::Reference, &rec.truth);
+        let differing = own.iter().zip(&forced).filter(|(a, b)| a.0 != b.0).count();
+        assert!(differing > n / 4, "only {differing} of {n} samples differ");
+    }
 }
