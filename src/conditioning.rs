@@ -94,14 +94,20 @@ impl MeasuredEnvelope {
 
     /// The envelope of the actuator's sensors and controller (formulas above).
     pub fn of(params: &EmaParams) -> Self {
-        let q = params.position_resolution_rad;
-        let sigma_theta = libm::sqrtf(params.position_noise_rad * params.position_noise_rad + q * q * (1.0 / 12.0));
-        let alpha = params.control_period_s / params.derivative_filter_s;
-        let jitter =
-            params.kd_a_s_per_rad * (alpha / params.control_period_s) * sigma_theta * libm::sqrtf(2.0 / (2.0 - alpha));
+        let jitter = Self::controller_jitter_a(params);
         let sensor = params.current_noise_a;
         let ripple = params.hysteresis_half_band_a * (1.0 / 1.732_050_8); // h/√3
         Self::new(libm::sqrtf(jitter * jitter + sensor * sensor + ripple * ripple), sensor)
+    }
+
+    /// `σ_j`, the RMS current the controller's derivative on measurement puts on the pair from the
+    /// position transducer's noise and resolution: `Kd·(α/T)·σ_θ·√(2/(2−α))`, `α = T/τ_D`,
+    /// `σ_θ² = σ_pos² + q²/12`.
+    fn controller_jitter_a(params: &EmaParams) -> f32 {
+        let q = params.position_resolution_rad;
+        let sigma_theta = libm::sqrtf(params.position_noise_rad * params.position_noise_rad + q * q * (1.0 / 12.0));
+        let alpha = params.control_period_s / params.derivative_filter_s;
+        params.kd_a_s_per_rad * (alpha / params.control_period_s) * sigma_theta * libm::sqrtf(2.0 / (2.0 - alpha))
     }
 
     /// Expected measured `I_3eq` for a true pair current `current_a`.
@@ -409,7 +415,7 @@ mod tests {
         let env = MeasuredEnvelope::of(&p);
         let h = p.hysteresis_half_band_a;
         let sensor = p.current_noise_a;
-        let pair_jitter = 0.29f32; // σ_j of the derivative path (test below)
+        let pair_jitter = MeasuredEnvelope::controller_jitter_a(&p); // checked against the controller below
         let without_ripple = MeasuredEnvelope::new(libm::sqrtf(pair_jitter * pair_jitter + sensor * sensor), sensor);
         let mut normal = Normal(0x2545_F491_4F6C_DD1D);
         for current in [0.0f32, 0.2, 0.5, 1.0] {
@@ -449,9 +455,7 @@ mod tests {
             }
         }
         let rms = (sum_sq / n as f64).sqrt() as f32;
-        let alpha = p.control_period_s / p.derivative_filter_s;
-        let sigma_theta = libm::sqrtf(p.position_noise_rad * p.position_noise_rad + q * q / 12.0);
-        let formula = p.kd_a_s_per_rad * (alpha / p.control_period_s) * sigma_theta * libm::sqrtf(2.0 / (2.0 - alpha));
+        let formula = MeasuredEnvelope::controller_jitter_a(&p);
         assert!((rms - formula).abs() < 0.03 * formula, "{rms} vs {formula}");
         assert!((formula - 0.29).abs() < 0.01, "{formula}");
     }
