@@ -51,7 +51,7 @@ pub(crate) fn trapezoid(theta_e_rad: f32, inv_ramp_per_rad: f32) -> f32 {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct EmfShape {
     /// `1/r`.
-    inv_ramp_per_rad: f32,
+    pub(crate) inv_ramp_per_rad: f32,
     /// `δ_H` (electrical).
     pub(crate) hall_offset_rad: f32,
     /// `|f_j|` at the commutation into sector `s`, index `2s + forward`.
