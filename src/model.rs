@@ -52,7 +52,7 @@
 use crate::effects::{maxima, EffectId, ModelEffects};
 use crate::faults::{FaultPhysics, FaultVector};
 use crate::params::EmaParams;
-use crate::sector_effects::{trapezoid, EmfShape, SensorLoop};
+use crate::sector_effects::{EmfShape, SensorLoop};
 use core::f32::consts::{FRAC_PI_3, FRAC_PI_6, PI};
 
 const TWO_PI: f32 = 2.0 * PI;
@@ -580,50 +580,85 @@ impl MonitorModel {
             Some(shape) if MECH => shape.hall_offset_rad,
             _ => 0.0,
         };
-        let dead_v = if MECH { 0.5 * self.mech_effects.dead_time_pair_v } else { 0.0 };
         let g = if target_a != 0.0 { sign(target_a) } else { sign(s.current_a) };
-        let limit = libm::fabsf(target_a);
         let mut i = s.phase_current_a;
         let mut hall = s.hall_angle_rad;
         let mut torque_sum = 0.0;
-        let mut last_pair = PAIRS[0];
+        let mut sector = 0;
         for _ in 0..PHASE_SUBSTEPS {
-            let sector = Self::sector_of(if MECH { wrap(hall + offset) } else { hall });
-            let theta_e = hall + FRAC_PI_6;
-            let f = [
-                trapezoid(theta_e, self.inv_ramp_per_rad),
-                trapezoid(theta_e - 2.0 * FRAC_PI_3, self.inv_ramp_per_rad),
-                trapezoid(theta_e - 4.0 * FRAC_PI_3, self.inv_ramp_per_rad),
-            ];
-            let e_v = [k[0] * f[0] * w, k[1] * f[1] * w, k[2] * f[2] * w];
-            let (a, b) = PAIRS[sector];
-            last_pair = (a, b);
-            let r = 3 - a - b;
-            if i[r] != 0.0 {
-                self.commutation_substep::<MECH>(&mut i, (a, b, r), target_a, &e_v, h);
+            // The Hall edge inside the substep, if any, splits it: the commutation starts at its
+            // instant (a model continuous in the speed and the faults, not snapped to the 10 µs grid).
+            let x = if MECH { wrap(hall + offset) } else { hall };
+            sector = Self::sector_of(x);
+            let within = x - sector as f32 * FRAC_PI_3;
+            let (to_edge, next) = if d_hall > 0.0 {
+                (FRAC_PI_3 - within, (sector + 1) % 6)
             } else {
-                let pair = i[a];
-                let mut u = g * self.supply_voltage_v - (e_v[a] - e_v[b]) - (self.phase_r[a] + self.phase_r[b]) * pair;
-                if MECH {
-                    u -= 2.0 * dead_v * sign(pair);
-                }
-                let mut next = pair + u * self.pair_dt_over_l[sector] * (1.0 / PHASE_SUBSTEPS as f32);
-                if next * g > limit {
-                    next = g * limit;
-                }
-                i[a] = next;
-                i[b] = -next;
-                i[r] = 0.0;
+                (within, (sector + 5) % 6)
+            };
+            let travel = libm::fabsf(d_hall);
+            let first = if to_edge < travel { to_edge / travel } else { 1.0 };
+            if first > 0.0 {
+                torque_sum += first * self.phase_substep::<MECH>(&mut i, sector, hall, k, w, target_a, g, first * h);
             }
-            torque_sum += k[0] * f[0] * i[0] + k[1] * f[1] * i[1] + k[2] * f[2] * i[2];
+            if first < 1.0 {
+                sector = next;
+                let at_edge = hall + first * d_hall;
+                torque_sum +=
+                    (1.0 - first) * self.phase_substep::<MECH>(&mut i, sector, at_edge, k, w, target_a, g, (1.0 - first) * h);
+            }
             hall = wrap(hall + d_hall);
         }
         s.phase_current_a = i;
         let measured = 0.5 * (libm::fabsf(i[0]) + libm::fabsf(i[1]) + libm::fabsf(i[2]));
-        let (a, b) = last_pair;
+        let (a, b) = PAIRS[sector];
         let pair_sign = if i[a] != i[b] { sign(i[a] - i[b]) } else { g };
         s.output_current_a = pair_sign * measured;
         torque_sum * (1.0 / PHASE_SUBSTEPS as f32)
+    }
+
+    /// A (part of a) substep of [`MonitorModel::phase_resolved_step`] of length `h` in `sector`,
+    /// the EMFs at the Hall angle `hall_rad` it starts at; returns its torque `Σ k_j f_j i_j` at
+    /// the end. `g` is the polarity the pair is driven with.
+    #[allow(clippy::too_many_arguments)]
+    fn phase_substep<const MECH: bool>(
+        &self,
+        i: &mut [f32; 3],
+        sector: usize,
+        hall_rad: f32,
+        k: &[f32; 3],
+        w: f32,
+        target_a: f32,
+        g: f32,
+        h: f32,
+    ) -> f32 {
+        let theta_e = hall_rad + FRAC_PI_6;
+        let f = [
+            trapezoid_within_a_turn(theta_e, self.inv_ramp_per_rad),
+            trapezoid_within_a_turn(theta_e - 2.0 * FRAC_PI_3, self.inv_ramp_per_rad),
+            trapezoid_within_a_turn(theta_e - 4.0 * FRAC_PI_3, self.inv_ramp_per_rad),
+        ];
+        let e_v = [k[0] * f[0] * w, k[1] * f[1] * w, k[2] * f[2] * w];
+        let (a, b) = PAIRS[sector];
+        let r = 3 - a - b;
+        if i[r] != 0.0 {
+            self.commutation_substep::<MECH>(i, (a, b, r), target_a, &e_v, h);
+        } else {
+            let pair = i[a];
+            let mut u = g * self.supply_voltage_v - (e_v[a] - e_v[b]) - (self.phase_r[a] + self.phase_r[b]) * pair;
+            if MECH {
+                u -= self.mech_effects.dead_time_pair_v * sign(pair);
+            }
+            let mut next = pair + u * self.pair_dt_over_l[sector] * self.inv_dt * h;
+            let limit = libm::fabsf(target_a);
+            if next * g > limit {
+                next = g * limit;
+            }
+            i[a] = next;
+            i[b] = -next;
+            i[r] = 0.0;
+        }
+        k[0] * f[0] * i[0] + k[1] * f[1] * i[1] + k[2] * f[2] * i[2]
     }
 
     /// One substep of [`MonitorModel::phase_resolved_step`] while the third phase `r` still
@@ -911,6 +946,30 @@ fn sign(x: f32) -> f32 {
         1.0
     } else if x < 0.0 {
         -1.0
+    } else {
+        0.0
+    }
+}
+
+/// `sector_effects::trapezoid` of an angle less than one turn outside `[0, 2π)` (the substep's `θ_e − j·2π/3`,
+/// `θ_e ∈ [π/6, 2π + π/6)`): folded by one turn instead of a `floor`. Same value as `trapezoid`
+/// up to the rounding of the fold.
+#[cfg_attr(not(target_os = "none"), inline)]
+fn trapezoid_within_a_turn(theta_e_rad: f32, inv_ramp_per_rad: f32) -> f32 {
+    let x = if theta_e_rad < 0.0 {
+        theta_e_rad + TWO_PI
+    } else if theta_e_rad >= TWO_PI {
+        theta_e_rad - TWO_PI
+    } else {
+        theta_e_rad
+    };
+    let (sign, y) = if x < PI { (1.0, x) } else { (-1.0, x - PI) };
+    let u = if y < PI - y { y } else { PI - y };
+    let f = u * inv_ramp_per_rad;
+    sign * if f > 1.0 {
+        1.0
+    } else if f > 0.0 {
+        f
     } else {
         0.0
     }
