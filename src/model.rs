@@ -63,7 +63,7 @@ const TWO_PI: f32 = 2.0 * PI;
 pub const PHASE_RESOLVED_ONSET_FRACTION: f32 = 0.6;
 
 /// Substeps of the phase-resolved electrical step (10 µs at the 100 µs control period).
-pub const PHASE_SUBSTEPS: usize = 10;
+pub const PHASE_SUBSTEPS: usize = 5;
 
 /// Conducting pair `(positive phase, negative phase)` per Hall sector (physics.md §3.2).
 pub(crate) const PAIRS: [(usize, usize); 6] = [(0, 1), (0, 2), (1, 2), (1, 0), (2, 0), (2, 1)];
@@ -151,6 +151,8 @@ pub struct MonitorModel {
     ecc_phase: [(f32, f32); 3],
     /// Per phase `R_j`.
     phase_r: [f32; 3],
+    /// `1/ΣY_j`.
+    inv_y_sum: f32,
     /// `|ω|` above which the electrical step resolves the phases ([`PHASE_RESOLVED_ONSET_FRACTION`]).
     phase_resolved_speed_rad_s: f32,
     /// `1/r` of the trapezoidal back-EMF (`6/π`, or the `emf_harmonics` ramp).
@@ -329,6 +331,7 @@ impl MonitorModel {
             phase_k,
             phase_inv_l: phase_l.map(|l| 1.0 / l),
             phase_r,
+            inv_y_sum: 1.0 / (1.0 / phase_l[0] + 1.0 / phase_l[1] + 1.0 / phase_l[2]),
             phase_resolved_speed_rad_s: PHASE_RESOLVED_ONSET_FRACTION * p.supply_voltage_v
                 / (4.0 * p.phase_emf_constant_v_s_per_rad),
             inv_ramp_per_rad: match EmfShape::of(effects) {
@@ -583,6 +586,8 @@ impl MonitorModel {
         let g = if target_a != 0.0 { sign(target_a) } else { sign(s.current_a) };
         let mut i = s.phase_current_a;
         let mut hall = s.hall_angle_rad;
+        let travel = libm::fabsf(d_hall);
+        let inv_travel = 1.0 / travel; // |ω| > 0 in the fast regime
         let mut torque_sum = 0.0;
         let mut sector = 0;
         for _ in 0..PHASE_SUBSTEPS {
@@ -596,8 +601,7 @@ impl MonitorModel {
             } else {
                 (within, (sector + 5) % 6)
             };
-            let travel = libm::fabsf(d_hall);
-            let first = if to_edge < travel { to_edge / travel } else { 1.0 };
+            let first = if to_edge < travel { to_edge * inv_travel } else { 1.0 };
             if first > 0.0 {
                 torque_sum += first * self.phase_substep::<MECH>(&mut i, sector, hall, k, w, target_a, g, first * h);
             }
@@ -632,15 +636,20 @@ impl MonitorModel {
         g: f32,
         h: f32,
     ) -> f32 {
-        let theta_e = hall_rad + FRAC_PI_6;
-        let f = [
-            trapezoid_within_a_turn(theta_e, self.inv_ramp_per_rad),
-            trapezoid_within_a_turn(theta_e - 2.0 * FRAC_PI_3, self.inv_ramp_per_rad),
-            trapezoid_within_a_turn(theta_e - 4.0 * FRAC_PI_3, self.inv_ramp_per_rad),
-        ];
-        let e_v = [k[0] * f[0] * w, k[1] * f[1] * w, k[2] * f[2] * w];
         let (a, b) = PAIRS[sector];
         let r = 3 - a - b;
+        let shaped = MECH && self.emf_shape.is_some();
+        let f = if shaped {
+            let theta_e = hall_rad + FRAC_PI_6;
+            [
+                trapezoid_within_a_turn(theta_e, self.inv_ramp_per_rad),
+                trapezoid_within_a_turn(theta_e - 2.0 * FRAC_PI_3, self.inv_ramp_per_rad),
+                trapezoid_within_a_turn(theta_e - 4.0 * FRAC_PI_3, self.inv_ramp_per_rad),
+            ]
+        } else {
+            ideal_shapes(sector, hall_rad)
+        };
+        let e_v = [k[0] * f[0] * w, k[1] * f[1] * w, k[2] * f[2] * w];
         if i[r] != 0.0 {
             self.commutation_substep::<MECH>(i, (a, b, r), target_a, &e_v, h);
         } else {
@@ -705,19 +714,23 @@ impl MonitorModel {
             }
         }
         u[r] = -sign(i[r]) * half_v - e_v[r] - self.phase_r[r] * i[r];
-        let v_all = (y[0] * u[0] + y[1] * u[1] + y[2] * u[2]) / (y[0] + y[1] + y[2]);
+        let v_all = (y[0] * u[0] + y[1] * u[1] + y[2] * u[2]) * self.inv_y_sum;
         let mut free = [true; 3];
         for j in [a, b] {
             free[j] = !(i[j] == t[j] && t[j] != 0.0 && sign(t[j]) * (u[j] - v_all) > 0.0);
         }
-        let (mut num, mut den) = (0.0f32, 0.0f32);
-        for j in 0..3 {
-            if free[j] {
-                num += y[j] * u[j];
-                den += y[j];
+        let v_n = if free[a] && free[b] {
+            v_all
+        } else {
+            let (mut num, mut den) = (0.0f32, 0.0f32);
+            for j in 0..3 {
+                if free[j] {
+                    num += y[j] * u[j];
+                    den += y[j];
+                }
             }
-        }
-        let v_n = num / den; // r is always free: den ≥ Y_r > 0
+            num / den // r is always free: den ≥ Y_r > 0
+        };
         let before = *i;
         for j in 0..3 {
             if free[j] {
@@ -949,6 +962,27 @@ fn sign(x: f32) -> f32 {
     } else {
         0.0
     }
+}
+
+/// The ideal trapezoidal back-EMF shapes `f_j` (120° flat tops) at the Hall angle `hall_rad` in
+/// its Hall `sector`: the sector's pair on its flat tops (+1, −1), the third phase on its 60° ramp,
+/// falling in even sectors, rising in odd ones (`sector_effects::trapezoid` without its folds).
+fn ideal_shapes(sector: usize, hall_rad: f32) -> [f32; 3] {
+    let (a, b) = PAIRS[sector % 6];
+    // The angle into the sector; at the 5 → 0 edge `hall_rad` may round to either side of 2π.
+    let mut within = wrap(hall_rad) - sector as f32 * FRAC_PI_3;
+    if within > PI {
+        within -= TWO_PI;
+    } else if within < -PI {
+        within += TWO_PI;
+    }
+    let within = clamp(within, 0.0, FRAC_PI_3);
+    let ramp = 1.0 - within * (6.0 / PI);
+    let mut f = [0.0f32; 3];
+    f[a] = 1.0;
+    f[b] = -1.0;
+    f[3 - a - b] = if sector % 2 == 0 { ramp } else { -ramp };
+    f
 }
 
 /// `sector_effects::trapezoid` of an angle less than one turn outside `[0, 2π)` (the substep's `θ_e − j·2π/3`,
@@ -1304,6 +1338,22 @@ mod tests {
         }
         let target = (s.current_ref_a - 0.2) / 1.02;
         assert!((s.current_a - target).abs() < 0.02, "{} vs {target}", s.current_a);
+    }
+
+    #[test]
+    fn ideal_shapes_are_the_reference_trapezoid() {
+        for n in 0..600 {
+            let hall = (n as f32 + 0.5) * (TWO_PI / 600.0);
+            let sector = MonitorModel::sector_of(hall);
+            let f = ideal_shapes(sector, hall);
+            for (j, fj) in f.iter().enumerate() {
+                let theta = hall + FRAC_PI_6 - j as f32 * (2.0 * FRAC_PI_3);
+                let reference = crate::sector_effects::trapezoid(theta, 6.0 / PI);
+                assert!((fj - reference).abs() < 1e-4, "hall {hall}, phase {j}: {fj} vs {reference}");
+                let folded = trapezoid_within_a_turn(theta, 6.0 / PI);
+                assert!((folded - reference).abs() < 1e-5, "hall {hall}, phase {j}: {folded} vs {reference}");
+            }
+        }
     }
 
     #[test]
