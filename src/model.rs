@@ -46,6 +46,20 @@
 //! It was the dominant healthy RM–MM mismatch (the fast reversal of the standard profile; `ema
 //! compare` shows it before and after in the README).
 //!
+//! **Phase-resolved fast regime** ([`MonitorModel::phase_resolved_step`]): while motoring above
+//! [`PHASE_RESOLVED_ONSET_FRACTION`] of the dip onset (311 rad/s nominal), the sector means above
+//! are replaced by the three phase currents themselves, integrated in [`PHASE_SUBSTEPS`] substeps
+//! of 20 µs with the trapezoidal back-EMFs, the six-step inverter, the outgoing phase's diode and
+//! each commanded phase's hysteresis loop (averaged: held at its target). A commutation then
+//! starts at its Hall edge inside the step, the measured `½Σ|i_j|` is taken at the sample instant
+//! as the ADC takes it, and the torque is the step mean of `Σ k_j f_j i_j`. Sector means had left
+//! the monitor model's eccentricity signature about 20 % too weak in the fast reversal (the
+//! reference model's sector-to-sector pattern 1.6× the model's), so the identification read high
+//! eccentricities high; they also let the shorts' commutations drift. `ema compare`'s reversal
+//! residual: eccentricity high 0.246 → 0.179 A, short A high 0.223 → 0.204 A (README).
+//! Braking (`I_ref·ω ≤ 0`) stays on the pair model: the EMF helps the current there and the pair
+//! model already follows the reference model within the floor.
+//!
 //! The electrical and mechanical time constants (4 ms, 2.2 ms) are ≥ 20 T, so explicit steps at
 //! the control period are accurate; the current loop lag (0.2 ms) is integrated exactly.
 
@@ -62,7 +76,10 @@ const TWO_PI: f32 = 2.0 * PI;
 /// reaches its own onset from `1/(1 + ζ_max)` = 0.67 of it.
 pub const PHASE_RESOLVED_ONSET_FRACTION: f32 = 0.6;
 
-/// Substeps of the phase-resolved electrical step (10 µs at the 100 µs control period).
+/// Substeps of the phase-resolved electrical step (20 µs at the 100 µs control period). 10
+/// substeps lower `ema compare`'s reversal residuals by only 0.000–0.013 A (healthy 0.182 → 0.177,
+/// short A high 0.204 → 0.191) and cost the on-board identification about 1e9 more instructions,
+/// close to its 1e10 bar.
 pub const PHASE_SUBSTEPS: usize = 5;
 
 /// Conducting pair `(positive phase, negative phase)` per Hall sector (physics.md §3.2).
@@ -75,7 +92,8 @@ const PHASE_SHIFT: [(f32, f32); 3] = [(1.0, 0.0), (-0.5, 0.866_025_4), (-0.5, -0
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ModelState {
-    /// Equivalent (conducting-pair) current `I` regulated by the current loop.
+    /// Equivalent (conducting-pair) current `I` regulated by the current loop (while the phases
+    /// are resolved, [`ModelState::phase_resolved`]: the loop's lagged reference).
     pub current_a: f32,
     /// Sector-mean equivalent current after the commutation dip, `I_out`: what produces torque and
     /// what the measured `I_3eq` is compared with.
@@ -471,8 +489,15 @@ impl MonitorModel {
             k_phase[p] + k_phase[q]
         };
         let dt_over_l = self.pair_dt_over_l[sector];
-        let i = s.current_a;
         let w = s.motor_speed_rad_s;
+        let resolved = i_ref * w > 0.0 && libm::fabsf(w) > self.phase_resolved_speed_rad_s;
+        if s.phase_resolved && !resolved {
+            // Back to the pair model, from the measured current the phases left.
+            s.phase_resolved = false;
+            s.phase_current_a = [0.0; 3];
+            s.current_a = s.output_current_a;
+        }
+        let i = s.current_a;
         let mut back = self.pair_r[sector] * i + k_eq * w;
         if MECH && self.mech_effects.dead_time_pair_v != 0.0 {
             back += self.mech_effects.dead_time_pair_v * sign(i);
@@ -481,7 +506,7 @@ impl MonitorModel {
             Some(sensors) if MECH => sensors.target_a(sector, i_ref, back),
             _ => i_ref,
         };
-        let torque_motor = if i_ref * w > 0.0 && libm::fabsf(w) > self.phase_resolved_speed_rad_s {
+        let torque_motor = if resolved {
             if !s.phase_resolved {
                 let (p, q) = PAIRS[sector];
                 s.phase_current_a = [0.0; 3];
@@ -494,11 +519,6 @@ impl MonitorModel {
             s.current_a = i_ref + (i - i_ref) * self.lag_factor;
             self.phase_resolved_step::<MECH>(s, &k_phase, s.current_a, w)
         } else {
-            if s.phase_resolved {
-                s.phase_resolved = false;
-                s.phase_current_a = [0.0; 3];
-                s.current_a = s.output_current_a;
-            }
             // Commutation terms only while motoring (before or after this step's current change).
             let motoring = i * w > 0.0 || i_ref * w > 0.0;
             let commutation = if motoring { Some(self.commutation::<MECH>(&k_phase, sector, w)) } else { None };
@@ -559,23 +579,20 @@ impl MonitorModel {
     /// decays through its diode while the incoming one rises. `g = sign(I_ref)`:
     ///
     /// ```text
-    /// pair (p, q) of the substep's Hall sector: v_p = g·V_dc/2, v_q = −g·V_dc/2
-    /// third phase r conducting (i_r ≠ 0, its free-wheel diode): v_r = −sign(i_r)·V_dc/2
-    ///     u_j = v_j − e_j − R_j i_j,  v_N = Σ Y_j u_j / Σ Y_j,  i_j += h·Y_j·(u_j − v_N)   (Y_j = 1/L_j)
-    ///     i_r crossing zero ends the commutation (the diode blocks);
-    ///     the common phase is held at |I_ref| (the hysteresis loop)
-    /// r open: i_p = −i_q = I,  I += h·(v_p − v_q − e_p + e_q − (R_p + R_q)·I)/(L_p + L_q),
-    ///     |I| held at |I_ref|
+    /// pair (p, q) of the substep's Hall sector, its targets t_p = I_ref*, t_q = −I_ref*
+    /// third phase r still conducting (i_r ≠ 0): the commutation, see `commutation_substep`
+    /// r open: i_p = −i_q = I,  I += h·(g·V_dc − e_p + e_q − (R_p + R_q)·I)/(L_p + L_q),
+    ///     |I| held at |I_ref*| (the hysteresis loop)
     /// e_j = k_j(θ_m)·f(θ_e − j·2π/3)·ω      (f: the trapezoid of ramp π/6, or `emf_harmonics`')
     /// ```
+    ///
+    /// `I_ref*` is the reference through the loop's lag `τ_c`, as in the pair model. A substep
+    /// that contains a Hall edge is split there.
     ///
     /// The state's `output_current_a` is the measured quantity `½Σ|i_j|` at the step's end (signed
     /// like the pair current); the returned motor torque is the step mean of `Σ e_j i_j / ω =
     /// Σ k_j f_j i_j`. This replaces, above its speed, the sector-mean commutation dip, the
-    /// commutation-limited rise and the ramp torque loss of the pair model: at 10 µs it follows
-    /// the reference model's `½Σ|i|` at the sample instants in the fast reversal to 0.17 A RMS
-    /// where the sector means left 0.64 A, and gives eccentricity's sector-to-sector pattern its
-    /// full size (README, "fast regime").
+    /// commutation-limited rise and the ramp torque loss of the pair model (module doc).
     fn phase_resolved_step<const MECH: bool>(&self, s: &mut ModelState, k: &[f32; 3], target_a: f32, w: f32) -> f32 {
         let h = self.dt_s * (1.0 / PHASE_SUBSTEPS as f32);
         let d_hall = self.pole_pairs * w * h;
