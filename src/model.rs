@@ -613,11 +613,8 @@ impl MonitorModel {
             let x = if MECH { wrap(hall + offset) } else { hall };
             sector = Self::sector_of(x);
             let within = x - sector as f32 * FRAC_PI_3;
-            let (to_edge, next) = if d_hall > 0.0 {
-                (FRAC_PI_3 - within, (sector + 1) % 6)
-            } else {
-                (within, (sector + 5) % 6)
-            };
+            let (to_edge, next) =
+                if d_hall > 0.0 { (FRAC_PI_3 - within, (sector + 1) % 6) } else { (within, (sector + 5) % 6) };
             let first = if to_edge < travel { to_edge * inv_travel } else { 1.0 };
             if first > 0.0 {
                 torque_sum += first * self.phase_substep::<MECH>(&mut i, sector, hall, k, w, target_a, g, first * h);
@@ -625,8 +622,8 @@ impl MonitorModel {
             if first < 1.0 {
                 sector = next;
                 let at_edge = hall + first * d_hall;
-                torque_sum +=
-                    (1.0 - first) * self.phase_substep::<MECH>(&mut i, sector, at_edge, k, w, target_a, g, (1.0 - first) * h);
+                torque_sum += (1.0 - first)
+                    * self.phase_substep::<MECH>(&mut i, sector, at_edge, k, w, target_a, g, (1.0 - first) * h);
             }
             hall = wrap(hall + d_hall);
         }
