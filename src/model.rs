@@ -995,7 +995,7 @@ fn ideal_shapes(sector: usize, hall_rad: f32) -> [f32; 3] {
     let mut f = [0.0f32; 3];
     f[a] = 1.0;
     f[b] = -1.0;
-    f[3 - a - b] = if sector % 2 == 0 { ramp } else { -ramp };
+    f[3 - a - b] = if sector.is_multiple_of(2) { ramp } else { -ramp };
     f
 }
 
