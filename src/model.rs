@@ -609,7 +609,7 @@ impl MonitorModel {
         let mut sector = 0;
         for _ in 0..PHASE_SUBSTEPS {
             // The Hall edge inside the substep, if any, splits it: the commutation starts at its
-            // instant (a model continuous in the speed and the faults, not snapped to the 10 µs grid).
+            // instant (a model continuous in the speed and the faults, not snapped to the substeps).
             let x = if MECH { wrap(hall + offset) } else { hall };
             sector = Self::sector_of(x);
             let within = x - sector as f32 * FRAC_PI_3;
