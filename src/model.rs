@@ -66,7 +66,7 @@
 use crate::effects::{maxima, EffectId, ModelEffects};
 use crate::faults::{FaultPhysics, FaultVector};
 use crate::params::EmaParams;
-use crate::sector_effects::{EmfShape, SensorLoop};
+use crate::sector_effects::{trapezoid_in_a_turn, EmfShape, SensorLoop};
 use core::f32::consts::{FRAC_PI_3, FRAC_PI_6, PI};
 
 const TWO_PI: f32 = 2.0 * PI;
@@ -1011,16 +1011,7 @@ fn trapezoid_within_a_turn(theta_e_rad: f32, inv_ramp_per_rad: f32) -> f32 {
     } else {
         theta_e_rad
     };
-    let (sign, y) = if x < PI { (1.0, x) } else { (-1.0, x - PI) };
-    let u = if y < PI - y { y } else { PI - y };
-    let f = u * inv_ramp_per_rad;
-    sign * if f > 1.0 {
-        1.0
-    } else if f > 0.0 {
-        f
-    } else {
-        0.0
-    }
+    trapezoid_in_a_turn(x, inv_ramp_per_rad)
 }
 
 /// Wraps an angle that moved by less than 2π per step back into `[0, 2π)`.

@@ -13,7 +13,12 @@ const TWO_PI: f32 = 2.0 * PI;
 /// ramps of width `1/inv_ramp_per_rad` from the zero crossings at 0 and π, flat top ±1 between
 /// (ramp `π/6`: the ideal 120° flat top).
 pub(crate) fn trapezoid(theta_e_rad: f32, inv_ramp_per_rad: f32) -> f32 {
-    let x = theta_e_rad - TWO_PI * libm::floorf(theta_e_rad * (1.0 / TWO_PI));
+    trapezoid_in_a_turn(theta_e_rad - TWO_PI * libm::floorf(theta_e_rad * (1.0 / TWO_PI)), inv_ramp_per_rad)
+}
+
+/// [`trapezoid`] of an angle `x` already in `[0, 2π)`.
+#[inline]
+pub(crate) fn trapezoid_in_a_turn(x: f32, inv_ramp_per_rad: f32) -> f32 {
     let (sign, y) = if x < PI { (1.0, x) } else { (-1.0, x - PI) };
     let u = if y < PI - y { y } else { PI - y };
     let f = u * inv_ramp_per_rad;
