@@ -21,7 +21,7 @@
 //! weighs those samples like the rest lets the mismatch pull the estimate: high short circuits
 //! drew a spurious eccentricity from it and low ones read 0.02 low. With the phase-resolved fast
 //! regime ([`crate::model`], session 10) the mismatch there is smaller, but a campaign at ρ = 0.3
-//! still ended 1 of 10 high short circuits far off (high total 4.11 against 1.17 at 0.1, low 1.63
+//! still ended 2 of 10 high short circuits far off (high total 4.11 against 1.17 at 0.1, low 1.63
 //! against 2.31), so ρ stays 0.1.
 //! Their terms are multiplied by `ρ` ([`FAST_REGIME_WEIGHT`] in the monitor's configuration):
 //! `E(k) = (1/n)·Σ_i ρ_i·w_i·r_i²`, `ρ_i = ρ` in the fast regime, 1 elsewhere.
@@ -48,7 +48,7 @@ pub const FAST_REGIME_SPEED_RAD_S: f32 = 300.0;
 /// 2.68 / 3.87 at 1, 3.35 / 2.11 at 0.1. 0.1 removes the spurious eccentricities of high short
 /// circuits and low gains; the price is low eccentricities, whose evidence lies mostly in the
 /// fast regime (README, "identification campaign"). With the phase-resolved fast regime (session
-/// 10, same command): 2.31 / 1.17 at 0.1, 1.63 / 4.11 at 0.3 (one high short circuit read far off).
+/// 10, same command): 2.31 / 1.17 at 0.1, 1.63 / 4.11 at 0.3 (two high short circuits in 10 read far off).
 pub const FAST_REGIME_WEIGHT: f32 = 0.1;
 
 /// `true` when `weight` is a fast-regime weight the fitness accepts: in `(0, 1]` (NaN is not).
