@@ -173,8 +173,6 @@ pub struct MonitorModel {
     inv_y_sum: f32,
     /// `|ω|` above which the electrical step resolves the phases ([`PHASE_RESOLVED_ONSET_FRACTION`]).
     phase_resolved_speed_rad_s: f32,
-    /// `1/r` of the trapezoidal back-EMF (`6/π`, or the `emf_harmonics` ramp).
-    inv_ramp_per_rad: f32,
     /// The optional effect terms switched on ([`crate::effects`]).
     effects: ModelEffects,
     /// Back-EMF shape and Hall offset (`emf_harmonics`, `hall_misalignment`), `None` when off.
@@ -352,10 +350,6 @@ impl MonitorModel {
             inv_y_sum: 1.0 / (1.0 / phase_l[0] + 1.0 / phase_l[1] + 1.0 / phase_l[2]),
             phase_resolved_speed_rad_s: PHASE_RESOLVED_ONSET_FRACTION * p.supply_voltage_v
                 / (4.0 * p.phase_emf_constant_v_s_per_rad),
-            inv_ramp_per_rad: match EmfShape::of(effects) {
-                Some(shape) => shape.inv_ramp_per_rad,
-                None => 1.0 / FRAC_PI_6,
-            },
             pair_r,
             pair_dt_over_l,
             pair_l,
@@ -652,16 +646,16 @@ impl MonitorModel {
     ) -> f32 {
         let (a, b) = PAIRS[sector];
         let r = 3 - a - b;
-        let shaped = MECH && self.emf_shape.is_some();
-        let f = if shaped {
-            let theta_e = hall_rad + FRAC_PI_6;
-            [
-                trapezoid_within_a_turn(theta_e, self.inv_ramp_per_rad),
-                trapezoid_within_a_turn(theta_e - 2.0 * FRAC_PI_3, self.inv_ramp_per_rad),
-                trapezoid_within_a_turn(theta_e - 4.0 * FRAC_PI_3, self.inv_ramp_per_rad),
-            ]
-        } else {
-            ideal_shapes(sector, hall_rad)
+        let f = match &self.emf_shape {
+            Some(shape) if MECH => {
+                let (theta_e, inv_ramp) = (hall_rad + FRAC_PI_6, shape.inv_ramp_per_rad);
+                [
+                    trapezoid_within_a_turn(theta_e, inv_ramp),
+                    trapezoid_within_a_turn(theta_e - 2.0 * FRAC_PI_3, inv_ramp),
+                    trapezoid_within_a_turn(theta_e - 4.0 * FRAC_PI_3, inv_ramp),
+                ]
+            }
+            _ => ideal_shapes(sector, hall_rad),
         };
         let e_v = [k[0] * f[0] * w, k[1] * f[1] * w, k[2] * f[2] * w];
         if i[r] != 0.0 {
