@@ -54,7 +54,8 @@
 //! starts at its Hall edge inside the step, the measured `½Σ|i_j|` is taken at the sample instant
 //! as the ADC takes it, and the torque is the step mean of `Σ k_j f_j i_j`. Sector means had left
 //! the monitor model's eccentricity signature about 20 % too weak in the fast reversal (the
-//! reference model's sector-to-sector pattern 1.6× the model's), so the identification read high
+//! reference model's sector-to-sector pattern 1.6× the model's: throw-away programs, session 9,
+//! README), so the identification read high
 //! eccentricities high; they also let the shorts' commutations drift. `ema compare`'s reversal
 //! residual: eccentricity high 0.246 → 0.179 A, short A high 0.223 → 0.204 A (README).
 //! Braking (`I_ref·ω ≤ 0`) stays on the pair model: the EMF helps the current there and the pair

@@ -120,7 +120,8 @@ impl IdentifyConfig {
 /// the campaign ended on the wrong phase. Eccentricity's phase is a periodic basin too: an
 /// eccentricity at the wrong phase fits worse than none, and with the phase-resolved fast regime
 /// (sharper eccentricity signature) 1 of 10 high eccentricities in the campaign ended healthy
-/// (`E` 1.509e-2 A² against 1.279e-2 at the truth) until these four were added.
+/// (`E` 1.509e-2 A² against 1.279e-2 at the truth, the latter from a throw-away program, session
+/// 10) until these four were added.
 pub fn starting_guesses() -> [[f32; FAULT_COUNT]; 8] {
     let healthy = FaultVector::HEALTHY.0;
     let mut guesses = [healthy; 8];
