@@ -1,5 +1,5 @@
 //! Cost of one fitness evaluation: one monitor-model run over the standard manoeuvre (8 500 steps
-//! of 100 µs) against a recording, the unit every identification spends 2 000–2 800 of.
+//! of 100 µs) against a recording, the unit every identification spends 1 500–2 300 of.
 //!
 //! `cd host-tests && cargo bench -p ema-cli --bench fitness`: the reference model records the
 //! standard manoeuvre with the built-in trace's fault (friction k1 = 0.25, noise seed 1), conditioned

@@ -10,11 +10,11 @@
 //!    identification on one core), optimizer seed 1, every method on the on-board fitness (fast regime
 //!    weighted by `FAST_REGIME_WEIGHT`, [`objective`]):
 //!    - **ours PSO** and **ours DE**: the `no_std` core's [`Identification`] (`ema identify --algorithm pso|de`):
-//!      50 individuals, `max_iterations` 40 or 200, the paper's stall rule (relative 1e-9 over 20 iterations,
+//!      50 individuals, `max_iterations` 30 (on board) or 200, the paper's stall rule (relative 1e-9 over 20 iterations,
 //!      so a run may stop before the budget), the healthy vector as individual 0, early abandoning;
 //!    - **argmin PSO**: `argmin::solver::particleswarm::ParticleSwarm` 0.11 with its defaults (SPSO 2011
-//!      coefficients, uniform random start in the box, clamping), 50 particles, `max_iters` 39 or 199 (argmin's
-//!      initial sweep is not an iteration: 50 + 39·50 = 2 000 and 50 + 199·50 = 10 000 evaluations),
+//!      coefficients, uniform random start in the box, clamping), 50 particles, `max_iters` 29 or 199 (argmin's
+//!      initial sweep is not an iteration: 50 + 29·50 = 1 500 and 50 + 199·50 = 10 000 evaluations),
 //!      seeded `Xoshiro256PlusPlus::seed_from_u64(1)`; it calls [`CurrentFit`] in `f64` through a thin adapter
 //!      that rounds to `f32` and brings the point into our box (the eccentricity phase k7 wraps, the rest is
 //!      clamped, [`fault_bounds`]) and counts the calls;
@@ -41,7 +41,7 @@ use ema_cli::identify::{condition_recording, identify_trace, HOST_WINDOW};
 use ema_cli::recording_io::Recording;
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::fitness::{CurrentFit, FAST_REGIME_WEIGHT};
-use ema_monitor::monitor::{fault_bounds, Algorithm, IdentifyConfig, ONBOARD_POPULATION};
+use ema_monitor::monitor::{fault_bounds, Algorithm, IdentifyConfig, ONBOARD_MAX_ITERATIONS, ONBOARD_POPULATION};
 use ema_monitor::optimizer::de::{DeConfig, DifferentialEvolution, Strategy};
 use ema_monitor::optimizer::{run, Optimizer};
 use ema_monitor::{EmaParams, FaultVector, Profile, FAULT_COUNT};
@@ -55,8 +55,8 @@ const NOISE_SEED: u64 = 7;
 /// Seed of every optimizer.
 const OPTIMIZER_SEED: u64 = 1;
 
-/// Iteration limits of our optimizers: × 50 individuals = 2 000 (on board) and 10 000 (the paper) evaluations.
-const BUDGET_ITERATIONS: [u32; 2] = [40, 200];
+/// Iteration limits of our optimizers: × 50 individuals = 1 500 (on board) and 10 000 (the paper) evaluations.
+const BUDGET_ITERATIONS: [u32; 2] = [ONBOARD_MAX_ITERATIONS, 200];
 
 /// The recordings: name and injected fault vector.
 fn cases() -> Vec<(&'static str, FaultVector)> {
@@ -353,9 +353,11 @@ fn criterion_group(trace: &MeasuredTrace<HOST_WINDOW>) {
         .warm_up_time(std::time::Duration::from_millis(500))
         .measurement_time(std::time::Duration::from_secs(5))
         .configure_from_args();
-    let mut group = c.benchmark_group("identification_2000_evaluations");
+    let mut group = c.benchmark_group("identification_1500_evaluations");
     for method in Method::ALL {
-        group.bench_function(method.name(), |b| b.iter(|| method.solve(std::hint::black_box(trace), 40)));
+        group.bench_function(method.name(), |b| {
+            b.iter(|| method.solve(std::hint::black_box(trace), ONBOARD_MAX_ITERATIONS))
+        });
     }
     group.finish();
     c.final_summary();

@@ -113,7 +113,7 @@ fn packed_effect_recording_identifies_like_the_csv() {
         assert_eq!(f.map(|c| f64::from(counts_to_amps(c))), [rec.ia_a[k], rec.ib_a[k], rec.ic_a[k]], "row {k}");
     }
     let packed = json(&accepted(&["identify", "--firmware-trace", s(&out), "--json"]));
-    let direct = json(&accepted(&["identify", s(&csv), "--json", "--max-iterations", "40"]));
+    let direct = json(&accepted(&["identify", s(&csv), "--json", "--max-iterations", "30"]));
     let k1 = |v: &serde_json::Value| v["k"][0].as_f64().expect("k1");
     let fit = |v: &serde_json::Value| v["fitness"].as_f64().expect("fitness");
     assert!((k1(&packed) - k1(&direct)).abs() < 0.05, "friction: packed {packed}, CSV {direct}");
