@@ -40,6 +40,7 @@ use std::time::Instant;
 use clap::Args;
 use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
 use ema_monitor::fitness::{simulate_window_with_effects, CurrentFit};
+use ema_monitor::health::HealthReport;
 use ema_monitor::monitor::{
     fault_bounds, group_pays, group_present, without_group, Identification, IdentifyConfig, FAULT_GROUPS,
     ONBOARD_POPULATION, SELECTION_REFIT,
@@ -717,6 +718,12 @@ pub struct Discovery {
     pub before: ModelFit,
     /// The model with the named effects (whole recording).
     pub after: ModelFit,
+    /// The on-board diagnosis ([`IdentifyConfig::onboard`]: fast regime weighted as on board,
+    /// model selection, polish) with the paper's model.
+    pub onboard_before: FaultVector,
+    /// The same with the named effects promoted at their fitted severities (what the firmware
+    /// reports once built with `model_config`); `onboard_before` when nothing is named.
+    pub onboard_after: FaultVector,
     /// Residual series before and after.
     pub series_before: Series,
     /// After adding the named effects.
@@ -861,12 +868,7 @@ pub fn discover<const W: usize>(
     // 1. the current model, as on board (whole recording)
     // Every sample at full weight: the discrepancies discover looks for live in the fast regime too.
     let config = IdentifyConfig { seed, fast_regime_weight: 1.0, ..IdentifyConfig::onboard() };
-    let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> = Box::new(
-        Identification::new(trace, params, *profile, &config)
-            .map_err(|e| CliError::Input { path: file.to_path_buf(), message: e.to_string() })?,
-    );
-    id.run(u32::MAX);
-    let report = id.report();
+    let report = identify_report(trace, profile, file, &config)?;
     let mut evaluations = u64::from(report.evaluations);
     let whole = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::All);
     let before = ModelFit {
@@ -916,6 +918,17 @@ pub fn discover<const W: usize>(
         }
         fit
     };
+    // 5. the diagnosis the firmware gives, before and after promoting the named effects
+    let onboard = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
+    let onboard_before = identify_report(trace, profile, file, &onboard)?;
+    evaluations += u64::from(onboard_before.evaluations);
+    let onboard_after = if on.is_empty() {
+        onboard_before.faults
+    } else {
+        let promoted = identify_report(trace, profile, file, &IdentifyConfig { effects: after.effects, ..onboard })?;
+        evaluations += u64::from(promoted.evaluations);
+        promoted.faults
+    };
     let series_after = series(trace, &params, profile, &after.k, &after.effects);
     for w in &mut windows {
         w.rms_after_a = window_rms(&series_after, w.start_s, w.end_s);
@@ -926,6 +939,8 @@ pub fn discover<const W: usize>(
         file: file.to_path_buf(),
         before,
         after,
+        onboard_before: onboard_before.faults,
+        onboard_after,
         series_before,
         series_after,
         windows,
@@ -937,6 +952,21 @@ pub fn discover<const W: usize>(
         seconds: start.elapsed().as_secs_f64(),
         evaluations,
     })
+}
+
+/// One identification of the whole recording with `config` (the core's pipeline, as `ema identify`).
+fn identify_report<const W: usize>(
+    trace: &MeasuredTrace<W>,
+    profile: &Profile,
+    file: &Path,
+    config: &IdentifyConfig,
+) -> Result<HealthReport, CliError> {
+    let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> = Box::new(
+        Identification::new(trace, EmaParams::NOMINAL, *profile, config)
+            .map_err(|e| CliError::Input { path: file.to_path_buf(), message: e.to_string() })?,
+    );
+    id.run(u32::MAX);
+    Ok(id.report())
 }
 
 /// "unexplained residual at …" when the structural residual left is above
@@ -1016,6 +1046,10 @@ pub fn to_json(d: &Discovery) -> serde_json::Value {
         "fitness_after": d.after.error,
         "err_percent_before": err_percent(d, &d.before.k),
         "err_percent_after": err_percent(d, &d.after.k),
+        "k_onboard_before": d.onboard_before.0,
+        "k_onboard_after": d.onboard_after.0,
+        "err_percent_onboard_before": err_percent(d, &d.onboard_before),
+        "err_percent_onboard_after": err_percent(d, &d.onboard_after),
         "seconds": d.seconds,
         "evaluations": d.evaluations,
     })
@@ -1123,6 +1157,11 @@ pub fn summary(d: &Discovery) -> String {
     let _ = writeln!(s, "fault vector after:  {:?}", d.after.k.0);
     if let (Some(a), Some(b)) = (err_percent(d, &d.before.k), err_percent(d, &d.after.k)) {
         let _ = writeln!(s, "Err% against --truth: {a:.2} before, {b:.2} after");
+    }
+    let _ = writeln!(s, "on-board diagnosis before: {:?}", d.onboard_before.0);
+    let _ = writeln!(s, "on-board diagnosis after:  {:?} (named effects promoted)", d.onboard_after.0);
+    if let (Some(a), Some(b)) = (err_percent(d, &d.onboard_before), err_percent(d, &d.onboard_after)) {
+        let _ = writeln!(s, "on-board Err% against --truth: {a:.2} before, {b:.2} after");
     }
     let _ = write!(s, "{} evaluations, {:.1} s", d.evaluations, d.seconds);
     s

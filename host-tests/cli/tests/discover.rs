@@ -70,13 +70,12 @@ fn effects_above_the_floor_are_named_and_the_gap_halved() {
 
 /// Effects the fault-only fit absorbs into spurious faults (a narrowed back-EMF or a hot winding
 /// read as shorts, a sensor offset or stiction read as friction and gain): the residual left
-/// before is near the floor, so it cannot halve; they are named, and the fault vector's error
-/// falls where the fault-only fit had absorbed the effect (its Err% above the paper's 0.711 %).
-/// Since the phase-resolved fast regime (session 10) the fault-only fit of Stribeck on a healthy
-/// actuator (seed 44) no longer absorbs it (Err% 0.50); the refit with the effect then keeps a
-/// spurious 0.015 short A that the full-weight fast regime pays for (Err% 1.47, README, "every
-/// library effect"): for such a case the test asks that naming the effect costs the diagnosis
-/// less than one point.
+/// before is near the floor, so it cannot halve; they are named, and the diagnosis the firmware
+/// gives improves once the named effect is promoted (`Discovery::onboard_before/after`: the
+/// on-board identification, fast regime weighted 0.1, without and with the effect term).
+/// Session 10 asked this of the full-weight refit instead, and had to loosen it for Stribeck on a
+/// healthy actuator (seed 44, a spurious 0.015 short A kept by the refit); the refit's Err% is
+/// still reported (`err_percent_after`), the firmware's is what the promotion is for.
 #[test]
 fn effects_the_faults_had_absorbed_are_named_and_the_fault_vector_repaired() {
     let cases = [
@@ -94,12 +93,9 @@ fn effects_the_faults_had_absorbed_are_named_and_the_fault_vector_repaired() {
         assert_eq!(named(&d), vec![id], "{effect}: {}", ema_cli::discover::summary(&d));
         assert!((d.named[0].1 - severity as f32).abs() < 0.2, "{effect}: severity {}", d.named[0].1);
         let truth = FaultVector(faults);
-        let (before, after) = (d.before.k.paper_error_percent(&truth), d.after.k.paper_error_percent(&truth));
-        if before > 0.711 {
-            assert!(after < before, "{effect}: Err% {before} -> {after}");
-        } else {
-            assert!(after < before + 1.0, "{effect}: Err% {before} -> {after}");
-        }
+        let (before, after) =
+            (d.onboard_before.paper_error_percent(&truth), d.onboard_after.paper_error_percent(&truth));
+        assert!(after < before, "{effect}: on-board Err% {before} -> {after}");
         assert!(d.rms_after_a() <= d.rms_before_a(), "{effect}");
     }
 }
