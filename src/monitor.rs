@@ -738,7 +738,7 @@ mod tests {
     #[test]
     fn de_recovers_a_synthetic_fault_vector_from_the_model_itself() {
         // The same known answer as the PSO's, with differential evolution at the paper's budget. DE starts
-        // slower: at the on-board 2 000 evaluations it is still at Err% 4–5 on this vector (seeds 1, 2; the PSO
+        // slower: at 2 000 evaluations (the on-board budget until session 11) it was at Err% 4–5 on this vector (seeds 1, 2; the PSO
         // 0.4), at 5 000 it is at 0.02–0.04 (the PSO 0.07–0.19), at the paper's budget 0.003–0.008 after
         // 6 250–6 750 evaluations (the PSO 0.013–0.03 after 7 000–7 950).
         let truth = FaultVector([0.3, 0.0, 0.0, 0.2, 0.0, 0.0, 0.5, 0.35]);
