@@ -33,6 +33,14 @@ pub const ONBOARD_POPULATION: usize = 50;
 /// 0.7 / 1.7). Model selection and the polish, not the swarm's last iterations, set the digits.
 pub const ONBOARD_MAX_ITERATIONS: u32 = 30;
 
+/// Budget of model selection and the polish together (evaluations after the global search), so
+/// that an identification's cost is bounded whatever the trace: on board at most 1500 + 700 =
+/// 2200 evaluations, ≤ 9.7e9 Cortex-M4F instructions at the dearest evaluation measured (4.4e6,
+/// the worked example's trace with saturation promoted; 3.9e6 on the built-in trace), under the
+/// 1e10 bar. Unbounded, the stages could take 1 + 7·120 + 600 = 1441 (all seven groups present).
+/// The campaign's runs took 40–780 (one run of 330 above 700, session 11), the built-in trace 170.
+pub const LATER_MAX_EVALUATIONS: u32 = 700;
+
 /// Index of the eccentricity phase `k7`, the one periodic parameter.
 const PHASE_INDEX: usize = 6;
 
@@ -77,6 +85,11 @@ pub struct IdentifyConfig {
     /// Weight `ρ` of the fast-regime samples in the fitness, in `(0, 1]` (1: the paper's fitness;
     /// [`crate::fitness::FAST_REGIME_WEIGHT`] by default).
     pub fast_regime_weight: f32,
+    /// Evaluations model selection and the polish may spend together ([`LATER_MAX_EVALUATIONS`]
+    /// by default). When it runs out, the groups not yet tested stay and the polish stops where
+    /// it is; the report's fitness is always that of the reported vector (at 0, that may take the
+    /// one evaluation of a global-search vector whose absent groups were reset to healthy).
+    pub later_max_evaluations: u32,
 }
 
 impl Default for IdentifyConfig {
@@ -105,6 +118,7 @@ impl IdentifyConfig {
             polish: None,
             effects: ModelEffects::NONE,
             fast_regime_weight: 1.0,
+            later_max_evaluations: LATER_MAX_EVALUATIONS,
         }
     }
 
@@ -449,7 +463,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                 };
                 if let Status::Done(reason) = status {
                     (self.best, self.best_cost) = self.solver.best();
-                    if self.config.model_selection {
+                    if self.config.model_selection && self.later_left() > 0 {
                         self.stage = Stage::Select { effective_samples: None, next: 0, refit: None };
                     } else if self.config.polish.is_some() {
                         self.start_polish(reason);
@@ -506,11 +520,22 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         self.status()
     }
 
+    /// Evaluations left of [`IdentifyConfig::later_max_evaluations`].
+    fn later_left(&self) -> u32 {
+        self.config.later_max_evaluations.saturating_sub(self.later_evaluations)
+    }
+
     /// Starts the refit for the next present group, or ends model selection and starts the polish.
-    /// Spends no evaluation (the refit's first step evaluates its start point).
+    /// Spends no evaluation (the refit's first step evaluates its start point). A refit gets at
+    /// most what is left of the budget but one, kept for the cost of a vector selection changed;
+    /// with fewer than two to give, the groups not yet tested stay.
     fn next_selection_test(&mut self) {
+        let refit_budget = SELECTION_REFIT.max_evaluations.min(self.later_left().saturating_sub(1));
         let Stage::Select { next, refit, .. } = &mut self.stage else { return };
         while let Some(&group) = FAULT_GROUPS.get(*next) {
+            if refit_budget < 2 {
+                break;
+            }
             if group_present(&self.best, group) {
                 let mut free = [false; FAULT_COUNT];
                 for (h, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
@@ -518,7 +543,8 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                     free[first..=last].iter_mut().for_each(|f| *f = movable);
                 }
                 let start = without_group(&self.best, group);
-                if let Ok(search) = PatternSearch::new(fault_bounds(), SELECTION_REFIT, start, None, free) {
+                let config = PatternConfig { max_evaluations: refit_budget, ..SELECTION_REFIT };
+                if let Ok(search) = PatternSearch::new(fault_bounds(), config, start, None, free) {
                     *refit = Some(search);
                     return;
                 }
@@ -558,15 +584,18 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             }
             free[group.0..=group.1].iter_mut().for_each(|f| *f = self.kept[g] && present);
         }
+        let unscored = if self.best_cost.is_nan() { Stage::Rescore(reason) } else { Stage::Done(reason) };
         let Some(polish) = self.config.polish else {
-            self.stage = if self.best_cost.is_nan() { Stage::Rescore(reason) } else { Stage::Done(reason) };
+            self.stage = unscored;
             return;
         };
         let start_cost = if self.best_cost.is_nan() { None } else { Some(self.best_cost) };
-        // The configuration was validated in `new`; should it fail anyway, keep the result as is.
+        let polish = PatternConfig { max_evaluations: polish.max_evaluations.min(self.later_left()), ..polish };
+        // The configuration was validated in `new`; with no budget left (or should it fail
+        // anyway), keep the result as is.
         self.stage = match PatternSearch::new(fault_bounds(), polish, self.best, start_cost, free) {
             Ok(search) => Stage::Polish(search),
-            Err(_) => Stage::Done(reason),
+            Err(_) => unscored,
         };
     }
 
@@ -675,6 +704,28 @@ mod tests {
         assert!(r.evaluations > global && r.evaluations <= global + selection + polish);
         let kept = id.kept_groups();
         assert!(kept[0] && kept[3] && kept[6], "a noise-free trace keeps its real faults: {kept:?}");
+    }
+
+    #[test]
+    fn model_selection_and_the_polish_keep_to_their_budget() {
+        // Three faults present: unbounded, selection alone could take 1 + 3·120 evaluations.
+        let truth = FaultVector([0.3, 0.0, 0.0, 0.2, 0.0, 0.0, 0.5, 0.35]);
+        let trace = self_trace(&truth);
+        let global = 5 * ONBOARD_POPULATION as u32;
+        let mut later = [0u32; 3];
+        for (j, budget) in [0u32, 25, LATER_MAX_EVALUATIONS].into_iter().enumerate() {
+            let config =
+                IdentifyConfig { max_iterations: 5, later_max_evaluations: budget, ..IdentifyConfig::onboard() };
+            let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
+                Identification::new(&trace, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap();
+            id.run(u32::MAX);
+            let r = id.report();
+            later[j] = r.evaluations - global;
+            assert!(later[j] <= budget.max(1), "budget {budget}: {} later evaluations", later[j]);
+            // the reported fitness is the reported vector's, whatever stage the budget stopped
+            assert_eq!(r.fitness, id.fitness().error(&r.faults), "budget {budget}");
+        }
+        assert!(later[1] == 25 && later[2] > 25, "the small budget binds, the default does not: {later:?}");
     }
 
     #[test]
