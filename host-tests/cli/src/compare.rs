@@ -110,7 +110,7 @@ pub fn model_run(
         for _ in 0..DECIMATION {
             block += envelope.expected_a(state.output_current_a);
             if let (RotorAngle::Reference, Some(t)) = (rotor, truth.get(step)) {
-                state.motor_angle_wrapped_rad = wrapped(t.motor_angle_rad);
+                state.set_motor_angle(wrapped(t.motor_angle_rad));
                 state.hall_angle_rad = wrapped(t.electrical_angle_rad - std::f64::consts::FRAC_PI_6);
             }
             model.step(&mut state, command.command_rad(step as f32 * model.dt_s()));

@@ -143,6 +143,8 @@ fn no_effect_is_the_paper_model_bit_for_bit() {
             s.motor_speed_rad_s,
             s.motor_angle_rad,
             s.motor_angle_wrapped_rad,
+            s.rotor_phasor.0,
+            s.rotor_phasor.1,
             s.hall_angle_rad,
             s.surface_angle_rad,
             s.integral_rad_s,
