@@ -43,10 +43,8 @@ use std::time::Instant;
 use clap::Args;
 use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
 use ema_monitor::fitness::{simulate_window_with_effects, CurrentFit};
-use ema_monitor::health::HealthReport;
 use ema_monitor::monitor::{
-    fault_bounds, group_pays, group_present, without_group, Identification, IdentifyConfig, FAULT_GROUPS,
-    ONBOARD_POPULATION, SELECTION_REFIT,
+    fault_bounds, group_pays, group_present, without_group, IdentifyConfig, FAULT_GROUPS, SELECTION_REFIT,
 };
 use ema_monitor::optimizer::pattern::{PatternConfig, PatternSearch};
 use ema_monitor::optimizer::{self, Bounds, Objective, Optimizer};
@@ -54,7 +52,7 @@ use ema_monitor::{EffectId, EmaParams, FaultVector, ModelEffects, Profile, FAULT
 use serde_json::json;
 
 use crate::error::CliError;
-use crate::identify::{condition_recording, HOST_WINDOW};
+use crate::identify::{condition_recording, identify_trace, HOST_WINDOW};
 use crate::recording_io::read_recording;
 use crate::simulate::{parse_faults, resolve_profile};
 
@@ -878,7 +876,7 @@ pub fn discover<const W: usize>(
     // 1. the current model, as on board (whole recording)
     // Every sample at full weight: the discrepancies discover looks for live in the fast regime too.
     let config = IdentifyConfig { seed, fast_regime_weight: 1.0, ..IdentifyConfig::onboard() };
-    let report = identify_report(trace, profile, file, &config)?;
+    let report = identify_trace(trace, profile, &config, file)?.report;
     let mut evaluations = u64::from(report.evaluations);
     let whole = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::All);
     let before = ModelFit {
@@ -930,12 +928,13 @@ pub fn discover<const W: usize>(
     };
     // 5. the diagnosis the firmware gives, before and after promoting the named effects
     let onboard = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
-    let onboard_before = identify_report(trace, profile, file, &onboard)?;
+    let onboard_before = identify_trace(trace, profile, &onboard, file)?.report;
     evaluations += u64::from(onboard_before.evaluations);
     let onboard_after = if on.is_empty() {
         onboard_before.faults
     } else {
-        let promoted = identify_report(trace, profile, file, &IdentifyConfig { effects: after.effects, ..onboard })?;
+        let promoted =
+            identify_trace(trace, profile, &IdentifyConfig { effects: after.effects, ..onboard }, file)?.report;
         evaluations += u64::from(promoted.evaluations);
         promoted.faults
     };
@@ -962,21 +961,6 @@ pub fn discover<const W: usize>(
         seconds: start.elapsed().as_secs_f64(),
         evaluations,
     })
-}
-
-/// One identification of the whole recording with `config` (the core's pipeline, as `ema identify`).
-fn identify_report<const W: usize>(
-    trace: &MeasuredTrace<W>,
-    profile: &Profile,
-    file: &Path,
-    config: &IdentifyConfig,
-) -> Result<HealthReport, CliError> {
-    let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> = Box::new(
-        Identification::new(trace, EmaParams::NOMINAL, *profile, config)
-            .map_err(|e| CliError::Input { path: file.to_path_buf(), message: e.to_string() })?,
-    );
-    id.run(u32::MAX);
-    Ok(id.report())
 }
 
 /// "unexplained residual at …" when the structural residual left is above
