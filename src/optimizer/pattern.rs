@@ -81,8 +81,13 @@ impl<const D: usize> PatternSearch<D> {
             Some(c) => c,
             None => f32::NAN, // evaluated by the first step
         };
-        let status =
-            if free.iter().any(|f| *f) { Status::Running } else { Status::Done(TerminationReason::FunctionTolerance) };
+        // With nothing free there is nothing to search, but a start given without its cost is
+        // still evaluated (model selection compares a lone fault group against that cost).
+        let status = if best_cost.is_nan() || free.iter().any(|f| *f) {
+            Status::Running
+        } else {
+            Status::Done(TerminationReason::FunctionTolerance)
+        };
         Ok(Self {
             bounds,
             config,
@@ -159,6 +164,10 @@ impl<const D: usize> Optimizer<D> for PatternSearch<D> {
             let c = objective.cost(&self.best, f32::INFINITY);
             self.best_cost = if c.is_nan() { f32::INFINITY } else { c };
             self.evaluations += 1;
+            if !self.free.iter().any(|f| *f) {
+                self.status = Status::Done(TerminationReason::FunctionTolerance);
+                return self.status;
+            }
         } else {
             let Some(trial) = self.next_trial() else {
                 self.status = Status::Done(TerminationReason::FunctionTolerance);
@@ -290,8 +299,17 @@ mod tests {
             PatternSearch::new(Bounds::<3>::unit(), bad, [0.5; 3], None, [true; 3]).err(),
             Some(ConfigError::Termination)
         );
-        // nothing free: done at once, no evaluation
+        // nothing free: a start without its cost is evaluated once (model selection needs the cost
+        // of a lone group's removal), one with its cost is done at once
+        let calls = f.calls;
         let mut s = PatternSearch::new(Bounds::<3>::unit(), config(), [0.5; 3], None, [false; 3]).unwrap();
+        assert_eq!(s.best().1, f32::INFINITY);
         assert!(matches!(s.step(&mut f), Status::Done(_)));
+        assert_eq!((f.calls - calls, s.evaluations()), (1, 1));
+        assert_eq!(s.best().0, &[0.5; 3]);
+        assert!((s.best().1 - 0.6).abs() < 1e-6, "(4 + 1 + 1 + 9) · 0.2²: {}", s.best().1);
+        let mut s = PatternSearch::new(Bounds::<3>::unit(), config(), [0.5; 3], Some(2.0), [false; 3]).unwrap();
+        assert!(matches!(s.step(&mut f), Status::Done(_)));
+        assert_eq!((f.calls - calls, s.evaluations(), s.best().1), (1, 0, 2.0));
     }
 }
