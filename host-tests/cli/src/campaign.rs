@@ -24,14 +24,16 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use clap::Args;
-use ema_monitor::monitor::{Algorithm, IdentifyConfig};
-use ema_monitor::{FaultVector, Profile};
+use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::fitness::CurrentFit;
+use ema_monitor::monitor::{group_pays, group_present, without_group, Algorithm, IdentifyConfig, FAULT_GROUPS};
+use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
 use crate::error::CliError;
-use crate::identify::{identify_recording, AlgorithmArg};
+use crate::identify::{condition_recording, identify_trace, AlgorithmArg};
 use crate::recording_io::Recording;
 use crate::simulate::resolve_profile;
 
@@ -143,6 +145,42 @@ pub struct RunResult {
     pub seconds: f64,
     /// Objective evaluations.
     pub evaluations: u32,
+    /// Err% of the detectability floor ([`detectability_floor`]).
+    pub floor_err_percent: f64,
+}
+
+/// The truth with every fault group removed that model selection's criterion would refuse even
+/// at the truth: a group of `truth` stays when `group_pays(E(k), E(k without it), parameters,
+/// n_eff(k))` at `k = truth`, with the identification's fitness (its fast-regime weight and
+/// effect terms). No estimator that applies the criterion can be expected to report a fault
+/// whose evidence is below it at the true vector, so the Err% of this vector is the part of a
+/// run's error that is a limit of the recording (its noise and manoeuvre), not of the search.
+/// Not a strict bound: the truth is not the monitor model's best fit (its mismatch floor), and a
+/// nearby vector can fit better.
+pub fn detectability_floor<const W: usize>(
+    trace: &MeasuredTrace<W>,
+    profile: &Profile,
+    config: &IdentifyConfig,
+    truth: &FaultVector,
+) -> FaultVector {
+    let Some(fit) = CurrentFit::new(trace, EmaParams::NOMINAL, *profile)
+        .with_effects(config.effects)
+        .with_fast_regime_weight(config.fast_regime_weight)
+    else {
+        return *truth;
+    };
+    let error_with = fit.error(truth);
+    let n = fit.effective_samples(truth);
+    let mut floor = truth.0;
+    for &group in &FAULT_GROUPS {
+        if group_present(&truth.0, group) {
+            let error_without = fit.error(&FaultVector(without_group(&truth.0, group)));
+            if !group_pays(error_with, error_without, group.1 - group.0 + 1, n) {
+                floor = without_group(&floor, group);
+            }
+        }
+    }
+    FaultVector(floor)
 }
 
 /// SplitMix64: the campaign's seeded generator (one stream per run key).
@@ -202,8 +240,8 @@ pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
         for &mode in &modes {
             for (level_key, level, lo, hi) in [(1u64, "low", 0.05f32, 0.25f32), (2, "high", 0.70, 0.95)] {
                 for run in 0..args.runs {
-                    // The fault and noise depend on (mode, level, run) only, so every algorithm sees
-                    // the same recordings; the key for the optimizer adds the algorithm.
+                    // The fault depends on (mode, level, run) only, so every algorithm sees the
+                    // same faults; the seed of the noise and of the optimizer adds the algorithm.
                     let key = (mode as u64 + 1) << 40 | level_key << 32 | u64::from(run);
                     let mut rng = SplitMix(args.seed ^ key.wrapping_mul(0xD1B5_4A32_D192_ED03));
                     let mut truth = FaultVector::HEALTHY;
@@ -253,7 +291,9 @@ pub fn execute(p: &Plan, base: &IdentifyConfig, profile: &Profile) -> Result<Run
     let recording = Recording::from_reference(&rec, Vec::new());
     let identify = IdentifyConfig { algorithm: Algorithm::from(p.algorithm), seed: p.seed, ..*base };
     let label = PathBuf::from(format!("campaign run {} {} {} #{}", alg_name(p.algorithm), p.mode, p.level, p.run));
-    let outcome = identify_recording(&recording, &label, profile, &identify)?;
+    let trace = condition_recording(&recording, &label, profile)?;
+    let outcome = identify_trace(&trace, profile, &identify, &label)?;
+    let floor = detectability_floor(&trace, profile, &identify, &p.truth);
     let estimate = outcome.report.faults;
     Ok(RunResult {
         plan: p.clone(),
@@ -261,6 +301,7 @@ pub fn execute(p: &Plan, base: &IdentifyConfig, profile: &Profile) -> Result<Run
         err_percent: f64::from(estimate.paper_error_percent(&p.truth)),
         seconds: outcome.seconds,
         evaluations: outcome.report.evaluations,
+        floor_err_percent: f64::from(floor.paper_error_percent(&p.truth)),
     })
 }
 
@@ -324,6 +365,8 @@ pub struct Cell {
     pub mean_seconds: f64,
     /// Mean evaluations.
     pub mean_evaluations: f64,
+    /// Mean Err% of the detectability floor ([`detectability_floor`]).
+    pub mean_floor_err_percent: f64,
 }
 
 /// `(algorithm, mode, level)` of a summary cell.
@@ -331,7 +374,7 @@ pub type CellKey = (String, String, String);
 
 /// Groups results by `(algorithm, mode, level)` (mode `total` pools the single-fault modes).
 pub fn summarize(results: &[RunResult]) -> BTreeMap<CellKey, Cell> {
-    let mut sums: BTreeMap<CellKey, (usize, f64, f64, f64)> = BTreeMap::new();
+    let mut sums: BTreeMap<CellKey, (usize, f64, f64, f64, f64)> = BTreeMap::new();
     for r in results {
         let alg = alg_name(r.plan.algorithm).to_string();
         let mut keys = vec![(alg.clone(), r.plan.mode.clone(), r.plan.level.to_string())];
@@ -346,12 +389,20 @@ pub fn summarize(results: &[RunResult]) -> BTreeMap<CellKey, Cell> {
             e.1 += r.err_percent;
             e.2 += r.seconds;
             e.3 += f64::from(r.evaluations);
+            e.4 += r.floor_err_percent;
         }
     }
     sums.into_iter()
-        .map(|(k, (n, err, s, ev))| {
+        .map(|(k, (n, err, s, ev, floor))| {
             let n_f = n as f64;
-            (k, Cell { runs: n, mean_err_percent: err / n_f, mean_seconds: s / n_f, mean_evaluations: ev / n_f })
+            let cell = Cell {
+                runs: n,
+                mean_err_percent: err / n_f,
+                mean_seconds: s / n_f,
+                mean_evaluations: ev / n_f,
+                mean_floor_err_percent: floor / n_f,
+            };
+            (k, cell)
         })
         .collect()
 }
@@ -385,12 +436,27 @@ fn table(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> String {
             paper.map_or("–".into(), |p| format!("{:.0}", p.seconds.iter().sum::<f64>() / 5.0)),
         );
     }
+    let _ = writeln!(
+        out,
+        "\nDetectability floor: mean Err% of the truth without the faults model selection's criterion refuses even at the truth (`detectability_floor`)\n\n| algorithm | level | {} | total |",
+        MODES.join(" | ")
+    );
+    let _ = writeln!(out, "|{}", "---|".repeat(MODES.len() + 3));
+    let order = ALGORITHM_ORDER.into_iter().flat_map(|a| ["low", "high"].map(move |l| (a, l)));
+    for (alg, level) in order {
+        let cell = |mode: &str| summary.get(&(alg.to_string(), mode.to_string(), level.to_string()));
+        let floor = |mode: &str| cell(mode).map_or("–".into(), |c| format!("{:.2}", c.mean_floor_err_percent));
+        if cell("total").is_some() {
+            let floors: Vec<String> = MODES.iter().map(|m| floor(m)).collect();
+            let _ = writeln!(out, "| {alg} | {level} | {} | {} |", floors.join(" | "), floor("total"));
+        }
+    }
     for alg in ALGORITHM_ORDER {
         if let Some(c) = summary.get(&(alg.to_string(), "multi".to_string(), "multi".to_string())) {
             let _ = writeln!(
                 out,
-                "\nmulti-fault ({alg}): {} runs, mean Err% {:.2}, mean time {:.2} s",
-                c.runs, c.mean_err_percent, c.mean_seconds
+                "\nmulti-fault ({alg}): {} runs, mean Err% {:.2} (floor {:.2}), mean time {:.2} s",
+                c.runs, c.mean_err_percent, c.mean_floor_err_percent, c.mean_seconds
             );
         }
     }
@@ -413,7 +479,7 @@ fn summary_json(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> serde
         .map(|((alg, mode, level), c)| {
             json!({"algorithm": alg, "mode": mode, "level": level, "runs": c.runs,
                    "mean_err_percent": c.mean_err_percent, "mean_seconds": c.mean_seconds,
-                   "mean_evaluations": c.mean_evaluations})
+                   "mean_evaluations": c.mean_evaluations, "mean_floor_err_percent": c.mean_floor_err_percent})
         })
         .collect();
     let paper: Vec<serde_json::Value> = PAPER_TABLE_II
@@ -441,14 +507,14 @@ pub fn runs_csv(results: &[RunResult]) -> String {
             let _ = write!(out, ",k{i}_{prefix}");
         }
     }
-    out.push_str(",err_percent,identification_s,evaluations\n");
+    out.push_str(",err_percent,identification_s,evaluations,floor_err_percent\n");
     for r in results {
         let p = &r.plan;
         let _ = write!(out, "{},{},{},{},{}", alg_name(p.algorithm), p.mode, p.level, p.run, p.seed);
         for k in p.truth.0.iter().chain(r.estimate.0.iter()) {
             let _ = write!(out, ",{k}");
         }
-        let _ = writeln!(out, ",{},{},{}", r.err_percent, r.seconds, r.evaluations);
+        let _ = writeln!(out, ",{},{},{},{}", r.err_percent, r.seconds, r.evaluations, r.floor_err_percent);
     }
     out
 }
@@ -548,12 +614,12 @@ pub fn run(args: &CampaignArgs) -> Result<String, CliError> {
         std::fs::create_dir_all(dir).map_err(|source| CliError::Io { path: dir.clone(), source })?;
         write_file(&dir.join("runs.csv"), &runs_csv(&results))?;
         let mut csv =
-            String::from("algorithm,mode,level,runs,mean_err_percent,mean_identification_s,mean_evaluations\n");
+            String::from("algorithm,mode,level,runs,mean_err_percent,mean_identification_s,mean_evaluations,mean_floor_err_percent\n");
         for ((alg, mode, level), c) in &summary {
             let _ = writeln!(
                 csv,
-                "{alg},{mode},{level},{},{},{},{}",
-                c.runs, c.mean_err_percent, c.mean_seconds, c.mean_evaluations
+                "{alg},{mode},{level},{},{},{},{},{}",
+                c.runs, c.mean_err_percent, c.mean_seconds, c.mean_evaluations, c.mean_floor_err_percent
             );
         }
         write_file(&dir.join("summary.csv"), &csv)?;

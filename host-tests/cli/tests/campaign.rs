@@ -88,12 +88,12 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
     let plans = plan(&a).expect("valid");
     let one = run_all(&plans, &identify_config(&a), &Profile::STANDARD, 1, false).expect("runs");
     let two = run_all(&plans, &identify_config(&a), &Profile::STANDARD, 2, false).expect("runs");
-    // every column but `identification_s` (second to last), which is wall time
+    // every column but `identification_s` (third to last), which is wall time
     let strip = |csv: String| -> Vec<Vec<String>> {
         csv.lines()
             .map(|l| {
                 let mut f: Vec<String> = l.split(',').map(str::to_string).collect();
-                let seconds = f.len() - 2;
+                let seconds = f.len() - 3;
                 f.remove(seconds);
                 f
             })
@@ -103,8 +103,8 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
     let csv = runs_csv(&one);
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().expect("header").split(',').collect();
-    assert_eq!(header.len(), 5 + 16 + 3);
-    assert_eq!(header[header.len() - 3..], ["err_percent", "identification_s", "evaluations"]);
+    assert_eq!(header.len(), 5 + 16 + 4);
+    assert_eq!(header[header.len() - 4..], ["err_percent", "identification_s", "evaluations", "floor_err_percent"]);
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), plans.len());
     for row in rows {
@@ -114,6 +114,8 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
         let err: f64 = f[21].parse().expect("number");
         assert!((f64::from(est.paper_error_percent(&truth)) - err).abs() < 1e-6, "{row}");
         assert_eq!(f[23], "100", "2 iterations × 50 particles");
+        let floor: f64 = f[24].parse().expect("number");
+        assert!(floor == 0.0, "high faults and low friction and gain are visible at the truth: {row}");
     }
     // model selection and the polish come on top of the global search's budget
     let refined = run_all(
@@ -133,6 +135,26 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
     let svg = bar_chart("t", "Err %", &summary, |c| c.mean_err_percent);
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>") && svg.contains("<rect"));
     assert_eq!(svg.matches("<svg").count(), 1);
+}
+
+/// The floor drops exactly the faults too weak to pass model selection's criterion at the truth.
+#[test]
+fn the_detectability_floor_drops_only_what_the_recording_cannot_show() {
+    let truth = FaultVector([0.7, 0.0, 0.0, 0.0, 0.0, 0.02, 0.3, 0.5]);
+    let rec = simulate(&SimConfig { faults: truth, seed: 5, ..SimConfig::default() }).expect("sim");
+    let recording = ema_cli::recording_io::Recording::from_reference(&rec, Vec::new());
+    let trace = ema_cli::identify::condition_recording(&recording, std::path::Path::new("t"), &Profile::STANDARD)
+        .expect("conditions");
+    let config = identify_config(&args(1, &[]));
+    // a high friction stays, a 0.02 eccentricity goes (its phase with it)
+    let floor = campaign::detectability_floor(&trace, &Profile::STANDARD, &config, &truth);
+    assert_eq!(floor, FaultVector([0.7, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]));
+    let strong = FaultVector([0.7, 0.0, 0.0, 0.0, 0.0, 0.8, 0.3, 0.5]);
+    let rec = simulate(&SimConfig { faults: strong, seed: 5, ..SimConfig::default() }).expect("sim");
+    let recording = ema_cli::recording_io::Recording::from_reference(&rec, Vec::new());
+    let trace = ema_cli::identify::condition_recording(&recording, std::path::Path::new("t"), &Profile::STANDARD)
+        .expect("conditions");
+    assert_eq!(campaign::detectability_floor(&trace, &Profile::STANDARD, &config, &strong), strong);
 }
 
 #[test]
