@@ -140,6 +140,11 @@ pub struct HealthReport {
     pub iterations: u32,
     /// Why the optimizer stopped (`None`: stopped by the caller's budget).
     pub termination: Option<TerminationReason>,
+    /// Fault groups found by the global search that model selection could not price before the
+    /// later-stage budget ran out ([`crate::monitor::IdentifyConfig::later_max_evaluations`]):
+    /// reported as found, not tested against the information criterion. 0 when every group
+    /// was tested (or model selection is off).
+    pub untested_groups: u8,
 }
 
 impl HealthReport {
@@ -182,6 +187,7 @@ impl HealthReport {
             evaluations,
             iterations,
             termination,
+            untested_groups: 0,
         }
     }
 
@@ -226,7 +232,15 @@ impl core::fmt::Display for HealthReport {
             f,
             "  fitness {:.4e} A^2, {} evaluations, {} iterations",
             self.fitness, self.evaluations, self.iterations
-        )
+        )?;
+        if self.untested_groups > 0 {
+            write!(
+                f,
+                "\n  model selection: {} fault group(s) not tested (later-stage budget spent)",
+                self.untested_groups
+            )?;
+        }
+        Ok(())
     }
 }
 

@@ -176,6 +176,12 @@ fn log_report(r: &HealthReport) {
         r.iterations,
         r.termination
     );
+    if r.untested_groups > 0 {
+        defmt::warn!(
+            "model selection: {=u8} fault group(s) not tested (later-stage budget spent): reported as found",
+            r.untested_groups
+        );
+    }
 }
 
 /// Start marker of the instruction-counted identification region (its address is read with `nm`).

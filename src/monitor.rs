@@ -376,6 +376,8 @@ pub struct Identification<'a, const W: usize, const P: usize> {
     kept: [bool; FAULT_GROUPS.len()],
     /// Evaluations spent after the global search.
     later_evaluations: u32,
+    /// Present groups model selection had no budget left to test.
+    untested_groups: u8,
 }
 
 impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
@@ -448,6 +450,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             best_cost: f32::INFINITY,
             kept: [true; FAULT_GROUPS.len()],
             later_evaluations: 0,
+            untested_groups: 0,
         })
     }
 
@@ -465,6 +468,9 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                     (self.best, self.best_cost) = self.solver.best();
                     if self.config.model_selection && self.later_left() > 0 {
                         self.stage = Stage::Select { effective_samples: None, next: 0, refit: None };
+                    } else if self.config.model_selection {
+                        self.untested_groups = self.present_groups_from(0);
+                        self.start_polish(reason);
                     } else if self.config.polish.is_some() {
                         self.start_polish(reason);
                     } else {
@@ -534,6 +540,8 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         let Stage::Select { next, refit, .. } = &mut self.stage else { return };
         while let Some(&group) = FAULT_GROUPS.get(*next) {
             if refit_budget < 2 {
+                let first_untested = *next;
+                self.untested_groups = self.present_groups_from(first_untested);
                 break;
             }
             if group_present(&self.best, group) {
@@ -553,6 +561,12 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         }
         self.drop_unpaid_groups();
         self.start_polish(self.global_reason());
+    }
+
+    /// How many groups of [`FAULT_GROUPS`] from index `first` on are present in the best vector.
+    fn present_groups_from(&self, first: usize) -> u8 {
+        let present = FAULT_GROUPS.iter().skip(first).filter(|&&g| group_present(&self.best, g)).count();
+        present as u8 // at most FAULT_GROUPS.len() = 7
     }
 
     /// Sets every group model selection refused back to healthy; the cost is re-evaluated by the
@@ -647,14 +661,15 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             _ => (self.best, self.best_cost),
         };
         let evaluations = self.solver.evaluations() + self.later_evaluations;
-        HealthReport::new(
+        let report = HealthReport::new(
             FaultVector(best),
             &self.params,
             cost,
             evaluations,
             self.solver.iterations(),
             self.termination(),
-        )
+        );
+        HealthReport { untested_groups: self.untested_groups, ..report }
     }
 
     fn termination(&self) -> Option<TerminationReason> {
@@ -731,7 +746,7 @@ mod tests {
         let truth = FaultVector([0.3, 0.0, 0.0, 0.2, 0.0, 0.0, 0.5, 0.35]);
         let trace = self_trace(&truth);
         let global = 5 * ONBOARD_POPULATION as u32;
-        let mut later = [0u32; 3];
+        let (mut later, mut untested, mut present) = ([0u32; 3], [0u8; 3], [0u8; 3]);
         for (j, budget) in [0u32, 25, LATER_MAX_EVALUATIONS].into_iter().enumerate() {
             let config =
                 IdentifyConfig { max_iterations: 5, later_max_evaluations: budget, ..IdentifyConfig::onboard() };
@@ -743,8 +758,15 @@ mod tests {
             assert!(later[j] <= budget.max(1), "budget {budget}: {} later evaluations", later[j]);
             // the reported fitness is the reported vector's, whatever stage the budget stopped
             assert_eq!(r.fitness, id.fitness().error(&r.faults), "budget {budget}");
+            untested[j] = r.untested_groups;
+            present[j] = FAULT_GROUPS.iter().filter(|&&g| group_present(&r.faults.0, g)).count() as u8;
         }
         assert!(later[1] == 25 && later[2] > 25, "the small budget binds, the default does not: {later:?}");
+        // No budget: every group found stays untested. 25: the first refit gets 24 evaluations,
+        // then nothing is left for the others. The default tests them all.
+        assert!(untested[0] >= 1 && untested[0] == present[0], "{untested:?} of {present:?}");
+        assert!(untested[1] >= 1 && untested[1] < present[1], "{untested:?} of {present:?}");
+        assert_eq!(untested[2], 0);
     }
 
     #[test]

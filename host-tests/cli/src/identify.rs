@@ -296,6 +296,7 @@ pub fn to_json(outcome: &Outcome) -> serde_json::Value {
         "evaluations": r.evaluations,
         "iterations": r.iterations,
         "termination": r.termination.map(|t| format!("{t:?}")),
+        "untested_groups": r.untested_groups,
         "seconds": outcome.seconds,
         "overall": r.overall().label(),
         "modes": modes,

@@ -166,7 +166,7 @@ fn bad_flags_are_refused() {
     refused(&["identify", s(standard_csv()), "--firmware-trace", s(&trace)], &["--firmware-trace", "cannot be used"]);
 }
 
-/// The JSON report: `k` (8 numbers in [0, 1]), `fitness`, `evaluations`, `seconds`.
+/// The JSON report: `k` (8 numbers in [0, 1]), `fitness`, `evaluations`, `untested_groups`, `seconds`.
 fn check_json(out: &str, max_iterations: u64) -> serde_json::Value {
     assert_eq!(out.trim().lines().count(), 1, "{out}");
     let v: serde_json::Value = serde_json::from_str(out.trim()).expect("valid JSON");
@@ -186,6 +186,10 @@ fn check_json(out: &str, max_iterations: u64) -> serde_json::Value {
         + (FAULT_GROUPS.len() as u64) * u64::from(SELECTION_REFIT.max_evaluations)
         + u64::from(PatternConfig::default().max_evaluations);
     assert!((global..=global + later).contains(&evaluations), "{v}");
+    // groups model selection had no budget left to test (the default budget never runs out on
+    // the standard recordings)
+    let untested = v["untested_groups"].as_u64().unwrap_or_else(|| panic!("no untested_groups in {v}"));
+    assert!(untested <= FAULT_GROUPS.len() as u64, "{v}");
     v
 }
 
