@@ -59,6 +59,33 @@ pub fn fast_regime_weight_is_valid(weight: f32) -> bool {
 /// Most fast-regime intervals a fitness keeps (the standard manoeuvre has 2; later ones weigh 1).
 pub const MAX_FAST_INTERVALS: usize = 8;
 
+/// Window samples per evidence window ([`CurrentFit::window_errors`]): 100, i.e. 40 ms, about
+/// one reversal's transient. Longer traces get longer windows so that there are at most
+/// [`MAX_EVIDENCE_WINDOWS`].
+pub const EVIDENCE_WINDOW_SAMPLES: usize = 100;
+
+/// Most evidence windows a trace is split into.
+pub const MAX_EVIDENCE_WINDOWS: usize = 96;
+
+/// `E(k)` split over consecutive windows of the trace: `errors[j]` holds the terms
+/// `(1/n)·ρ_i·w_i·r_i²` of window `j`, so the windows sum to `E(k)`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WindowErrors {
+    /// Per-window parts of `E(k)` (A²), the unused tail zero.
+    pub errors: [f32; MAX_EVIDENCE_WINDOWS],
+    /// Window samples per window (the last one may be shorter).
+    pub window_samples: usize,
+    /// Window samples of the whole trace.
+    pub samples: usize,
+}
+
+impl WindowErrors {
+    /// Window samples of window `j` (0 past the end).
+    pub fn samples_in(&self, j: usize) -> usize {
+        self.samples.saturating_sub(j * self.window_samples).min(self.window_samples)
+    }
+}
+
 /// Runs the monitor model with faults `k` under `profile` for `samples` window samples and hands
 /// each block mean of the expected measured envelope ([`MeasuredEnvelope`] of `I_out`, with the
 /// sensors' and controller's noise), with the model state at the block's end, to
@@ -260,6 +287,30 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
 }
 
 impl<const W: usize> CurrentFit<'_, W> {
+    /// `E(k)` split over windows of [`EVIDENCE_WINDOW_SAMPLES`] (more when the trace would need
+    /// more than [`MAX_EVIDENCE_WINDOWS`]): one model run.
+    pub fn window_errors(&self, k: &FaultVector) -> WindowErrors {
+        let y = self.trace.current_a();
+        let w = self.trace.weight();
+        let n = y.len();
+        let window_samples = EVIDENCE_WINDOW_SAMPLES.max(n.div_ceil(MAX_EVIDENCE_WINDOWS));
+        let mut out = WindowErrors { errors: [0.0; MAX_EVIDENCE_WINDOWS], window_samples, samples: n };
+        if n == 0 {
+            return out;
+        }
+        let inv_n = 1.0 / n as f32;
+        let mut rho = self.regime_weights();
+        let errors = &mut out.errors;
+        simulate_window_with_effects(&self.params, &self.profile, k, &self.effects, n, |i, model_a, _| {
+            let r = y[i] - model_a;
+            if let Some(e) = errors.get_mut(i / window_samples) {
+                *e += rho.at(i) * w[i] * r * r * inv_n;
+            }
+            true
+        });
+        out
+    }
+
     /// Effective number of independent samples in the weighted residual `u_i = √w_i·r_i` of `k`:
     /// `n_eff = n·(1 − ρ)/(1 + ρ)` with `ρ = Σu_i u_{i−1} / Σu_i²` the lag-1 autocorrelation
     /// (clamped to `[0, 0.99]`), the usual AR(1) correction of the sample count (Bartlett 1946):
@@ -377,6 +428,20 @@ mod tests {
         for bad in [0.0, -0.5, 1.5, f32::NAN, f32::INFINITY] {
             assert!(paper.clone().with_fast_regime_weight(bad).is_none(), "{bad}");
         }
+    }
+
+    #[test]
+    fn window_errors_split_the_error() {
+        let trace = self_trace(&FaultVector::HEALTHY);
+        let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).with_fast_regime_weight(0.1).unwrap();
+        let k = FaultVector([0.2, 0.0, 0.0, 0.1, 0.0, 0.0, 0.5, 0.45]);
+        let w = fit.window_errors(&k);
+        assert_eq!((w.window_samples, w.samples), (EVIDENCE_WINDOW_SAMPLES, trace.len()));
+        let used = trace.len().div_ceil(EVIDENCE_WINDOW_SAMPLES);
+        assert!(w.errors[..used].iter().all(|e| *e > 0.0) && w.errors[used..].iter().all(|e| *e == 0.0));
+        let total: f32 = w.errors.iter().sum();
+        let e = fit.error(&k);
+        assert!((total - e).abs() <= 1e-5 * e, "{total} vs {e}");
     }
 
     #[test]

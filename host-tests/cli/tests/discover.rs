@@ -130,3 +130,23 @@ fn effects_outside_the_library_are_not_mislabelled() {
         assert!(v.contains("unexplained residual at"), "{effect}: {v}");
     }
 }
+
+/// Cogging on a healthy actuator, hidden: the firmware's own identification must not read it as
+/// an eccentricity. Its ripple is periodic in the rotor angle, as eccentricity's is; at seed 8 the
+/// on-board fit kept an eccentricity of 0.22 (DEGRADED) until session 12, all of whose net gain
+/// came from the last 40 ms of the manoeuvre (`monitor::helps_without_its_best_window`).
+#[test]
+fn the_on_board_fit_does_not_read_cogging_as_eccentricity() {
+    for seed in [8, 9, 10] {
+        let mut e = Effects::default();
+        e.set(Effect::Cogging, 1.0).unwrap();
+        let rec =
+            simulate(&SimConfig { faults: FaultVector(HEALTHY), effects: e, seed, ..SimConfig::default() }).unwrap();
+        let recording = Recording::from_reference(&rec, vec![]);
+        let path = Path::new("in-memory.csv");
+        let config = ema_monitor::monitor::IdentifyConfig::onboard();
+        let outcome = ema_cli::identify::identify_recording(&recording, path, &Profile::STANDARD, &config).unwrap();
+        let k = outcome.report.faults.0;
+        assert_eq!(k[5], 0.0, "seed {seed}: eccentricity read from cogging: {k:?}");
+    }
+}
