@@ -152,9 +152,10 @@ fn the_on_board_fit_does_not_read_cogging_as_eccentricity() {
 }
 
 /// The Hall offset below its documented maximum: named, and the firmware's diagnosis repaired
-/// once it is promoted. Its severity reads high (the monitor model commutes about 2° electrical
-/// later than the reference model, so the term carries that lag too: README), and at s = 1 the
-/// fit lands on the bound and the effect is refused as "stronger or different".
+/// once it is promoted. Its severity reads high (on a clean recording the monitor model's fit
+/// already prefers an offset of about 2°, all of it from the fast reversal: the term absorbs part
+/// of the model's mismatch there, README), and at s = 1 the fit lands on the bound and the effect
+/// is refused as "stronger or different".
 #[test]
 fn a_hall_offset_below_its_maximum_is_named() {
     for (seed, faults) in [(60, HEALTHY), (61, FRICTION)] {
