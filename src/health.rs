@@ -271,5 +271,9 @@ mod tests {
         assert_eq!(r.overall(), Condition::Failing);
         let text = std::format!("{r}");
         assert!(text.contains("short circuit") && text.contains("phase B") && text.contains("FAILING"), "{text}");
+        assert!(!text.contains("not tested"), "{text}");
+        let cut = HealthReport { untested_groups: 2, ..r };
+        let text = std::format!("{cut}");
+        assert!(text.ends_with("model selection: 2 fault group(s) not tested (later-stage budget spent)"), "{text}");
     }
 }
