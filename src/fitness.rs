@@ -79,13 +79,6 @@ pub struct WindowErrors {
     pub samples: usize,
 }
 
-impl WindowErrors {
-    /// Window samples of window `j` (0 past the end).
-    pub fn samples_in(&self, j: usize) -> usize {
-        self.samples.saturating_sub(j * self.window_samples).min(self.window_samples)
-    }
-}
-
 /// Runs the monitor model with faults `k` under `profile` for `samples` window samples and hands
 /// each block mean of the expected measured envelope ([`MeasuredEnvelope`] of `I_out`, with the
 /// sensors' and controller's noise), with the model state at the block's end, to
