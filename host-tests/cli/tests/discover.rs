@@ -134,7 +134,9 @@ fn effects_outside_the_library_are_not_mislabelled() {
 /// Cogging on a healthy actuator, hidden: the firmware's own identification must not read it as
 /// an eccentricity. Its ripple is periodic in the rotor angle, as eccentricity's is; at seed 8 the
 /// on-board fit kept an eccentricity of 0.22 (DEGRADED) until session 12, all of whose net gain
-/// came from the last 40 ms of the manoeuvre (`monitor::helps_without_its_best_window`).
+/// came from the last 40 ms of the manoeuvre (`monitor::helps_without_its_best_window`). With
+/// friction 0.3 the window check is not enough (seeds 9, 10 and 30 read 0.18–0.21): there the
+/// repair is naming the cogging and promoting it (the test above).
 #[test]
 fn the_on_board_fit_does_not_read_cogging_as_eccentricity() {
     for seed in [8, 9, 10] {
@@ -148,6 +150,29 @@ fn the_on_board_fit_does_not_read_cogging_as_eccentricity() {
         let outcome = ema_cli::identify::identify_recording(&recording, path, &Profile::STANDARD, &config).unwrap();
         let k = outcome.report.faults.0;
         assert_eq!(k[5], 0.0, "seed {seed}: eccentricity read from cogging: {k:?}");
+    }
+}
+
+/// Cogging hidden on the standard manoeuvre. It removes only 2–8 % of the structural gap (the
+/// model's floor is most of it), but the held-out evidence names it at about its severity. With
+/// friction 0.3 at seeds 9 and 10 the firmware's own identification reads it as an eccentricity
+/// of 0.18 and 0.21 (DEGRADED on a healthy motor); promoted, the firmware reads none. Over seeds
+/// 8–10, 30 and 31, with and without friction, it is named in 5 of the 10 recordings and nothing
+/// else is named in any (README); these three are among the five.
+#[test]
+fn cogging_is_named_and_the_firmware_stops_reading_it_as_eccentricity() {
+    for (seed, faults) in [(8, HEALTHY), (9, FRICTION), (10, FRICTION)] {
+        let d = run(&[(Effect::Cogging, 1.0)], faults, seed);
+        assert_eq!(named(&d), vec![EffectId::Cogging], "seed {seed}: {}", ema_cli::discover::summary(&d));
+        assert!((d.named[0].1 - 1.0).abs() < 0.15, "seed {seed}: severity {}", d.named[0].1);
+        let truth = FaultVector(faults);
+        let (before, after) =
+            (d.onboard_before.paper_error_percent(&truth), d.onboard_after.paper_error_percent(&truth));
+        assert_eq!(d.onboard_after.0[5], 0.0, "seed {seed}: eccentricity left after promotion");
+        if faults == FRICTION {
+            assert!(d.onboard_before.0[5] > 0.1, "seed {seed}: the misreading promotion repairs");
+            assert!(after < before, "seed {seed}: on-board Err% {before} -> {after}");
+        }
     }
 }
 
