@@ -219,6 +219,12 @@ pub fn helps_without_its_best_window(with: &WindowErrors, without: &WindowErrors
     gain_elsewhere > 0.0
 }
 
+/// Evaluations of [`IdentifyConfig::later_max_evaluations`] left after `used` (a free function:
+/// the selection stage calls it while it holds the stage borrowed).
+fn later_left(config: &IdentifyConfig, used: u32) -> u32 {
+    config.later_max_evaluations.saturating_sub(used)
+}
+
 /// Why an identification could not start.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -518,60 +524,61 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                     }
                 }
             }
-            Stage::Select { effective_samples, next, refit } => match (*effective_samples, refit.as_mut()) {
-                (None, _) => {
-                    *effective_samples = Some(self.fit.effective_samples(&FaultVector(self.best)));
-                    self.later_evaluations += 1;
-                }
-                (Some(_), _) if self.influence.is_some() => {
-                    let Some(check) = self.influence.as_mut() else { return self.status() };
-                    self.later_evaluations += 1;
-                    match &check.with {
-                        None => check.with = Some(self.fit.window_errors(&FaultVector(self.best))),
-                        Some(with) => {
-                            let without = self.fit.window_errors(&FaultVector(check.without));
-                            let pays = helps_without_its_best_window(with, &without);
-                            if let Some(kept) = self.kept.get_mut(*next) {
-                                *kept = pays;
+            Stage::Select { effective_samples, next, refit } => {
+                match (*effective_samples, refit.as_mut(), self.influence.as_mut()) {
+                    (None, _, _) => {
+                        *effective_samples = Some(self.fit.effective_samples(&FaultVector(self.best)));
+                        self.later_evaluations += 1;
+                    }
+                    (Some(_), _, Some(check)) => {
+                        self.later_evaluations += 1;
+                        match &check.with {
+                            None => check.with = Some(self.fit.window_errors(&FaultVector(self.best))),
+                            Some(with) => {
+                                let without = self.fit.window_errors(&FaultVector(check.without));
+                                let pays = helps_without_its_best_window(with, &without);
+                                if let Some(kept) = self.kept.get_mut(*next) {
+                                    *kept = pays;
+                                }
+                                self.influence = None;
+                                *next += 1;
+                                self.next_selection_test();
                             }
-                            self.influence = None;
-                            *next += 1;
-                            self.next_selection_test();
                         }
                     }
-                }
-                (Some(n), Some(search)) => {
-                    let before = search.evaluations();
-                    let status = search.step(&mut self.fit);
-                    self.later_evaluations += search.evaluations() - before;
-                    if let Status::Done(_) = status {
-                        let (x, without) = search.best();
-                        let g = *next;
-                        let mut checked = false;
-                        if let (Some(&(first, last)), Some(kept)) = (FAULT_GROUPS.get(g), self.kept.get_mut(g)) {
-                            if without < self.best_cost {
-                                // the smaller model fits better: it becomes the one to beat
-                                (self.best, self.best_cost) = (*x, without);
-                                *kept = false;
-                            } else {
-                                *kept = group_pays(self.best_cost, without, last - first + 1, n);
-                                // A group that pays must still help without its best window (two
-                                // evaluations; with no budget left for them, the plain test stands).
-                                if *kept && self.later_evaluations + 2 <= self.config.later_max_evaluations {
-                                    self.influence = Some(Influence { without: *x, with: None });
-                                    checked = true;
+                    (Some(n), Some(search), None) => {
+                        let before = search.evaluations();
+                        let status = search.step(&mut self.fit);
+                        self.later_evaluations += search.evaluations() - before;
+                        if let Status::Done(_) = status {
+                            let (x, without) = search.best();
+                            let g = *next;
+                            let mut checked = false;
+                            if let (Some(&(first, last)), Some(kept)) = (FAULT_GROUPS.get(g), self.kept.get_mut(g)) {
+                                if without < self.best_cost {
+                                    // the smaller model fits better: it becomes the one to beat
+                                    (self.best, self.best_cost) = (*x, without);
+                                    *kept = false;
+                                } else {
+                                    *kept = group_pays(self.best_cost, without, last - first + 1, n);
+                                    // A group that pays must still help without its best window (two
+                                    // evaluations; with no budget left for them, the plain test stands).
+                                    if *kept && later_left(&self.config, self.later_evaluations) >= 2 {
+                                        self.influence = Some(Influence { without: *x, with: None });
+                                        checked = true;
+                                    }
                                 }
                             }
-                        }
-                        *refit = None;
-                        if !checked {
-                            *next += 1;
-                            self.next_selection_test();
+                            *refit = None;
+                            if !checked {
+                                *next += 1;
+                                self.next_selection_test();
+                            }
                         }
                     }
+                    (Some(_), None, None) => self.next_selection_test(),
                 }
-                (Some(_), None) => self.next_selection_test(),
-            },
+            }
             Stage::Polish(search) => {
                 let before = search.evaluations();
                 let status = search.step(&mut self.fit);
@@ -594,7 +601,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
 
     /// Evaluations left of [`IdentifyConfig::later_max_evaluations`].
     fn later_left(&self) -> u32 {
-        self.config.later_max_evaluations.saturating_sub(self.later_evaluations)
+        later_left(&self.config, self.later_evaluations)
     }
 
     /// Starts the refit for the next present group, or ends model selection and starts the polish.
