@@ -13,17 +13,20 @@ use ema_cli::recording_io::Recording;
 use ema_monitor::{EffectId, FaultVector, Profile};
 use ema_reference::{simulate, Effect, Effects, SimConfig};
 
-fn run(effects: &[(Effect, f64)], faults: [f32; 8], seed: u64) -> Discovery {
+/// A reference recording of the standard manoeuvre (noise on) with `effects` hidden in it.
+fn recording(effects: &[(Effect, f64)], faults: [f32; 8], seed: u64) -> Recording {
     let mut e = Effects::default();
     for (effect, s) in effects {
         e.set(*effect, *s).unwrap();
     }
-    let truth = FaultVector(faults);
-    let rec = simulate(&SimConfig { faults: truth, effects: e, seed, ..SimConfig::default() }).unwrap();
-    let recording = Recording::from_reference(&rec, vec![]);
+    let rec = simulate(&SimConfig { faults: FaultVector(faults), effects: e, seed, ..SimConfig::default() }).unwrap();
+    Recording::from_reference(&rec, vec![])
+}
+
+fn run(effects: &[(Effect, f64)], faults: [f32; 8], seed: u64) -> Discovery {
     let path = Path::new("in-memory.csv");
-    let trace = condition_recording(&recording, path, &Profile::STANDARD).unwrap();
-    discover::<HOST_WINDOW>(&trace, &Profile::STANDARD, path, Some(truth), 1, 2).unwrap()
+    let trace = condition_recording(&recording(effects, faults, seed), path, &Profile::STANDARD).unwrap();
+    discover::<HOST_WINDOW>(&trace, &Profile::STANDARD, path, Some(FaultVector(faults)), 1, 2).unwrap()
 }
 
 fn named(d: &Discovery) -> Vec<EffectId> {
@@ -140,11 +143,7 @@ fn effects_outside_the_library_are_not_mislabelled() {
 #[test]
 fn the_on_board_fit_does_not_read_cogging_as_eccentricity() {
     for seed in [8, 9, 10] {
-        let mut e = Effects::default();
-        e.set(Effect::Cogging, 1.0).unwrap();
-        let rec =
-            simulate(&SimConfig { faults: FaultVector(HEALTHY), effects: e, seed, ..SimConfig::default() }).unwrap();
-        let recording = Recording::from_reference(&rec, vec![]);
+        let recording = recording(&[(Effect::Cogging, 1.0)], HEALTHY, seed);
         let path = Path::new("in-memory.csv");
         let config = ema_monitor::monitor::IdentifyConfig::onboard();
         let outcome = ema_cli::identify::identify_recording(&recording, path, &Profile::STANDARD, &config).unwrap();
