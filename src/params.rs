@@ -59,7 +59,10 @@ pub struct EmaParams {
     pub control_period_s: f32,
     /// First-order derivative filter time constant `τ_D`.
     pub derivative_filter_s: f32,
-    /// Equivalent closed current-loop lag `τ_c` of the monitor model.
+    /// Equivalent closed current-loop lag `τ_c` of the monitor model: the hysteresis loop follows
+    /// its reference at the voltage's slew rate, seen through the current sensor's 20 kHz
+    /// bandwidth, `1/(2π·20 kHz)` = 8 µs (until session 15, 0.2 ms: the position transducer's lag,
+    /// put on the wrong side of the loop; see [`EmaParams::position_lag_s`]).
     pub current_loop_lag_s: f32,
     /// RMS white noise `σ` of each phase-current sensor (datasheet or bench calibration). The
     /// monitor uses it to predict the rectification bias of the measured `I_3eq`
@@ -67,6 +70,9 @@ pub struct EmaParams {
     pub current_noise_a: f32,
     /// RMS white noise of the surface position transducer.
     pub position_noise_rad: f32,
+    /// First-order lag `τ_θ` of the surface position transducer: the controller sees the surface
+    /// angle through it (the reference model uses the same value).
+    pub position_lag_s: f32,
     /// Resolution (one code) of the surface position transducer: 16 bits over ±0.6 rad.
     pub position_resolution_rad: f32,
 }
@@ -97,9 +103,10 @@ impl EmaParams {
         kd_a_s_per_rad: 25.0,
         control_period_s: 1.0e-4,
         derivative_filter_s: 1.0e-3,
-        current_loop_lag_s: 2.0e-4,
+        current_loop_lag_s: 7.957_747e-6,
         current_noise_a: 0.02,
         position_noise_rad: 1.0e-5,
+        position_lag_s: 2.0e-4,
         position_resolution_rad: 1.2 / 65536.0,
     };
 

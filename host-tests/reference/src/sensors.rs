@@ -2,7 +2,7 @@
 //!
 //! | channel | model |
 //! |---|---|
-//! | surface position | lag `τ = 0.2 ms`, noise `σ = EmaParams::position_noise_rad` (1e-5 rad), 16-bit quantization over ±0.6 rad |
+//! | surface position | lag `τ = EmaParams::position_lag_s` (0.2 ms), noise `σ = EmaParams::position_noise_rad` (1e-5 rad), 16-bit quantization over ±0.6 rad |
 //! | phase currents | sensor error `(1 + g_j)·i_j + o_j` (effect `sensor_offset`), 20 kHz first-order bandwidth, noise `σ = EmaParams::current_noise_a` (0.02 A), 12-bit ADC [`ema_monitor::trace::amps_to_counts`] |
 //!
 //! The lags are integrated at every step of the model (exact discretization `y += (1 − e^{−dt/τ})·(x − y)`);
@@ -10,8 +10,6 @@
 
 use ema_monitor::trace;
 
-/// Position transducer lag.
-pub const POSITION_LAG_S: f64 = 2.0e-4;
 /// Position transducer resolution.
 pub const POSITION_BITS: u32 = 16;
 /// Position transducer range `±POSITION_RANGE_RAD`.

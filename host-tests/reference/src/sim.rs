@@ -283,7 +283,7 @@ impl Simulator {
             inverter: Inverter::new(),
             mech: Mechanics::new(),
             current_ref_a: 0.0,
-            position_lag: Lag::new(sensors::POSITION_LAG_S, dt),
+            position_lag: Lag::new(crate::params::widen(cfg.params.position_lag_s), dt),
             current_lags: [Lag::new(tau_i, dt); 3],
             bus_current: Lag::new(maxima::BUS_FILTER_S, dt),
             rng: cfg.noise.then(|| NoiseRng::new(cfg.seed)),
