@@ -10,12 +10,12 @@
 //! cargo run --release -p ema-cli --example loop_side_by_side -- T0 T1 [EVERY] [EFFECT=S] [K1,...,K8]
 //! ```
 
-use ema_cli::simulate::parse_faults;
+use ema_cli::simulate::{parse_effects, parse_faults};
 use ema_monitor::model::{ModelState, MonitorModel};
 use ema_monitor::profile::ProfileCursor;
 use ema_monitor::{EmaParams, ModelEffects, Profile};
 use ema_reference::sim::Simulator;
-use ema_reference::{Effects, SimConfig};
+use ema_reference::SimConfig;
 
 /// Sums over a block of the two loops' `I_ref`, current and torque (actuator, model).
 #[derive(Default)]
@@ -30,10 +30,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t0: f64 = args.first().ok_or(usage)?.parse()?;
     let t1: f64 = args.get(1).ok_or(usage)?.parse()?;
     let every: usize = args.get(2).map_or(Ok(1), |a| a.parse())?;
-    let mut effects = Effects::NONE;
-    if let Some((id, severity)) = args.get(3).and_then(|a| a.split_once('=')) {
-        effects.set(id.parse()?, severity.parse()?)?;
-    }
+    let effects = parse_effects(args.get(3..4).unwrap_or_default())?;
     let k = parse_faults(args.get(4).map_or("0,0,0,0,0,0,0.5,0.5", String::as_str))?;
     let params = EmaParams::NOMINAL;
     let profile = Profile::STANDARD;

@@ -8,9 +8,9 @@
 //! cargo run --release -p ema-cli --example phase_currents -- T0 PERIODS [EVERY] [EFFECT=S] [K1,...,K8]
 //! ```
 
-use ema_cli::simulate::parse_faults;
+use ema_cli::simulate::{parse_effects, parse_faults};
 use ema_reference::sim::Simulator;
-use ema_reference::{Effects, SimConfig};
+use ema_reference::SimConfig;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let usage = "usage: phase_currents T0 PERIODS [EVERY] [EFFECT=S] [K1,...,K8]";
@@ -18,10 +18,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t0: f64 = args.first().ok_or(usage)?.parse()?;
     let periods: usize = args.get(1).ok_or(usage)?.parse()?;
     let every: u32 = args.get(2).map_or(Ok(4), |a| a.parse())?;
-    let mut effects = Effects::NONE;
-    if let Some((id, severity)) = args.get(3).and_then(|a| a.split_once('=')) {
-        effects.set(id.parse()?, severity.parse()?)?;
-    }
+    let effects = parse_effects(args.get(3..4).unwrap_or_default())?;
     let faults = parse_faults(args.get(4).map_or("0,0,0,0,0,0,0.5,0.5", String::as_str))?;
     let mut sim = Simulator::new(&SimConfig { effects, faults, noise: false, ..SimConfig::default() })?;
     let dt = sim.step_s();

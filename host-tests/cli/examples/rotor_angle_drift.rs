@@ -13,11 +13,11 @@ use std::path::Path;
 use ema_cli::discover::series;
 use ema_cli::identify::condition_recording;
 use ema_cli::recording_io::Recording;
-use ema_cli::simulate::parse_faults;
+use ema_cli::simulate::{parse_effects, parse_faults};
 use ema_monitor::conditioning::DECIMATION;
 use ema_monitor::{EmaParams, ModelEffects, Profile};
 use ema_reference::sim::Simulator;
-use ema_reference::{simulate, Effects, SimConfig};
+use ema_reference::{simulate, SimConfig};
 
 /// `x` wrapped into `(−π, π]`.
 fn wrapped(x: f64) -> f64 {
@@ -32,10 +32,7 @@ fn wrapped(x: f64) -> f64 {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let seed: u64 = args.first().ok_or("usage: rotor_angle_drift SEED [EFFECT=S] [K1,...,K8]")?.parse()?;
-    let mut effects = Effects::NONE;
-    if let Some((id, severity)) = args.get(1).and_then(|a| a.split_once('=')) {
-        effects.set(id.parse()?, severity.parse()?)?;
-    }
+    let effects = parse_effects(args.get(1..2).unwrap_or_default())?;
     let k = parse_faults(args.get(2).map_or("0,0,0,0,0,0,0.5,0.5", String::as_str))?;
     let cfg = SimConfig { seed, effects, faults: k, ..SimConfig::default() };
     // the actuator's electrical angle at every sample instant
