@@ -4,7 +4,9 @@
 //! means of both controllers' current reference `I_ref`, of both currents (the actuator's `½Σ|i_j|`
 //! of its true phase currents, the model's pair current) and of both motor torques, and at the
 //! block's end both motor speeds and the surface angles' difference. It is how the end of the fast
-//! reversal was read (README, "the mismatch floor").
+//! reversal was read (README, "the mismatch floor"). `EFFECT=S` puts an unmodelled effect into
+//! the actuator and, when the library has its term, that term at the same severity into the model:
+//! where the two still disagree, the term's physics does.
 //!
 //! ```text
 //! cargo run --release -p ema-cli --example loop_side_by_side -- T0 T1 [EVERY] [EFFECT=S] [K1,...,K8]
@@ -13,7 +15,7 @@
 use ema_cli::simulate::{parse_effects, parse_faults};
 use ema_monitor::model::{ModelState, MonitorModel};
 use ema_monitor::profile::ProfileCursor;
-use ema_monitor::{EmaParams, ModelEffects, Profile};
+use ema_monitor::{EffectId, EmaParams, ModelEffects, Profile};
 use ema_reference::sim::Simulator;
 use ema_reference::SimConfig;
 
@@ -35,7 +37,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let params = EmaParams::NOMINAL;
     let profile = Profile::STANDARD;
     let mut sim = Simulator::new(&SimConfig { effects, faults: k, noise: false, ..SimConfig::default() })?;
-    let model = MonitorModel::with_effects(&params, &k, &ModelEffects::NONE);
+    let term = args.get(3).and_then(|a| a.split_once('=')).and_then(|(id, s)| Some((EffectId::from_id(id)?, s)));
+    let model_effects = match term {
+        Some((id, severity)) => ModelEffects::NONE.with(id, severity.parse()?)?,
+        None => ModelEffects::NONE,
+    };
+    let model = MonitorModel::with_effects(&params, &k, &model_effects);
     let mut state = ModelState::at_rest();
     let mut command = ProfileCursor::new(&profile);
     let dt = model.dt_s();
