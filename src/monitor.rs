@@ -220,7 +220,7 @@ pub fn helps_without_its_best_window(with: &WindowErrors, without: &WindowErrors
 }
 
 /// Evaluations of [`IdentifyConfig::later_max_evaluations`] left after `used` (a free function:
-/// the selection stage calls it while it holds the stage borrowed).
+/// one of its callers is the selection stage, which holds the stage borrowed).
 fn later_left(config: &IdentifyConfig, used: u32) -> u32 {
     config.later_max_evaluations.saturating_sub(used)
 }
@@ -513,7 +513,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                 };
                 if let Status::Done(reason) = status {
                     (self.best, self.best_cost) = self.solver.best();
-                    if self.config.model_selection && self.later_left() > 0 {
+                    if self.config.model_selection && later_left(&self.config, self.later_evaluations) > 0 {
                         self.stage = Stage::Select { effective_samples: None, next: 0, refit: None };
                     } else if self.config.model_selection {
                         self.untested_groups = self.present_groups_from(0);
@@ -600,17 +600,13 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         self.status()
     }
 
-    /// Evaluations left of [`IdentifyConfig::later_max_evaluations`].
-    fn later_left(&self) -> u32 {
-        later_left(&self.config, self.later_evaluations)
-    }
-
     /// Starts the refit for the next present group, or ends model selection and starts the polish.
     /// Spends no evaluation (the refit's first step evaluates its start point). A refit gets at
     /// most what is left of the budget but one, kept for the cost of a vector selection changed;
     /// with fewer than two to give, the groups not yet tested stay.
     fn next_selection_test(&mut self) {
-        let refit_budget = SELECTION_REFIT.max_evaluations.min(self.later_left().saturating_sub(1));
+        let refit_budget =
+            SELECTION_REFIT.max_evaluations.min(later_left(&self.config, self.later_evaluations).saturating_sub(1));
         let Stage::Select { next, refit, .. } = &mut self.stage else { return };
         while let Some(&group) = FAULT_GROUPS.get(*next) {
             if refit_budget < 2 {
@@ -678,7 +674,10 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             return;
         };
         let start_cost = if self.best_cost.is_nan() { None } else { Some(self.best_cost) };
-        let polish = PatternConfig { max_evaluations: polish.max_evaluations.min(self.later_left()), ..polish };
+        let polish = PatternConfig {
+            max_evaluations: polish.max_evaluations.min(later_left(&self.config, self.later_evaluations)),
+            ..polish
+        };
         // The configuration was validated in `new`; with no budget left (or should it fail
         // anyway), keep the result as is.
         self.stage = match PatternSearch::new(fault_bounds(), polish, self.best, start_cost, free) {
