@@ -1125,19 +1125,20 @@ fn withdrawn_note(d: &Discovery) -> String {
 
 /// One line: what was found.
 pub fn verdict(d: &Discovery) -> String {
-    if d.named.is_empty() {
+    let found = if d.named.is_empty() {
         match &d.unexplained {
-            None => format!("no missing effect found{}", withdrawn_note(d)),
-            Some(u) => format!("no library effect explains the gap: {u}{}{}", pinned_note(d), withdrawn_note(d)),
+            None => "no missing effect found".to_string(),
+            Some(u) => format!("no library effect explains the gap: {u}{}", pinned_note(d)),
         }
     } else {
         let names: Vec<String> =
             d.named.iter().map(|(e, s, c)| format!("{} (severity {s:.2}, confidence {c:.2})", e.id())).collect();
         match &d.unexplained {
-            None => format!("missing: {}{}", names.join(" and "), withdrawn_note(d)),
-            Some(u) => format!("missing: {}; {u}{}{}", names.join(" and "), pinned_note(d), withdrawn_note(d)),
+            None => format!("missing: {}", names.join(" and ")),
+            Some(u) => format!("missing: {}; {u}{}", names.join(" and "), pinned_note(d)),
         }
-    }
+    };
+    found + &withdrawn_note(d)
 }
 
 /// The readable summary.
