@@ -1,8 +1,9 @@
 //! Optional effect terms of the monitor model (physics.md §10), all off by default.
 //!
 //! The reference model can play ten "library" effects the paper's monitor model does not know
-//! (`host-tests/reference`, same IDs). Each has a severity `s ∈ [0, 1]` mapped to a physical
-//! magnitude by the **same** table as there ([`maxima`]), so an effect named by the discrepancy
+//! (`host-tests/reference`, same IDs). Each has a severity `s` mapped to a physical magnitude by
+//! the **same** table as there ([`maxima`]; `s = 1` is the documented maximum, and the model
+//! accepts up to [`MAX_SEVERITY`]), so an effect named by the discrepancy
 //! workflow (`ema discover`) can be switched on here with the severity it estimated, on the host
 //! and on board alike. Storage is one fixed array of severities: no allocation, `Copy`.
 //!
@@ -17,6 +18,13 @@
 
 /// Number of library effects the monitor model can add.
 pub const EFFECT_COUNT: usize = 10;
+
+/// Largest severity the model accepts: a quarter beyond the documented maximum (`s = 1`,
+/// [`maxima`]), where every term's physics still holds (the magnitudes scale linearly). A fit
+/// needs room beyond the maximum to tell an effect *at* its maximum (fitted about 1) from one
+/// stronger than, or different from, the library's (fitted at this bound): with the bound at 1
+/// the two were the same verdict and an effect at its maximum was refused (`ema discover`).
+pub const MAX_SEVERITY: f32 = 1.25;
 
 /// One library effect, by the ID the reference model and the command line use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -122,7 +130,7 @@ impl EffectId {
     }
 }
 
-/// A severity outside `[0, 1]` (or not a number).
+/// A severity outside `[0, MAX_SEVERITY]` (or not a number).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub struct SeverityOutOfRange {
@@ -134,7 +142,7 @@ pub struct SeverityOutOfRange {
 
 impl core::fmt::Display for SeverityOutOfRange {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(f, "effect {}: severity {} is outside [0, 1]", self.effect.id(), self.severity)
+        write!(f, "effect {}: severity {} is outside [0, {MAX_SEVERITY}]", self.effect.id(), self.severity)
     }
 }
 
@@ -152,14 +160,14 @@ impl ModelEffects {
     pub const NONE: Self = Self { severity: [0.0; EFFECT_COUNT] };
 
     /// The effects of one severity per library effect, in [`EffectId::ALL`] order; `None` when one
-    /// is outside `[0, 1]` or NaN. A `const fn`, so a configuration generated at build time is
+    /// is outside `[0, MAX_SEVERITY]` or NaN. A `const fn`, so a configuration generated at build time is
     /// checked at compile time (`match … { Some(e) => e, None => panic!(…) }` in a `const`).
     pub const fn from_severities(severity: [f32; EFFECT_COUNT]) -> Option<Self> {
         let mut k = 0;
         while k < EFFECT_COUNT {
             let s = severity[k];
             // written so that NaN fails too
-            if !(s >= 0.0 && s <= 1.0) {
+            if !(s >= 0.0 && s <= MAX_SEVERITY) {
                 return None;
             }
             k += 1;
@@ -169,7 +177,7 @@ impl ModelEffects {
 
     /// Sets `effect` to `severity` (0 switches it off).
     pub fn set(&mut self, effect: EffectId, severity: f32) -> Result<(), SeverityOutOfRange> {
-        if !(0.0..=1.0).contains(&severity) {
+        if !(0.0..=MAX_SEVERITY).contains(&severity) {
             return Err(SeverityOutOfRange { effect, severity });
         }
         if let Some(slot) = self.severity.get_mut(effect.index()) {
@@ -219,7 +227,7 @@ pub enum ModelConfigErrorKind {
     MissingSeverity,
     /// The severity is not a number.
     BadSeverity,
-    /// The severity is outside `[0, 1]` (or NaN).
+    /// The severity is outside `[0, MAX_SEVERITY]` (or NaN).
     SeverityOutOfRange(f32),
     /// The effect was already set on an earlier line (the line number).
     DuplicateEffect(usize),
@@ -262,7 +270,7 @@ impl core::fmt::Display for ModelConfigError<'_> {
             ModelConfigErrorKind::MissingSeverity => write!(f, "missing severity in '{}'", self.found),
             ModelConfigErrorKind::BadSeverity => write!(f, "'{}' is not a number", self.found),
             ModelConfigErrorKind::SeverityOutOfRange(_) => {
-                write!(f, "severity '{}' is outside [0, 1]", self.found)
+                write!(f, "severity '{}' is outside [0, {MAX_SEVERITY}]", self.found)
             }
             ModelConfigErrorKind::DuplicateEffect(first) => {
                 write!(f, "effect '{}' is already set on line {first}", self.found)
@@ -285,7 +293,7 @@ impl core::error::Error for ModelConfigError<'_> {}
 /// ```
 ///
 /// One `effect ID SEVERITY` per line, fields separated by spaces or tabs; `ID` is a library effect
-/// ([`EffectId::id`]), `SEVERITY` a decimal number in `[0, 1]` (0 = off). `#` starts a comment up to
+/// ([`EffectId::id`]), `SEVERITY` a decimal number in `[0, MAX_SEVERITY]` (0 = off; 1 the documented maximum). `#` starts a comment up to
 /// the end of the line; blank lines are skipped; an empty file (or comments only) is
 /// [`ModelEffects::NONE`]. Refused, with the line and field: any other keyword, a missing or unknown
 /// ID, a missing, non-numeric or out-of-range severity, a field after the severity, and an effect
@@ -356,14 +364,14 @@ mod tests {
     #[test]
     fn from_severities_checks_the_range_in_const_context() {
         const E: Option<ModelEffects> =
-            ModelEffects::from_severities([0.0, 0.0, 0.3, 0.0, 0.0, 0.48, 0.0, 0.0, 0.0, 1.0]);
+            ModelEffects::from_severities([0.0, 0.0, 0.3, 0.0, 0.0, 0.48, 0.0, 0.0, 0.0, MAX_SEVERITY]);
         let e = E.unwrap();
         assert_eq!(e.get(EffectId::Viscous), 0.3);
         assert_eq!(e.get(EffectId::DeadTime), 0.48);
-        assert_eq!(e.get(EffectId::HallMisalignment), 1.0);
+        assert_eq!(e.get(EffectId::HallMisalignment), MAX_SEVERITY);
         assert_eq!(ModelEffects::from_severities([0.0; EFFECT_COUNT]), Some(ModelEffects::NONE));
         let mut bad = [0.0; EFFECT_COUNT];
-        for v in [-0.01, 1.01, f32::NAN, f32::INFINITY] {
+        for v in [-0.01, MAX_SEVERITY + 0.01, f32::NAN, f32::INFINITY] {
             bad[4] = v;
             assert_eq!(ModelEffects::from_severities(bad), None, "{v}");
         }
@@ -440,7 +448,7 @@ mod tests {
     fn model_config_messages_read_well() {
         let mut msg = heapless::String::<256>::new();
         core::fmt::write(&mut msg, format_args!("{}", error("\neffect viscous 2"))).unwrap();
-        assert_eq!(msg.as_str(), "line 2, field severity: severity '2' is outside [0, 1]");
+        assert_eq!(msg.as_str(), "line 2, field severity: severity '2' is outside [0, 1.25]");
         msg.clear();
         core::fmt::write(&mut msg, format_args!("{}", error("effect friction 0.1"))).unwrap();
         assert!(

@@ -46,6 +46,7 @@ use std::time::Instant;
 
 use clap::Args;
 use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
+use ema_monitor::effects::MAX_SEVERITY;
 use ema_monitor::fitness::{simulate_window_with_effects, CurrentFit};
 use ema_monitor::monitor::{
     fault_bounds, group_pays, group_present, without_group, IdentifyConfig, FAULT_GROUPS, SELECTION_REFIT,
@@ -96,10 +97,12 @@ pub const MIN_SEVERITY: f32 = 0.03;
 /// Until session 13 such an effect had to remove a quarter, and cogging was never named;
 /// dropping the quarter changed no other verdict of `scripts/discover-matrix`.
 pub const MIN_GAP_SHARE_REPLACING: f64 = 0.05;
-/// A fitted severity at or above this sits at the library's documented maximum: the effect behind
-/// the residual is stronger than, or different from, the library's (a DC-link sag fits as dead
-/// time at its bound), so it is not named.
-pub const PINNED_SEVERITY: f32 = 0.98;
+/// A fitted severity at or above this sits at the fit's bound ([`MAX_SEVERITY`], a quarter beyond
+/// the library's documented maximum): the effect behind the residual is stronger than, or
+/// different from, the library's (a DC-link sag fits as dead time at its bound), so it is not
+/// named. Until session 16 the fit's bound was the maximum itself and this 0.98: an effect *at*
+/// its maximum fitted there too and was refused alike (the Hall offset at s = 1, sessions 12–14).
+pub const PINNED_SEVERITY: f32 = 1.2;
 /// Largest number of effects named.
 pub const MAX_NAMED: usize = 2;
 /// Structural residual RMS of the monitor model on clean reference-model recordings of the
@@ -258,8 +261,8 @@ impl<'a, const W: usize> PartFit<'a, W> {
         k.copy_from_slice(&x[..FAULT_COUNT]);
         let mut effects = self.base;
         for (e, &s) in self.free.iter().zip(&x[FAULT_COUNT..]) {
-            // clamped into [0, 1]: cannot be refused
-            let _ = effects.set(*e, s.clamp(0.0, 1.0));
+            // clamped into [0, MAX_SEVERITY]: cannot be refused
+            let _ = effects.set(*e, s.clamp(0.0, MAX_SEVERITY));
         }
         (FaultVector(k), effects)
     }
@@ -442,6 +445,7 @@ fn fit_d<const W: usize, const D: usize>(
     let fb = fault_bounds();
     let mut bounds = Bounds::<D>::unit();
     bounds.periodic[..FAULT_COUNT].copy_from_slice(&fb.periodic);
+    bounds.upper[FAULT_COUNT..].fill(MAX_SEVERITY);
     let point = |k: &FaultVector, s: f32| {
         let mut x = [s; D];
         x[..FAULT_COUNT].copy_from_slice(&k.0);
@@ -1107,7 +1111,7 @@ fn pinned_note(d: &Discovery) -> String {
         String::new()
     } else {
         format!(
-            " (closest library effect: {}, but only at its documented maximum: the effect is stronger or different)",
+            " (closest library effect: {}, but only at the bound of its fit, beyond its documented maximum: the effect is stronger or different)",
             pinned.join(", ")
         )
     }

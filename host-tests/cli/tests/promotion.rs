@@ -29,7 +29,7 @@ fn bad_model_configs_are_refused_naming_file_line_and_field() {
             &["line 3", "field effect", "'compliance'"],
         ),
         ("number.conf", "effect viscous 0,3\n", &["line 1", "field severity", "'0,3' is not a number"]),
-        ("range.conf", "\neffect viscous 1.5\n", &["line 2", "field severity", "outside [0, 1]"]),
+        ("range.conf", "\neffect viscous 1.5\n", &["line 2", "field severity", "outside [0, 1.25]"]),
         ("keyword.conf", "viscous 0.3\n", &["line 1", "field keyword", "'viscous'"]),
         ("missing.conf", "effect viscous\n", &["line 1", "field severity", "missing severity"]),
         (
