@@ -49,7 +49,7 @@
 //! It was the dominant healthy RM–MM mismatch (the fast reversal of the standard profile; `ema
 //! compare` shows it before and after in the README).
 //!
-//! **Phase-resolved fast regime** ([`MonitorModel::phase_resolved_step`]): while motoring above
+//! **Phase-resolved fast regime** ([`MonitorModel::phase_resolved_step`]): above
 //! [`PHASE_RESOLVED_ONSET_FRACTION`] of the dip onset (311 rad/s nominal), the sector means above
 //! are replaced by the three phase currents themselves, integrated in [`PHASE_SUBSTEPS`] substeps
 //! of 20 µs with the trapezoidal back-EMFs, the six-step inverter, the outgoing phase's diode and
@@ -61,8 +61,12 @@
 //! README), so the identification read high
 //! eccentricities high; they also let the shorts' commutations drift. `ema compare`'s reversal
 //! residual: eccentricity high 0.246 → 0.179 A, short A high 0.223 → 0.204 A (README).
-//! Braking (`I_ref·ω ≤ 0`) stays on the pair model: the EMF helps the current there and the pair
-//! model already follows the reference model within the floor.
+//! Braking too, since session 15 (until then braking, `I_ref·ω ≤ 0`, stayed on the pair model):
+//! there the back-EMF helps the current, and at each commutation it drives the common phase past
+//! its target even with its switch at the opposite rail, so the measured `½Σ|i_j|` bumps up
+//! (by 1.3 A at 780 rad/s and 7.8 A) where the pair model held it. After the fast reversal the
+//! actuator's current ran 0.1–0.35 A (2 ms means) above its reference and the model's did not;
+//! with the phases resolved the healthy floor falls 0.054 → 0.052 A (seed 8; README).
 //!
 //! The electrical and mechanical time constants (4 ms, 2.2 ms) are ≥ 20 T, so explicit steps at
 //! the control period are accurate; the current loop lag (8 µs) and the position transducer's lag
@@ -525,7 +529,7 @@ impl MonitorModel {
         };
         let dt_over_l = self.pair_dt_over_l[sector];
         let w = s.motor_speed_rad_s;
-        let resolved = i_ref * w > 0.0 && libm::fabsf(w) > self.phase_resolved_speed_rad_s;
+        let resolved = libm::fabsf(w) > self.phase_resolved_speed_rad_s;
         if s.phase_resolved && !resolved {
             // Back to the pair model, from the measured current the phases left.
             s.phase_resolved = false;
@@ -616,8 +620,9 @@ impl MonitorModel {
     }
 
     /// The electrical step of the fast regime (`|ω| >` [`PHASE_RESOLVED_ONSET_FRACTION`] of the dip
-    /// onset): the three phase currents in [`PHASE_SUBSTEPS`] explicit substeps `h`, with the
-    /// trapezoidal back-EMFs at the substep's rotor angle and the inverter's six-step switching,
+    /// onset, motoring or braking): the three phase currents in [`PHASE_SUBSTEPS`] explicit
+    /// substeps `h`, with the trapezoidal back-EMFs at the substep's rotor angle and the
+    /// inverter's six-step switching,
     /// so that each commutation happens at its Hall edge inside the step and the outgoing phase
     /// decays through its diode while the incoming one rises. `g = sign(I_ref)`:
     ///
@@ -741,7 +746,9 @@ impl MonitorModel {
     /// has its own hysteresis loop around its target `t_a = I_ref`, `t_b = −I_ref`, averaged: its
     /// terminal is at the rail that drives it toward the target, and a phase that sits at its
     /// target while that rail would push it past is **held** there (its switch chops, `di_j = 0`)
-    /// and drops out of the neutral point, which the other phases then set alone:
+    /// and drops out of the neutral point, which the other phases then set alone, unless even the
+    /// opposite rail would push it past (braking: the back-EMF drives the common phase beyond its
+    /// target): then it runs free at the opposite rail:
     ///
     /// ```text
     /// v_j = sign(t_j − i_j)·V_dc/2 (sign(t_j) at the target),  v_r = −sign(i_r)·V_dc/2
@@ -780,10 +787,24 @@ impl MonitorModel {
             }
         }
         u[r] = -sign(i[r]) * half_v - e_v[r] - self.phase_r[r] * i[r];
-        let v_all = (y[0] * u[0] + y[1] * u[1] + y[2] * u[2]) * self.inv_y_sum;
+        if MECH {
+            u[r] -= 0.5 * self.mech_effects.dead_time_pair_v * sign(i[r]);
+        }
+        let mut v_all = (y[0] * u[0] + y[1] * u[1] + y[2] * u[2]) * self.inv_y_sum;
         let mut free = [true; 3];
         for j in [a, b] {
             free[j] = !(i[j] == t[j] && t[j] != 0.0 && sign(t[j]) * (u[j] - v_all) > 0.0);
+            if !free[j] {
+                // its switch chops only if the opposite rail turns it back; braking, the back-EMF
+                // can drive it past its target even there: it then runs free at that rail
+                let u_opposite = u[j] - sign(t[j]) * self.supply_voltage_v;
+                let v_opposite = v_all + y[j] * (u_opposite - u[j]) * self.inv_y_sum;
+                if sign(t[j]) * (u_opposite - v_opposite) > 0.0 {
+                    u[j] = u_opposite;
+                    v_all = v_opposite;
+                    free[j] = true;
+                }
+            }
         }
         let v_n = if free[a] && free[b] {
             v_all
