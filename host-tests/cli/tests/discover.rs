@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use ema_cli::discover::{discover, Discovery};
+use ema_cli::discover::{above_noise_a, discover, Discovery};
 use ema_cli::identify::{condition_recording, HOST_WINDOW};
 use ema_cli::recording_io::Recording;
 use ema_monitor::{EffectId, FaultVector, Profile};
@@ -80,19 +80,26 @@ fn effects_above_the_floor_are_named_and_the_gap_halved() {
 /// Session 10 asked this of the full-weight refit instead, and had to loosen it for Stribeck on a
 /// healthy actuator (seed 44, a spurious 0.015 short A kept by the refit); the refit's Err% is
 /// still reported (`err_percent_after`), the firmware's is what the promotion is for.
+///
+/// What can halve is the residual's part above the sensor noise (`discover::above_noise_a`: the
+/// noise alone is 0.048 A of the 0.052 A floor), and it does in six of the eight (session 16: to
+/// 41–49 % of before). Not for the sensor offset with friction (56 %), whose term leaves a
+/// mismatch of 0.052 A above the noise even at the true severity (README, `floor_split`), nor for
+/// Stribeck on a healthy actuator (62 %): there the effect adds only 0.043 A above the noise,
+/// less than twice what the model's own mismatch leaves (0.024 A with the term on).
 #[test]
 fn effects_the_faults_had_absorbed_are_named_and_the_fault_vector_repaired() {
     let cases = [
-        (Effect::EmfHarmonics, EffectId::EmfHarmonics, 0.8, HEALTHY),
-        (Effect::EmfHarmonics, EffectId::EmfHarmonics, 0.8, FRICTION),
-        (Effect::SensorOffset, EffectId::SensorOffset, 0.9, HEALTHY),
-        (Effect::SensorOffset, EffectId::SensorOffset, 0.9, FRICTION),
-        (Effect::Stribeck, EffectId::Stribeck, 0.9, HEALTHY),
-        (Effect::Stribeck, EffectId::Stribeck, 0.9, FRICTION),
-        (Effect::WindingTemperature, EffectId::WindingTemperature, 0.8, HEALTHY),
-        (Effect::WindingTemperature, EffectId::WindingTemperature, 0.8, FRICTION),
+        (Effect::EmfHarmonics, EffectId::EmfHarmonics, 0.8, HEALTHY, true),
+        (Effect::EmfHarmonics, EffectId::EmfHarmonics, 0.8, FRICTION, true),
+        (Effect::SensorOffset, EffectId::SensorOffset, 0.9, HEALTHY, true),
+        (Effect::SensorOffset, EffectId::SensorOffset, 0.9, FRICTION, false),
+        (Effect::Stribeck, EffectId::Stribeck, 0.9, HEALTHY, false),
+        (Effect::Stribeck, EffectId::Stribeck, 0.9, FRICTION, true),
+        (Effect::WindingTemperature, EffectId::WindingTemperature, 0.8, HEALTHY, true),
+        (Effect::WindingTemperature, EffectId::WindingTemperature, 0.8, FRICTION, true),
     ];
-    for (j, (effect, id, severity, faults)) in cases.into_iter().enumerate() {
+    for (j, (effect, id, severity, faults, halves_above_noise)) in cases.into_iter().enumerate() {
         let d = run(&[(effect, severity)], faults, 40 + j as u64);
         assert_eq!(named(&d), vec![id], "{effect}: {}", ema_cli::discover::summary(&d));
         assert!((d.named[0].1 - severity as f32).abs() < 0.2, "{effect}: severity {}", d.named[0].1);
@@ -101,6 +108,10 @@ fn effects_the_faults_had_absorbed_are_named_and_the_fault_vector_repaired() {
             (d.onboard_before.paper_error_percent(&truth), d.onboard_after.paper_error_percent(&truth));
         assert!(after < before, "{effect}: on-board Err% {before} -> {after}");
         assert!(d.rms_after_a() <= d.rms_before_a(), "{effect}");
+        if halves_above_noise {
+            let (b, a) = (above_noise_a(d.rms_before_a()), above_noise_a(d.rms_after_a()));
+            assert!(a <= 0.5 * b, "{effect}: above the noise {b} -> {a}");
+        }
     }
 }
 
