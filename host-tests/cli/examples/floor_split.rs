@@ -22,8 +22,8 @@ use std::path::Path;
 use ema_cli::discover::{moving_mean, series, SMOOTH_BLOCKS};
 use ema_cli::identify::condition_recording;
 use ema_cli::recording_io::Recording;
-use ema_cli::simulate::{parse_effects, parse_faults};
-use ema_monitor::{EffectId, EmaParams, ModelEffects, Profile};
+use ema_cli::simulate::{parse_effect_both_sides, parse_faults};
+use ema_monitor::{EmaParams, Profile};
 use ema_reference::{simulate, SimConfig};
 
 /// Per-block sums over the seeds, split into bands.
@@ -62,15 +62,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Err("N: at least 2 seeds".into());
     }
     let k = parse_faults(args.get(1).map_or("0,0,0,0,0,0,0.5,0.5", String::as_str))?;
-    let effects = parse_effects(args.get(2..3).unwrap_or_default())?;
-    let model_effects = match args.get(2) {
-        Some(text) => {
-            let (id, severity) = text.split_once('=').ok_or("effect as ID=S")?;
-            let id = EffectId::from_id(id).ok_or("unknown effect")?;
-            ModelEffects::NONE.with(id, severity.parse()?).map_err(|_| "severity outside [0, 1]")?
-        }
-        None => ModelEffects::NONE,
-    };
+    let (effects, model_effects) = parse_effect_both_sides(args.get(2).map(String::as_str))?;
     let mut measured: Vec<Vec<f64>> = Vec::new();
     let mut model = None;
     for seed in 1..=seeds {

@@ -12,10 +12,10 @@
 //! cargo run --release -p ema-cli --example loop_side_by_side -- T0 T1 [EVERY] [EFFECT=S] [K1,...,K8]
 //! ```
 
-use ema_cli::simulate::{parse_effects, parse_faults};
+use ema_cli::simulate::{parse_effect_both_sides, parse_faults};
 use ema_monitor::model::{ModelState, MonitorModel};
 use ema_monitor::profile::ProfileCursor;
-use ema_monitor::{EffectId, EmaParams, ModelEffects, Profile};
+use ema_monitor::{EmaParams, Profile};
 use ema_reference::sim::Simulator;
 use ema_reference::SimConfig;
 
@@ -32,16 +32,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t0: f64 = args.first().ok_or(usage)?.parse()?;
     let t1: f64 = args.get(1).ok_or(usage)?.parse()?;
     let every: usize = args.get(2).map_or(Ok(1), |a| a.parse())?;
-    let effects = parse_effects(args.get(3..4).unwrap_or_default())?;
+    let (effects, model_effects) = parse_effect_both_sides(args.get(3).map(String::as_str))?;
     let k = parse_faults(args.get(4).map_or("0,0,0,0,0,0,0.5,0.5", String::as_str))?;
     let params = EmaParams::NOMINAL;
     let profile = Profile::STANDARD;
     let mut sim = Simulator::new(&SimConfig { effects, faults: k, noise: false, ..SimConfig::default() })?;
-    let term = args.get(3).and_then(|a| a.split_once('=')).and_then(|(id, s)| Some((EffectId::from_id(id)?, s)));
-    let model_effects = match term {
-        Some((id, severity)) => ModelEffects::NONE.with(id, severity.parse()?)?,
-        None => ModelEffects::NONE,
-    };
     let model = MonitorModel::with_effects(&params, &k, &model_effects);
     let mut state = ModelState::at_rest();
     let mut command = ProfileCursor::new(&profile);

@@ -13,8 +13,8 @@ use std::path::Path;
 use ema_cli::discover::{series, Series};
 use ema_cli::identify::condition_recording;
 use ema_cli::recording_io::read_recording;
-use ema_cli::simulate::{parse_faults, resolve_profile};
-use ema_monitor::{EffectId, EmaParams, ModelEffects};
+use ema_cli::simulate::{parse_effect_both_sides, parse_faults, resolve_profile};
+use ema_monitor::EmaParams;
 
 fn rms<'a>(values: impl Iterator<Item = &'a f64>) -> (f64, usize) {
     let (sum, n) = values.fold((0.0, 0), |(s, n), r| (s + r * r, n + 1));
@@ -30,14 +30,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let file = args.first().ok_or("usage: structural_floor FILE.csv [K1,...,K8] [EFFECT=S]")?;
     let path = Path::new(file);
     let k = parse_faults(args.get(1).map_or("0,0,0,0,0,0,0.5,0.5", String::as_str))?;
-    let effects = match args.get(2) {
-        Some(text) => {
-            let (id, severity) = text.split_once('=').ok_or("effect as ID=S")?;
-            let id = EffectId::from_id(id).ok_or("unknown effect")?;
-            ModelEffects::NONE.with(id, severity.parse()?).map_err(|_| "severity outside [0, 1]")?
-        }
-        None => ModelEffects::NONE,
-    };
+    let (_, effects) = parse_effect_both_sides(args.get(2).map(String::as_str))?;
     let profile = resolve_profile("standard")?;
     let recording = read_recording(path)?;
     let trace = condition_recording(&recording, path, &profile)?;

@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
-use ema_monitor::{FaultVector, Profile, FAULT_COUNT};
+use ema_monitor::{EffectId, FaultVector, ModelEffects, Profile, FAULT_COUNT};
 use ema_reference::{simulate, Effect, Effects, SimConfig};
 
 use crate::error::CliError;
@@ -92,6 +92,24 @@ pub fn parse_effects(list: &[String]) -> Result<Effects, CliError> {
         fx.set(effect, s).map_err(|e| CliError::flag("--effect", e.to_string()))?;
     }
     Ok(fx)
+}
+
+/// One `ID=S` for both sides of a side-by-side run (the examples): the actuator's effect, and the
+/// monitor model's term at the same severity when the library has one (none for `compliance` or
+/// `bus_sag`); `None` gives neither.
+pub fn parse_effect_both_sides(item: Option<&str>) -> Result<(Effects, ModelEffects), CliError> {
+    let Some(item) = item else {
+        return Ok((Effects::NONE, ModelEffects::NONE));
+    };
+    let actuator = parse_effects(&[item.to_string()])?;
+    let mut model = ModelEffects::NONE;
+    if let Some((id, severity)) = item.split_once('=') {
+        if let Some(term) = EffectId::from_id(id.trim()) {
+            let s: f32 = severity.trim().parse().map_err(|_| CliError::flag("EFFECT", format!("'{item}'")))?;
+            model.set(term, s).map_err(|e| CliError::flag("EFFECT", e.to_string()))?;
+        }
+    }
+    Ok((actuator, model))
 }
 
 /// `standard` or a profile file.
