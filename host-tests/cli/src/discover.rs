@@ -1368,3 +1368,16 @@ pub fn line_plot(title: &str, unit: &str, t: &[f64], lines: &[(&str, &str, &[f64
     s.push_str("</svg>\n");
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_noise_comes_off_in_quadrature() {
+        assert_eq!(above_noise_a(NOISE_FLOOR_A), 0.0);
+        assert_eq!(above_noise_a(0.01), 0.0, "below the noise: nothing a model could remove");
+        // 0.080² − 0.048² = 0.064²
+        assert!((above_noise_a(0.080) - 0.064).abs() < 1e-12);
+    }
+}

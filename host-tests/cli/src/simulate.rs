@@ -166,6 +166,21 @@ mod tests {
     use super::*;
 
     #[test]
+    fn one_effect_for_both_sides() {
+        let (actuator, model) = parse_effect_both_sides(Some("hall_misalignment=0.8")).unwrap();
+        assert_eq!(actuator.get(Effect::HallMisalignment), 0.8);
+        assert_eq!(model.get(EffectId::HallMisalignment), 0.8);
+        // outside the library: the actuator has it, the model has no term for it
+        let (actuator, model) = parse_effect_both_sides(Some("bus_sag=1")).unwrap();
+        assert_eq!(actuator.get(Effect::BusSag), 1.0);
+        assert!(model.is_none());
+        assert_eq!(parse_effect_both_sides(None).unwrap(), (Effects::NONE, ModelEffects::NONE));
+        for bad in ["hall=1", "cogging", "cogging=x", "cogging=1.1"] {
+            assert!(parse_effect_both_sides(Some(bad)).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
     fn faults_and_effects_parse() {
         assert_eq!(parse_faults("0,0,0,0,0,0,0.5,0.5").ok(), Some(FaultVector::HEALTHY));
         for (bad, msg) in [
