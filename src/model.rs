@@ -61,12 +61,14 @@
 //! README), so the identification read high
 //! eccentricities high; they also let the shorts' commutations drift. `ema compare`'s reversal
 //! residual: eccentricity high 0.246 → 0.179 A, short A high 0.223 → 0.204 A (README).
-//! Braking too, since session 15 (until then braking, `I_ref·ω ≤ 0`, stayed on the pair model):
+//! Braking too, since session 16 (until then braking, `I_ref·ω ≤ 0`, stayed on the pair model):
 //! there the back-EMF helps the current, and at each commutation it drives the common phase past
 //! its target even with its switch at the opposite rail, so the measured `½Σ|i_j|` bumps up
-//! (by 1.3 A at 780 rad/s and 7.8 A) where the pair model held it. After the fast reversal the
+//! (by 1.3 A at 730 rad/s and 7.8 A) where the pair model held it. After the fast reversal the
 //! actuator's current ran 0.1–0.35 A (2 ms means) above its reference and the model's did not;
-//! with the phases resolved the healthy floor falls 0.054 → 0.052 A (seed 8; README).
+//! with the phases resolved the healthy floor falls 0.054 → 0.052 A (seed 8), the model's
+//! mismatch with the sensor noise taken out 0.027 → 0.022 A (README, "the mismatch floor"). It
+//! costs 21 % more instructions per evaluation on board.
 //!
 //! The electrical and mechanical time constants (4 ms, 2.2 ms) are ≥ 20 T, so explicit steps at
 //! the control period are accurate; the current loop lag (8 µs) and the position transducer's lag
