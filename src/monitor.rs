@@ -239,10 +239,8 @@ pub const REPLACED_ABOVE: f32 = 0.01;
 /// phase A beside a smaller one on C, refitted as a larger one on C), so
 /// [`helps_without_its_best_window`] runs with `share` = 0.
 pub fn refit_replaces(with: &[f32; FAULT_COUNT], without: &[f32; FAULT_COUNT], tested: (usize, usize)) -> bool {
-    (0..FAULT_COUNT).any(|i| {
-        i != PHASE_INDEX
-            && !(tested.0..=tested.1).contains(&i)
-            && matches!((with.get(i), without.get(i)), (Some(a), Some(b)) if libm::fabsf(a - b) > REPLACED_ABOVE)
+    with.iter().zip(without).enumerate().any(|(i, (a, b))| {
+        i != PHASE_INDEX && !(tested.0..=tested.1).contains(&i) && libm::fabsf(a - b) > REPLACED_ABOVE
     })
 }
 
@@ -564,8 +562,9 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                             None => check.with = Some(self.fit.window_errors(&FaultVector(self.best))),
                             Some(with) => {
                                 let without = self.fit.window_errors(&FaultVector(check.without));
-                                let tested = FAULT_GROUPS.get(*next).copied().unwrap_or((0, 0));
-                                let replaced = refit_replaces(&self.best, &check.without, tested);
+                                let replaced = FAULT_GROUPS
+                                    .get(*next)
+                                    .is_some_and(|&tested| refit_replaces(&self.best, &check.without, tested));
                                 let share = if replaced { 0.0 } else { WINDOW_GAIN_SHARE };
                                 let pays = helps_without_its_best_window(with, &without, share);
                                 if let Some(kept) = self.kept.get_mut(*next) {

@@ -98,15 +98,15 @@ pub fn parse_effects(list: &[String]) -> Result<Effects, CliError> {
 /// monitor model's term at the same severity when the library has one (none for `compliance` or
 /// `bus_sag`); `None` gives neither.
 pub fn parse_effect_both_sides(item: Option<&str>) -> Result<(Effects, ModelEffects), CliError> {
-    let Some(item) = item else {
-        return Ok((Effects::NONE, ModelEffects::NONE));
+    let actuator = match item {
+        Some(item) => parse_effects(&[item.to_string()])?,
+        None => Effects::NONE,
     };
-    let actuator = parse_effects(&[item.to_string()])?;
     let mut model = ModelEffects::NONE;
-    if let Some((id, severity)) = item.split_once('=') {
-        if let Some(term) = EffectId::from_id(id.trim()) {
-            let s: f32 = severity.trim().parse().map_err(|_| CliError::flag("EFFECT", format!("'{item}'")))?;
-            model.set(term, s).map_err(|e| CliError::flag("EFFECT", e.to_string()))?;
+    for (effect, severity) in actuator.active() {
+        if let Some(term) = EffectId::from_id(effect.id()) {
+            // the actuator's severity is in [0, 1], inside the model's range
+            model.set(term, severity as f32).map_err(|e| CliError::flag("EFFECT", e.to_string()))?;
         }
     }
     Ok((actuator, model))
