@@ -103,7 +103,7 @@ impl MeasuredEnvelope {
     /// `σ_j`, the RMS current the controller's derivative on measurement puts on the pair from the
     /// position transducer's noise and resolution: `Kd·(α/T)·σ_θ·√(2/(2−α))`, `α = T/τ_D`,
     /// `σ_θ² = σ_pos² + q²/12`.
-    fn controller_jitter_a(params: &EmaParams) -> f32 {
+    pub fn controller_jitter_a(params: &EmaParams) -> f32 {
         let q = params.position_resolution_rad;
         let sigma_theta = libm::sqrtf(params.position_noise_rad * params.position_noise_rad + q * q * (1.0 / 12.0));
         let alpha = params.control_period_s / params.derivative_filter_s;
@@ -146,6 +146,12 @@ impl MeasuredEnvelope {
 ///
 /// (`F` the folded-normal mean of [`MeasuredEnvelope`]): the offsets bias each sector differently,
 /// the open phase by `½|o_r|`. Without errors it is [`MeasuredEnvelope::expected_a`] exactly.
+///
+/// With unequal targets the loop freewheels the pair on one rail and the idle phase conducts
+/// through that rail's diode ([`crate::model::ModelState::freewheel_shift_a`]): the mean phase
+/// currents move by `δ_j` (`+i_r` on the idle phase, `−i_r` on the pair phase that is not
+/// regulated), and the sum reads `½F((1 + g_p)(I + δ_p) + o_p) + ½F((1 + g_q)(−I + δ_q) + o_q)`
+/// `+ ½F_{σ_s}(o_r) + ½(|(1 + g_r)δ_r + o_r| − |o_r|)`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SensorErrorEnvelope {
     envelope: MeasuredEnvelope,
@@ -153,6 +159,8 @@ pub struct SensorErrorEnvelope {
     pair: [[f32; 4]; 6],
     /// Per sector `½F_{σ_s}(o_r)` of the open phase.
     open_a: [f32; 6],
+    /// Per sector `(1 + g_r, o_r)` of the open phase.
+    open: [[f32; 2]; 6],
 }
 
 impl SensorErrorEnvelope {
@@ -161,12 +169,14 @@ impl SensorErrorEnvelope {
         let envelope = MeasuredEnvelope::of(params);
         let mut pair = [[0.0; 4]; 6];
         let mut open_a = [0.0; 6];
+        let mut open = [[1.0, 0.0]; 6];
         for (sector, &(p, q)) in crate::model::PAIRS.iter().enumerate() {
             pair[sector] = [1.0 + gain[p], offset_a[p], 1.0 + gain[q], -offset_a[q]];
             let r = 3 - p - q;
             open_a[sector] = 0.5 * folded_normal_mean_a(offset_a[r], params.current_noise_a);
+            open[sector] = [1.0 + gain[r], offset_a[r]];
         }
-        Self { envelope, pair, open_a }
+        Self { envelope, pair, open_a, open }
     }
 
     /// The envelope of `params` with the `sensor_offset` effect of `effects`; `None` when it is off.
@@ -179,12 +189,19 @@ impl SensorErrorEnvelope {
         Some(Self::new(params, maxima::SENSOR_GAIN.map(|g| s * g), maxima::SENSOR_OFFSET_A.map(|o| s * o)))
     }
 
-    /// Expected measured `I_3eq` in commutation sector `sector` for the true pair current `current_a`.
-    pub fn expected_a(&self, sector: usize, current_a: f32) -> f32 {
-        let [gain_p, off_p, gain_q, off_q] = self.pair[sector % 6];
-        0.5 * (self.envelope.conducting_phase_a(gain_p * current_a + off_p)
-            + self.envelope.conducting_phase_a(gain_q * current_a + off_q))
-            + self.open_a[sector % 6]
+    /// Expected measured `I_3eq` in commutation sector `sector` for the true pair current `current_a`,
+    /// the phases' mean currents moved by the freewheel's `shift_a` (`δ_j` above).
+    pub fn expected_a(&self, sector: usize, current_a: f32, shift_a: &[f32; 3]) -> f32 {
+        let sector = sector % 6;
+        let (p, q) = crate::model::PAIRS[sector];
+        let [gain_p, off_p, gain_q, off_q] = self.pair[sector];
+        let [gain_r, off_r] = self.open[sector];
+        let idle_a = shift_a[3 - p - q];
+        0.5 * (self.envelope.conducting_phase_a(gain_p * (current_a + shift_a[p]) + off_p)
+            + self.envelope.conducting_phase_a(gain_q * (current_a - shift_a[q]) + off_q)
+            + libm::fabsf(gain_r * idle_a + off_r)
+            - libm::fabsf(off_r))
+            + self.open_a[sector]
     }
 }
 

@@ -130,7 +130,9 @@ fn run_window<const TERMS: bool>(
         let mut block = 0.0f32;
         for _ in 0..DECIMATION {
             block += match &sensors {
-                Some(e) if TERMS => e.expected_a(model.commutation_sector(&state), state.output_current_a),
+                Some(e) if TERMS => {
+                    e.expected_a(model.commutation_sector(&state), state.output_current_a, &state.freewheel_shift_a)
+                }
                 _ => envelope.expected_a(state.output_current_a),
             };
             model.step_with::<TERMS>(&mut state, command.command_rad(step as f32 * dt));

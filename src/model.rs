@@ -149,6 +149,10 @@ pub struct ModelState {
     pub phase_resolved: bool,
     /// Motor torque `T_m` over the last step (its mean while the phases are resolved).
     pub motor_torque_n_m: f32,
+    /// Mean phase currents the current loop's freewheel adds over the last step, `δ_j` (A): `+i_r`
+    /// on the idle phase, `−i_r` on the pair phase the loop does not regulate; zero unless the
+    /// `sensor_offset` term is on ([`crate::sector_effects`], `SensorLoop`).
+    pub freewheel_shift_a: [f32; 3],
 }
 
 impl ModelState {
@@ -406,7 +410,12 @@ impl MonitorModel {
             ecc_phase,
             effects: *effects,
             emf_shape: EmfShape::of(effects),
-            sensor_loop: SensorLoop::of(effects),
+            sensor_loop: SensorLoop::of(
+                effects,
+                p,
+                &phase_l,
+                crate::conditioning::MeasuredEnvelope::controller_jitter_a(p),
+            ),
             mech_effects,
         }
     }
@@ -543,9 +552,16 @@ impl MonitorModel {
         if MECH && self.mech_effects.dead_time_pair_v != 0.0 {
             back += self.mech_effects.dead_time_pair_v * sign(i);
         }
-        let i_ref = match &self.sensor_loop {
-            Some(sensors) if MECH => sensors.target_a(sector, i_ref, back),
-            _ => i_ref,
+        let (i_ref, freewheel) = match &self.sensor_loop {
+            Some(sensors) if MECH => {
+                let (p, q) = PAIRS[sector];
+                let r = 3 - p - q;
+                let mid_hall = s.hall_angle_rad + 0.5 * self.pole_pairs * w * self.dt_s;
+                let idle_emf_v = k_phase[r] * ideal_shapes(sector, mid_hall)[r] * w;
+                let hold = sensors.hold(sector, i_ref, back, idle_emf_v);
+                (hold.target_a, Some((hold, p, q, r)))
+            }
+            _ => (i_ref, None),
         };
         let torque_motor = if resolved {
             if !s.phase_resolved {
@@ -582,6 +598,20 @@ impl MonitorModel {
             k_eq * (s.output_current_a - torque_loss_a)
         };
 
+        let mut torque_motor = torque_motor;
+        if MECH {
+            s.freewheel_shift_a = [0.0; 3];
+            if let Some((hold, p, q, r)) = freewheel {
+                // The idle phase conducts only outside a commutation (its current is then zero).
+                if hold.idle_a != 0.0 && !(s.phase_resolved && s.phase_current_a[r] != 0.0) {
+                    let f = ideal_shapes(sector, s.hall_angle_rad);
+                    let returning = if hold.regulated_p { q } else { p };
+                    s.freewheel_shift_a[r] = hold.idle_a;
+                    s.freewheel_shift_a[returning] = -hold.idle_a;
+                    torque_motor += (k_phase[r] * f[r] - k_phase[returning] * f[returning]) * hold.idle_a;
+                }
+            }
+        }
         s.motor_torque_n_m = torque_motor;
         // Mechanical: torque balance at the motor shaft with Borello dry friction.
         let torque_load = -self.hinge_at_motor_n_m_per_rad * s.surface_angle_rad;
