@@ -1,5 +1,8 @@
-//! `ema`: host tools of ema-monitor. Subcommands: `simulate` (reference model → recording CSV), `identify` (core → health report), `discover` (missing effects).
+//! `ema`: host tools of ema-monitor. Subcommands: `simulate` (reference model → recording CSV),
+//! `identify` (core → health report), `firmware-trace`, `compare`, `campaign`, `discover` (missing
+//! effects).
 
+use std::io::{ErrorKind as IoErrorKind, Write};
 use std::process::ExitCode;
 
 use clap::error::ErrorKind;
@@ -50,10 +53,14 @@ fn main() -> ExitCode {
         Command::Discover(args) => discover::run(args),
     };
     match result {
-        Ok(summary) => {
-            println!("{summary}");
-            ExitCode::SUCCESS
-        }
+        // A reader that stops early (`ema discover FILE | head`) is not an error.
+        Ok(summary) => match writeln!(std::io::stdout().lock(), "{summary}") {
+            Err(e) if e.kind() != IoErrorKind::BrokenPipe => {
+                eprintln!("error: writing to stdout: {e}");
+                ExitCode::from(EXIT_FAILURE)
+            }
+            _ => ExitCode::SUCCESS,
+        },
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::from(EXIT_FAILURE)
@@ -70,7 +77,7 @@ fn clap_error(e: &clap::Error) -> ExitCode {
         }
         ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
             eprintln!(
-                "error: a subcommand is required (simulate, identify, compare, campaign, firmware-trace); try 'ema --help'"
+                "error: a subcommand is required (simulate, identify, firmware-trace, compare, campaign, discover); try 'ema --help'"
             );
             ExitCode::from(EXIT_FAILURE)
         }

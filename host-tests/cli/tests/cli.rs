@@ -78,6 +78,27 @@ fn bad_profile_files_name_file_and_line() {
     }
 }
 
+/// A reader that closes the pipe before the summary (`ema … | head -0`) ends the command quietly:
+/// exit 0, no panic about a broken pipe.
+#[test]
+fn a_closed_stdout_is_not_a_panic() {
+    use std::process::{Command, Stdio};
+    let dir = scratch("cli", "closed-stdout");
+    let out = dir.join("rec.csv");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ema"))
+        .args(["simulate", "--out", out.to_str().expect("utf-8")])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the binary runs");
+    drop(child.stdout.take()); // the reader is gone before the summary is written
+    let o = child.wait_with_output().expect("it ends");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(out.exists(), "the recording is still written");
+}
+
 #[test]
 fn simulate_round_trips_through_the_reader() {
     let dir = scratch("cli", "roundtrip");
