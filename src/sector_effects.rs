@@ -338,10 +338,18 @@ mod tests {
         let l = SensorLoop::of(&effects, &p, &[p.phase_inductance_h; 3], 0.29).unwrap();
         // Sector 0 = (a+, b−): T_a = (I − 0.2)/1.02, T_b = (I − 0.1)/0.98.
         let (t_a, t_b) = ((5.0 - 0.2) / 1.02, (5.0 - 0.1) / 0.98);
-        let motoring = l.hold(0, 5.0, 30.0, 0.0);
+        // A fast 0 V drift (200 V over 4 mH: 5 A per control period, ≫ σ_J): the target itself.
+        let motoring = l.hold(0, 5.0, 200.0, 0.0);
         assert!((motoring.target_a - t_a).abs() < 1e-5 && motoring.regulated_p, "motoring: the lower, a's");
-        let generating = l.hold(0, 5.0, -30.0, 0.0);
+        let generating = l.hold(0, 5.0, -200.0, 0.0);
         assert!((generating.target_a - t_b).abs() < 1e-5 && !generating.regulated_p, "generating: the higher, b's");
+        // No drift: halfway, whichever leg regulates; in between, ½·exp(−(a/σ_J)²) of the way.
+        let at_rest = l.hold(0, 5.0, 1e-6, 0.0);
+        assert!((at_rest.target_a - 0.5 * (t_a + t_b)).abs() < 1e-4, "{at_rest:?}");
+        let a = 30.0 * 1.0e-4 / 4.0e-3; // 0.75 A per period
+        let share = 0.5 * libm::expf(-(a / 0.29) * (a / 0.29));
+        let slow = l.hold(0, 5.0, 30.0, 0.0);
+        assert!((slow.target_a - (t_a + share * (t_b - t_a))).abs() < 1e-5, "{slow:?}");
         assert!(SensorLoop::of(&ModelEffects::NONE, &p, &[p.phase_inductance_h; 3], 0.29).is_none());
     }
 
