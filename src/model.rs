@@ -86,7 +86,7 @@
 use crate::effects::{maxima, EffectId, ModelEffects};
 use crate::faults::{FaultPhysics, FaultVector};
 use crate::params::EmaParams;
-use crate::sector_effects::{trapezoid_in_a_turn, EmfShape, SensorLoop};
+use crate::sector_effects::{trapezoid_in_a_turn, EmfShape, Hold, SensorLoop};
 use core::f32::consts::{FRAC_PI_3, FRAC_PI_6, PI};
 
 const TWO_PI: f32 = 2.0 * PI;
@@ -552,17 +552,11 @@ impl MonitorModel {
         if MECH && self.mech_effects.dead_time_pair_v != 0.0 {
             back += self.mech_effects.dead_time_pair_v * sign(i);
         }
-        let (i_ref, freewheel) = match &self.sensor_loop {
-            Some(sensors) if MECH => {
-                let (p, q) = PAIRS[sector];
-                let r = 3 - p - q;
-                let mid_hall = s.hall_angle_rad + 0.5 * self.pole_pairs * w * self.dt_s;
-                let idle_emf_v = k_phase[r] * ideal_shapes(sector, mid_hall)[r] * w;
-                let hold = sensors.hold(sector, i_ref, back, idle_emf_v);
-                (hold.target_a, Some((hold, p, q, r)))
-            }
-            _ => (i_ref, None),
+        let hold = match &self.sensor_loop {
+            Some(sensors) if MECH => Some(self.sensor_hold(sensors, s, &k_phase, sector, i_ref, back)),
+            _ => None,
         };
+        let i_ref = hold.map_or(i_ref, |h| h.target_a);
         let torque_motor = if resolved {
             if !s.phase_resolved {
                 let (p, q) = PAIRS[sector];
@@ -600,17 +594,8 @@ impl MonitorModel {
 
         let mut torque_motor = torque_motor;
         if MECH {
-            // Only with the sensor loop on: without it the shift stays zero and costs no store.
-            if let Some((hold, p, q, r)) = freewheel {
-                s.freewheel_shift_a = [0.0; 3];
-                // The idle phase conducts only outside a commutation (its current is then zero).
-                if hold.idle_a != 0.0 && !(s.phase_resolved && s.phase_current_a[r] != 0.0) {
-                    let f = ideal_shapes(sector, s.hall_angle_rad);
-                    let returning = if hold.regulated_p { q } else { p };
-                    s.freewheel_shift_a[r] = hold.idle_a;
-                    s.freewheel_shift_a[returning] = -hold.idle_a;
-                    torque_motor += (k_phase[r] * f[r] - k_phase[returning] * f[returning]) * hold.idle_a;
-                }
+            if let Some(hold) = &hold {
+                torque_motor += self.freewheel_torque(s, hold, &k_phase, sector);
             }
         }
         s.motor_torque_n_m = torque_motor;
@@ -650,6 +635,46 @@ impl MonitorModel {
         let lag_ramp_rad = self.position_lag_ramp * (s.surface_angle_rad - surface_start_rad);
         s.measured_position_rad = s.surface_angle_rad - lag_ramp_rad
             + self.position_lag_factor * (s.measured_position_rad - surface_start_rad + lag_ramp_rad);
+    }
+
+    /// What the current loop on measured currents holds in this step (`sensor_offset` on,
+    /// [`SensorLoop::hold`]), the idle phase's EMF taken at the step's midpoint. Out of line: the
+    /// step of every other effect term stays as small as before the term existed.
+    #[inline(never)]
+    fn sensor_hold(
+        &self,
+        sensors: &SensorLoop,
+        s: &ModelState,
+        k_phase: &[f32; 3],
+        sector: usize,
+        i_ref: f32,
+        back_v: f32,
+    ) -> Hold {
+        let (p, q) = PAIRS[sector];
+        let r = 3 - p - q;
+        let w = s.motor_speed_rad_s;
+        let mid_hall = s.hall_angle_rad + 0.5 * self.pole_pairs * w * self.dt_s;
+        let idle_emf_v = k_phase[r] * ideal_shapes(sector, mid_hall)[r] * w;
+        sensors.hold(sector, i_ref, back_v, idle_emf_v)
+    }
+
+    /// Stores the freewheel's idle-phase current in [`ModelState::freewheel_shift_a`] (`+i_r` on
+    /// the idle phase, `−i_r` on the pair phase that does not regulate) and returns the torque it
+    /// adds, `(k_r f_r − k_u f_u)·i_r`. The idle phase conducts only outside a commutation (its
+    /// current is then zero).
+    #[inline(never)]
+    fn freewheel_torque(&self, s: &mut ModelState, hold: &Hold, k_phase: &[f32; 3], sector: usize) -> f32 {
+        let (p, q) = PAIRS[sector];
+        let r = 3 - p - q;
+        s.freewheel_shift_a = [0.0; 3];
+        if hold.idle_a == 0.0 || (s.phase_resolved && s.phase_current_a[r] != 0.0) {
+            return 0.0;
+        }
+        let f = ideal_shapes(sector, s.hall_angle_rad);
+        let returning = if hold.regulated_p { q } else { p };
+        s.freewheel_shift_a[r] = hold.idle_a;
+        s.freewheel_shift_a[returning] = -hold.idle_a;
+        (k_phase[r] * f[r] - k_phase[returning] * f[returning]) * hold.idle_a
     }
 
     /// The electrical step of the fast regime (`|ω| >` [`PHASE_RESOLVED_ONSET_FRACTION`] of the dip
