@@ -23,7 +23,7 @@ use ema_cli::discover::{moving_mean, series, SMOOTH_BLOCKS};
 use ema_cli::identify::condition_recording;
 use ema_cli::recording_io::Recording;
 use ema_cli::simulate::{parse_effect_both_sides, parse_faults};
-use ema_monitor::{EmaParams, Profile};
+use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 
 /// Per-block sums over the seeds, split into bands.
@@ -61,7 +61,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if seeds < 2 {
         return Err("N: at least 2 seeds".into());
     }
-    let k = parse_faults(args.get(1).map_or("0,0,0,0,0,0,0.5,0.5", String::as_str))?;
+    let k = args.get(1).map_or(Ok(FaultVector::HEALTHY), |a| parse_faults(a))?;
     let (effects, model_effects) = parse_effect_both_sides(args.get(2).map(String::as_str))?;
     let mut measured: Vec<Vec<f64>> = Vec::new();
     let mut model = None;

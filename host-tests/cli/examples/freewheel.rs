@@ -19,7 +19,7 @@
 use ema_cli::simulate::{parse_effect_both_sides, parse_faults};
 use ema_monitor::conditioning::MeasuredEnvelope;
 use ema_monitor::fitness::simulate_window_with_effects;
-use ema_monitor::{EmaParams, Profile};
+use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::electrical::{hall_sector, COMMUTATION};
 use ema_reference::sim::Simulator;
 use ema_reference::SimConfig;
@@ -44,7 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let seeds: u64 = args.first().ok_or(usage)?.parse()?;
     let effect = args.get(1).map_or("sensor_offset=0.9", String::as_str);
     let (effects, model_effects) = parse_effect_both_sides(Some(effect))?;
-    let faults = parse_faults(args.get(2).map_or("0,0,0,0,0,0,0.5,0.5", String::as_str))?;
+    let faults = args.get(2).map_or(Ok(FaultVector::HEALTHY), |a| parse_faults(a))?;
     let jitter_a = f64::from(MeasuredEnvelope::controller_jitter_a(&EmaParams::NOMINAL));
 
     // [periods, Σ share, Σ model share] per drift bin; [periods, conducting steps share, Σ|i_r|] per speed band.

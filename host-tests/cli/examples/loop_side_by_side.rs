@@ -15,7 +15,7 @@
 use ema_cli::simulate::{parse_effect_both_sides, parse_faults};
 use ema_monitor::model::{ModelState, MonitorModel};
 use ema_monitor::profile::ProfileCursor;
-use ema_monitor::{EmaParams, Profile};
+use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::sim::Simulator;
 use ema_reference::SimConfig;
 
@@ -33,7 +33,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t1: f64 = args.get(1).ok_or(usage)?.parse()?;
     let every: usize = args.get(2).map_or(Ok(1), |a| a.parse())?;
     let (effects, model_effects) = parse_effect_both_sides(args.get(3).map(String::as_str))?;
-    let k = parse_faults(args.get(4).map_or("0,0,0,0,0,0,0.5,0.5", String::as_str))?;
+    let k = args.get(4).map_or(Ok(FaultVector::HEALTHY), |a| parse_faults(a))?;
     let params = EmaParams::NOMINAL;
     let profile = Profile::STANDARD;
     let mut sim = Simulator::new(&SimConfig { effects, faults: k, noise: false, ..SimConfig::default() })?;

@@ -9,6 +9,7 @@
 //! ```
 
 use ema_cli::simulate::{parse_effects, parse_faults};
+use ema_monitor::FaultVector;
 use ema_reference::sim::Simulator;
 use ema_reference::SimConfig;
 
@@ -19,7 +20,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let periods: usize = args.get(1).ok_or(usage)?.parse()?;
     let every: u32 = args.get(2).map_or(Ok(4), |a| a.parse())?;
     let effects = parse_effects(args.get(3..4).unwrap_or_default())?;
-    let faults = parse_faults(args.get(4).map_or("0,0,0,0,0,0,0.5,0.5", String::as_str))?;
+    let faults = args.get(4).map_or(Ok(FaultVector::HEALTHY), |a| parse_faults(a))?;
     let mut sim = Simulator::new(&SimConfig { effects, faults, noise: false, ..SimConfig::default() })?;
     let dt = sim.step_s();
     let mut started = false;

@@ -15,7 +15,7 @@ use ema_cli::identify::condition_recording;
 use ema_cli::recording_io::Recording;
 use ema_cli::simulate::{parse_effects, parse_faults};
 use ema_monitor::conditioning::DECIMATION;
-use ema_monitor::{EmaParams, ModelEffects, Profile};
+use ema_monitor::{EmaParams, FaultVector, ModelEffects, Profile};
 use ema_reference::sim::Simulator;
 use ema_reference::{simulate, SimConfig};
 
@@ -33,7 +33,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let seed: u64 = args.first().ok_or("usage: rotor_angle_drift SEED [EFFECT=S] [K1,...,K8]")?.parse()?;
     let effects = parse_effects(args.get(1..2).unwrap_or_default())?;
-    let k = parse_faults(args.get(2).map_or("0,0,0,0,0,0,0.5,0.5", String::as_str))?;
+    let k = args.get(2).map_or(Ok(FaultVector::HEALTHY), |a| parse_faults(a))?;
     let cfg = SimConfig { seed, effects, faults: k, ..SimConfig::default() };
     // the actuator's electrical angle at every sample instant
     let mut sim = Simulator::new(&cfg)?;

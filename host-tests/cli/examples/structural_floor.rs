@@ -14,7 +14,7 @@ use ema_cli::discover::{series, Series};
 use ema_cli::identify::condition_recording;
 use ema_cli::recording_io::read_recording;
 use ema_cli::simulate::{parse_effect_both_sides, parse_faults, resolve_profile};
-use ema_monitor::EmaParams;
+use ema_monitor::{EmaParams, FaultVector};
 
 fn rms<'a>(values: impl Iterator<Item = &'a f64>) -> (f64, usize) {
     let (sum, n) = values.fold((0.0, 0), |(s, n), r| (s + r * r, n + 1));
@@ -29,7 +29,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let file = args.first().ok_or("usage: structural_floor FILE.csv [K1,...,K8] [EFFECT=S]")?;
     let path = Path::new(file);
-    let k = parse_faults(args.get(1).map_or("0,0,0,0,0,0,0.5,0.5", String::as_str))?;
+    let k = args.get(1).map_or(Ok(FaultVector::HEALTHY), |a| parse_faults(a))?;
     let (_, effects) = parse_effect_both_sides(args.get(2).map(String::as_str))?;
     let profile = resolve_profile("standard")?;
     let recording = read_recording(path)?;
