@@ -425,6 +425,26 @@ mod tests {
     }
 
     #[test]
+    fn sensor_error_envelope_reads_the_freewheels_idle_current() {
+        let p = EmaParams::NOMINAL;
+        let plain = MeasuredEnvelope::of(&p);
+        let no_errors = SensorErrorEnvelope::new(&p, [0.0; 3], [0.0; 3]);
+        assert!((no_errors.expected_a(0, 2.0, &[0.0; 3]) - plain.expected_a(2.0)).abs() < 1e-6);
+        // Sector 0 = (a+, b−), c idle, carrying i_c = 0.1 A. Returned through b (b carries
+        // −2.1 A): I_3eq reads |i_c| more. Through a (a carries 1.9 A): it cancels.
+        let base = no_errors.expected_a(0, 2.0, &[0.0; 3]);
+        let through_b = no_errors.expected_a(0, 2.0, &[0.0, -0.1, 0.1]);
+        let through_a = no_errors.expected_a(0, 2.0, &[-0.1, 0.0, 0.1]);
+        assert!((through_b - base - 0.1).abs() < 2e-3, "{base} -> {through_b}");
+        assert!((through_a - base).abs() < 2e-3, "{base} -> {through_a}");
+        // With an offset on the idle phase, its reading moves from |o_c| to |(1 + g_c)·i_c + o_c|.
+        let offset_c = SensorErrorEnvelope::new(&p, [0.0, 0.0, 0.01], [0.0, 0.0, -0.15]);
+        let moved = offset_c.expected_a(0, 2.0, &[0.0, -0.1, 0.1]) - offset_c.expected_a(0, 2.0, &[0.0; 3]);
+        let pair = 0.5 * (plain.conducting_phase_a(2.1) - plain.conducting_phase_a(2.0));
+        assert!((moved - pair - 0.5 * (libm::fabsf(1.01 * 0.1 - 0.15) - 0.15)).abs() < 1e-5, "{moved}");
+    }
+
+    #[test]
     fn nominal_envelope_includes_the_hysteresis_ripple() {
         // Monte Carlo of the nominal actuator's pair current: I + controller jitter + the
         // hysteresis triangle ripple (uniform on [−h, h] at a random phase) + sensor noise.
