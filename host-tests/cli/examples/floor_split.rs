@@ -11,12 +11,16 @@
 //! - **floor** (what `ema discover` sees on one recording) = RMS over seeds of the structural
 //!   residual, ≈ `√(noise² + mismatch²)`.
 //!
+//! Then by band of time and of speed, the 5 ms windows with the most mismatch, and the mean
+//! mismatch by half of the commutation sector (where a term's error is tied to the rotor angle).
+//!
 //! ```text
 //! cargo run --release -p ema-cli --example floor_split -- N [K1,...,K8] [EFFECT=S]
 //! ```
 //! `EFFECT=S` puts the effect in the actuator **and** switches the model's term on at the same
 //! severity: how well the term matches the effect, with the noise taken out.
 
+use std::f64::consts::{FRAC_PI_3, FRAC_PI_6, TAU};
 use std::path::Path;
 
 use ema_cli::discover::{moving_mean, series, SMOOTH_BLOCKS};
@@ -25,6 +29,10 @@ use ema_cli::recording_io::Recording;
 use ema_cli::simulate::{parse_effect_both_sides, parse_faults};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
+
+/// Speeds (rad/s) at which the sector table counts blocks: above, a 0.4 ms block spans more than
+/// about a sector; below, the angle barely moves and one position dominates.
+const SECTOR_SPEEDS_RAD_S: (f64, f64) = (20.0, 300.0);
 
 /// Per-block sums over the seeds, split into bands.
 struct Split {
@@ -104,6 +112,34 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for w in speeds.windows(2) {
         let w_m = &model.speed_rad_s;
         row(format!("|w| {}-{} rad/s", w[0], w[1]), split.band(|i| (w[0]..w[1]).contains(&w_m[i].abs())));
+    }
+    // Where in the commutation sector: the seeds' mean minus the model by sector half (θ_e of the
+    // model at the block's end), at speeds where a 0.4 ms block stays within about one sector.
+    let mut halves = [[0.0f64; 2]; 12];
+    for i in 0..blocks {
+        let w = model.speed_rad_s[i].abs();
+        if !(SECTOR_SPEEDS_RAD_S.0..SECTOR_SPEEDS_RAD_S.1).contains(&w) {
+            continue;
+        }
+        let x = (model.electrical_angle_rad[i] - FRAC_PI_6).rem_euclid(TAU) / FRAC_PI_3;
+        let sector = (x as usize).min(5);
+        let half = usize::from(x - (sector as f64) >= 0.5);
+        halves[2 * sector + half][0] += 1.0;
+        halves[2 * sector + half][1] += split.mean_residual[i];
+    }
+    println!(
+        "mean mismatch (seeds' mean minus model, A) by commutation sector half, {}-{} rad/s:",
+        SECTOR_SPEEDS_RAD_S.0, SECTOR_SPEEDS_RAD_S.1
+    );
+    for (sector, pair) in halves.chunks(2).enumerate() {
+        let mean = |h: &[f64; 2]| h[1] / h[0].max(1.0);
+        println!(
+            "  sector {sector}: first half {:+.4} ({:4} blocks), second half {:+.4} ({:4} blocks)",
+            mean(&pair[0]),
+            pair[0][0],
+            mean(&pair[1]),
+            pair[1][0]
+        );
     }
     let total: f64 = split.mean_residual.iter().map(|r| r * r).sum();
     let mut windows: Vec<(usize, f64, f64, usize)> = Vec::new();
