@@ -8,7 +8,10 @@
 //!   targets, `(I_reg − T_held)/(T_other − T_held)`, binned by the 0 V drift per control period
 //!   `a = |K_eq ω + R_eq I|·T/L_eq`, next to the model's share `½·exp(−(a/σ_J)²)`;
 //! - **idle phase**: how often the phase the Hall table leaves idle conducts (above 0.02 A) and its
-//!   mean `|i_r|`, per speed band, next to the model's mean `|i_r|` over the same manoeuvre.
+//!   mean `|i_r|`, per speed band, next to the model's mean `|i_r|` over the same manoeuvre;
+//! - **loop states**: the share of integration steps with the pair voltage at `+V` against the 0 V
+//!   drift (the regulating leg's pulse), at 0 V (freewheel), and at `V` with the drift (the other
+//!   leg, which the term takes as latched, pulsing), with and without the idle phase conducting.
 //!
 //! ```text
 //! cargo run --release -p ema-cli --example freewheel -- N [EFFECT=S] [K1,...,K8]
@@ -29,6 +32,8 @@ use ema_reference::SimConfig;
 const DRIFT_EDGES_A: [f64; 8] = [0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5];
 /// Upper edges of the speed bands (rad/s).
 const SPEED_EDGES_RAD_S: [f64; 7] = [20.0, 40.0, 60.0, 80.0, 100.0, 120.0, 240.0];
+/// Speeds at which the loop states are counted (rad/s).
+const STATE_SPEEDS_RAD_S: (f64, f64) = (20.0, 300.0);
 /// Target differences below this do not count for the held current (A).
 const MIN_TARGET_GAP_A: f64 = 0.05;
 /// Idle-phase current counted as conducting (A).
@@ -50,6 +55,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // [periods, Σ share, Σ model share] per drift bin; [periods, conducting steps share, Σ|i_r|] per speed band.
     let mut held = [[0.0f64; 3]; DRIFT_EDGES_A.len()];
     let mut idle = [[0.0f64; 3]; SPEED_EDGES_RAD_S.len()];
+    // Integration steps at 20-300 rad/s by pair voltage against the 0 V drift, without and with
+    // the idle phase conducting: [steps, regulating pulse, 0 V, opposite pulse].
+    let mut states = [[0.0f64; 4]; 2];
     for seed in 1..=seeds {
         let mut sim = Simulator::new(&SimConfig { effects, faults, seed, ..SimConfig::default() })?;
         let p = *sim.plant();
@@ -65,7 +73,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 continue;
             };
             let rr = 3 - pp - qq;
+            let (r_eq, l_eq) = (
+                p.phase_resistance_ohm[pp] + p.phase_resistance_ohm[qq],
+                p.phase_inductance_h[pp] + p.phase_inductance_h[qq],
+            );
+            let k_eq = p.phase_emf_constant_v_s_per_rad[pp] + p.phase_emf_constant_v_s_per_rad[qq];
+            let w = truth.motor_speed_rad_per_s;
+            let counted = (STATE_SPEEDS_RAD_S.0..STATE_SPEEDS_RAD_S.1).contains(&w.abs());
             let (mut sum_p, mut sum_q, mut conducting, mut idle_sum) = (0.0, 0.0, 0u32, 0.0);
+            let mut step_states = [[0.0f64; 4]; 2];
             let mut inside = true;
             for _ in 0..steps {
                 sim.step();
@@ -73,14 +89,35 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let i = sim.inverter().current_a;
                 sum_p += i[pp];
                 sum_q -= i[qq];
-                conducting += u32::from(i[rr].abs() > CONDUCTING_A);
+                let idle_on = i[rr].abs() > CONDUCTING_A;
+                conducting += u32::from(idle_on);
                 idle_sum += i[rr].abs();
+                if counted {
+                    // The pair voltage, positive when it opposes the 0 V drift (a regulating pulse).
+                    let v = sim.inverter().terminal_v;
+                    let drift_down = r_eq * 0.5 * (i[pp] - i[qq]) + k_eq * w > 0.0;
+                    let against = if drift_down { v[pp] - v[qq] } else { v[qq] - v[pp] };
+                    let state = if against > 0.5 * p.supply_voltage_v {
+                        1
+                    } else if against < -0.5 * p.supply_voltage_v {
+                        3
+                    } else {
+                        2
+                    };
+                    let x = &mut step_states[usize::from(idle_on)];
+                    x[0] += 1.0;
+                    x[state] += 1.0;
+                }
             }
             if !inside {
                 continue;
             }
+            for (total, x) in states.iter_mut().zip(&step_states) {
+                for (t, v) in total.iter_mut().zip(x) {
+                    *t += v;
+                }
+            }
             let n = f64::from(steps);
-            let w = truth.motor_speed_rad_per_s;
             if let Some(b) = bin(&SPEED_EDGES_RAD_S, w.abs()) {
                 idle[b][0] += 1.0;
                 idle[b][1] += f64::from(conducting) / n;
@@ -89,11 +126,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let i_ref = truth.current_ref_a;
             let t_p = (i_ref - p.current_sensor_offset_a[pp]) / (1.0 + p.current_sensor_gain_error[pp]);
             let t_q = (i_ref + p.current_sensor_offset_a[qq]) / (1.0 + p.current_sensor_gain_error[qq]);
-            let (r_eq, l_eq) = (
-                p.phase_resistance_ohm[pp] + p.phase_resistance_ohm[qq],
-                p.phase_inductance_h[pp] + p.phase_inductance_h[qq],
-            );
-            let k_eq = p.phase_emf_constant_v_s_per_rad[pp] + p.phase_emf_constant_v_s_per_rad[qq];
             let back_v = r_eq * 0.5 * (sum_p + sum_q) / n + k_eq * w;
             let regulated_p = (back_v > 0.0) == (t_p < t_q);
             let (i_reg, t_held, t_other) = if regulated_p { (sum_p / n, t_p, t_q) } else { (sum_q / n, t_q, t_p) };
@@ -150,6 +182,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
         }
         lower = *edge;
+    }
+    println!(
+        "loop states, {}-{} rad/s (share of the integration steps; pulses against / with the 0 V drift):",
+        STATE_SPEEDS_RAD_S.0, STATE_SPEEDS_RAD_S.1
+    );
+    for (idle_on, x) in states.iter().enumerate() {
+        if x[0] > 0.0 {
+            println!(
+                "  idle phase {:13} {:>9} steps: regulating pulse {:5.1} %, 0 V {:5.1} %, opposite pulse {:5.1} %",
+                if idle_on == 1 { "conducting" } else { "not conducting" },
+                x[0],
+                100.0 * x[1] / x[0],
+                100.0 * x[2] / x[0],
+                100.0 * x[3] / x[0]
+            );
+        }
     }
     Ok(())
 }
