@@ -192,6 +192,14 @@ impl ModelEffects {
         Ok(self)
     }
 
+    /// The same effects with `effect` switched off (always in range, so no error to handle).
+    pub fn without(mut self, effect: EffectId) -> Self {
+        if let Some(slot) = self.severity.get_mut(effect.index()) {
+            *slot = 0.0;
+        }
+        self
+    }
+
     /// Severity of `effect` (0 when off).
     pub fn get(&self, effect: EffectId) -> f32 {
         self.severity.get(effect.index()).copied().unwrap_or(0.0)
@@ -346,6 +354,14 @@ mod tests {
         }
         assert_eq!(EffectId::from_id("compliance"), None);
         assert_eq!(EffectId::from_id(""), None);
+    }
+
+    #[test]
+    fn without_switches_one_effect_off() {
+        let e = ModelEffects::NONE.with(EffectId::Viscous, 0.3).and_then(|e| e.with(EffectId::DeadTime, 0.5)).unwrap();
+        let off = e.without(EffectId::Viscous);
+        assert_eq!((off.get(EffectId::Viscous), off.get(EffectId::DeadTime)), (0.0, 0.5));
+        assert_eq!(ModelEffects::NONE.without(EffectId::Cogging), ModelEffects::NONE);
     }
 
     #[test]

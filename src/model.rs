@@ -557,7 +557,7 @@ impl MonitorModel {
             _ => None,
         };
         let i_ref = hold.map_or(i_ref, |h| h.target_a);
-        let torque_motor = if resolved {
+        let mut torque_motor = if resolved {
             if !s.phase_resolved {
                 let (p, q) = PAIRS[sector];
                 s.phase_current_a = [0.0; 3];
@@ -592,7 +592,6 @@ impl MonitorModel {
             k_eq * (s.output_current_a - torque_loss_a)
         };
 
-        let mut torque_motor = torque_motor;
         if MECH {
             if let Some(hold) = &hold {
                 torque_motor += self.freewheel_torque(s, hold, &k_phase, sector);

@@ -250,17 +250,16 @@ impl SensorLoop {
         let t_q = inv_q * i_ref_a + off_q;
         let regulated_p = (back_v > 0.0) == (t_p < t_q);
         let (held, other) = if regulated_p { (t_p, t_q) } else { (t_q, t_p) };
+        let [band_l, rise, period_over_l] = self.freewheel[sector];
+        let back = libm::fabsf(back_v);
         // The controller's jitter pulls the held current toward the other target where the 0 V
         // drift per control period is small against it.
-        let [_, _, period_over_l] = self.freewheel[sector];
-        let x = libm::fabsf(back_v) * period_over_l * self.inv_drift_scale_a;
+        let x = back * period_over_l * self.inv_drift_scale_a;
         let target_a = held + (other - held) * HOLD_SHARE_AT_REST * libm::expf(-x * x);
         // The freewheel's rail: the lower one (ρ = −1) when p has the lower target.
         let rail = if t_p < t_q { -1.0 } else { 1.0 };
-        let back = libm::fabsf(back_v);
         let mut idle_a = 0.0;
         if rail * idle_emf_v > 0.0 && back > 0.0 && back < self.supply_v {
-            let [band_l, rise, _] = self.freewheel[sector];
             let t_0 = 1.0 / (back / band_l + self.inv_reset_s);
             let t_u = band_l / (self.supply_v - back);
             let d = libm::fabsf(t_p - t_q);

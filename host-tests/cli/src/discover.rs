@@ -873,8 +873,7 @@ fn search_round<const W: usize>(
     let mut reference = base_fit.clone();
     for (effect, fit) in &fits {
         if fit.effects.get(*effect) < MIN_SEVERITY {
-            let mut effects = fit.effects;
-            let _ = effects.set(*effect, 0.0); // 0 is in range
+            let effects = fit.effects.without(*effect);
             let error = fit_part.error(&fit.k, &effects, f32::INFINITY);
             if error < reference.error {
                 reference = ModelFit { k: fit.k, effects, error, evaluations: 0 };
@@ -890,9 +889,7 @@ fn search_round<const W: usize>(
         .map(|(effect, fit)| {
             let extra = parameter_count(&fit) as f64 - reference_parameters as f64;
             let e_held = held.error(&fit.k, &fit.effects, f32::INFINITY);
-            let mut without = fit.effects;
-            let _ = without.set(effect, 0.0); // 0 is in range
-            let e_held_without = held.error(&fit.k, &without, f32::INFINITY);
+            let e_held_without = held.error(&fit.k, &fit.effects.without(effect), f32::INFINITY);
             let after = series(trace, &EmaParams::NOMINAL, profile, &fit.k, &fit.effects);
             Candidate {
                 effect,
@@ -997,7 +994,7 @@ pub fn discover<const W: usize>(
         if let Some(effect) = on.pop() {
             named.pop();
             withdrawn.push(effect);
-            let _ = base_fit.effects.set(effect, 0.0); // 0 is in range
+            base_fit.effects = base_fit.effects.without(effect);
         }
     };
     // 5. the diagnosis the firmware gives, before and after promoting the named effects
