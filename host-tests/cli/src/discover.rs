@@ -866,7 +866,10 @@ fn search_round<const W: usize>(
             });
         }
     });
-    let fits: Vec<(EffectId, ModelFit)> = results.into_inner().unwrap_or_default();
+    let mut fits: Vec<(EffectId, ModelFit)> = results.into_inner().unwrap_or_default();
+    // in library order, not in the order the threads finished: ties (candidates whose effect
+    // ended at 0, the reference among equal errors) then come out the same on every run
+    fits.sort_by_key(|(effect, _)| *effect);
     let fit_part = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::Fit);
     let held = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::HeldOut);
     // the reference: the best fit without a new effect
