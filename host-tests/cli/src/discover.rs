@@ -583,7 +583,7 @@ pub struct Candidate {
     /// ΔBIC is mostly the parameter credit, `−Δp·ln n_eff` (until session 18 its only bar was a
     /// positive ΔBIC). That credit is parsimony, not evidence: with a hidden sensor offset and
     /// friction (seed 8, session 18) round 2 named a Stribeck of 0.18 that replaced round 1's
-    /// eccentricity while fitting the fit part worse (ΔBIC 2.7, gain −4.8), its held-out ΔBIC of
+    /// eccentricity while fitting the fit part worse (ΔBIC 2.7, gain −3.7), its held-out ΔBIC of
     /// 152 coming from a reference that generalised badly, not from the effect.
     pub fit_gain: f64,
     /// ΔBIC on the held-out part: the evidence.
