@@ -113,7 +113,9 @@ pub const MAX_NAMED: usize = 2;
 /// Structural residual RMS of the monitor model on clean reference-model recordings of the
 /// standard manoeuvre: the known floor. Median 0.052 A, range 0.049–0.057 A (`ema discover` on 20
 /// clean recordings, seeds 1–8, 11 and 12, healthy and with friction 0.3, 2026-11-24, session 16,
-/// after the braking phases were resolved; 0.055 A in session 15, 0.071 A before).
+/// after the braking phases were resolved; 0.055 A in session 15, 0.071 A before). After session
+/// 18's integration fixes the same 20 give a median of 0.051 A, range 0.048–0.054 A
+/// (`scripts/discover-seeds`); the bar stays at 0.052, 2 % above.
 pub const CLEAN_FLOOR_A: f64 = 0.052;
 /// The sensor noise's part of the structural residual (RMS of the 2 ms means): what no model can
 /// remove from a recording of the standard manoeuvre with the nominal sensors. 0.0484 A on a
