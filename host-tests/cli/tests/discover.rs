@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use ema_cli::discover::{above_noise_a, discover, Discovery};
+use ema_cli::discover::{above_noise_a, discover, Discovery, Withdrawal, PINNED_SEVERITY};
 use ema_cli::identify::{condition_recording, HOST_WINDOW};
 use ema_cli::recording_io::Recording;
 use ema_monitor::{EffectId, FaultVector, Profile};
@@ -155,6 +155,21 @@ fn effects_outside_the_library_are_not_mislabelled() {
         let v = ema_cli::discover::verdict(&d);
         assert!(v.contains("unexplained residual at"), "{effect}: {v}");
     }
+}
+
+/// A DC-link sag with friction 0.3 at seed 8 fits as a dead time under the bound on the fit part
+/// (1.17) and at it on the whole recording (1.23): step 4 withdraws it (`Withdrawal::AtBound`),
+/// and the verdict says why. Before session 18 it was named dead time (1.23).
+#[test]
+fn an_effect_refitted_at_its_bound_is_withdrawn() {
+    let d = run(&[(Effect::BusSag, 1.0)], FRICTION, 8);
+    assert!(d.named.is_empty(), "{}", ema_cli::discover::summary(&d));
+    match d.withdrawn.as_slice() {
+        [(EffectId::DeadTime, Withdrawal::AtBound(s))] => assert!(*s >= PINNED_SEVERITY, "{s}"),
+        w => panic!("withdrawn: {w:?}"),
+    }
+    let v = ema_cli::discover::verdict(&d);
+    assert!(v.contains("unexplained residual at") && v.contains("the bound of its fit"), "{v}");
 }
 
 /// Cogging on a healthy actuator, hidden: the firmware's own identification must not read it as
