@@ -534,7 +534,10 @@ impl MonitorModel {
         let sector = if MECH { self.commutation_sector(s) } else { Self::sector_of(s.hall_angle_rad) };
         let mut k_phase = self.phase_emf_constants(s);
         if MECH && self.mech_effects.saturation_inv_current_sq_per_a2 != 0.0 {
-            self.saturate(&mut k_phase, s.current_a);
+            // while the phases are resolved `current_a` is the loop's lagged reference, not what
+            // flows: their `½Σ|i_j|` is `output_current_a`
+            let flowing_a = if s.phase_resolved { s.output_current_a } else { s.current_a };
+            self.saturate(&mut k_phase, flowing_a);
         }
         let k_eq = if MECH {
             self.pair_k(&k_phase, sector, s)
@@ -1016,8 +1019,10 @@ impl MonitorModel {
         }
     }
 
-    /// Saturation effect: `k_j ×1/(1 + (I/I_sat)²)` with the pair current `I` at the step's start
-    /// (the reference model's `I = ½Σ|i_j|`).
+    /// Saturation effect: `k_j ×1/(1 + (I/I_sat)²)` with the current `I` flowing at the step's
+    /// start (the reference model's `I = ½Σ|i_j|`: the pair current, or while the phases are
+    /// resolved their `½Σ|i_j|`; until session 18 the loop's lagged reference there, which stays
+    /// at the 15 A limit while the fast reversal's current collapses under the back-EMF).
     fn saturate(&self, k: &mut [f32; 3], i: f32) {
         let factor = 1.0 / (1.0 + i * i * self.mech_effects.saturation_inv_current_sq_per_a2);
         for kj in k.iter_mut() {
