@@ -46,12 +46,11 @@ fn measured_mean(
                 models.push(series(&trace, &EmaParams::NOMINAL, &Profile::STANDARD, k, fx));
             }
         }
-        let s = series(&trace, &EmaParams::NOMINAL, &Profile::STANDARD, k, &ModelEffects::NONE);
         if mean.is_empty() {
-            mean = vec![0.0; s.measured_a.len()];
+            mean = vec![0.0; trace.len()];
         }
-        for (m, y) in mean.iter_mut().zip(&s.measured_a) {
-            *m += y / runs.len() as f64;
+        for (m, y) in mean.iter_mut().zip(trace.current_a()) {
+            *m += f64::from(*y) / runs.len() as f64;
         }
     }
     Ok((mean, models))

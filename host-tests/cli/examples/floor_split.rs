@@ -77,9 +77,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let cfg = SimConfig { seed, effects, faults: k, ..SimConfig::default() };
         let recording = Recording::from_reference(&simulate(&cfg)?, vec![]);
         let trace = condition_recording(&recording, Path::new("in-memory.csv"), &Profile::STANDARD)?;
-        let s = series(&trace, &EmaParams::NOMINAL, &Profile::STANDARD, &k, &model_effects);
-        measured.push(moving_mean(&s.measured_a, SMOOTH_BLOCKS));
-        model.get_or_insert(s);
+        let current: Vec<f64> = trace.current_a().iter().map(|&y| f64::from(y)).collect();
+        measured.push(moving_mean(&current, SMOOTH_BLOCKS));
+        // the model is deterministic: one run, along the first recording
+        if model.is_none() {
+            model = Some(series(&trace, &EmaParams::NOMINAL, &Profile::STANDARD, &k, &model_effects));
+        }
     }
     let model = model.ok_or(usage)?;
     let model_mean = moving_mean(&model.model_a, SMOOTH_BLOCKS);
