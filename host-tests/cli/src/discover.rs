@@ -1011,25 +1011,26 @@ pub fn discover<const W: usize>(
         }
         let fit = fit_model(trace, profile, &on, &base_fit, Part::All, 2.0 * n_eff_part);
         evaluations += u64::from(fit.evaluations);
-        if let Some(&pinned) = on.iter().find(|e| fit.effects.get(**e) >= PINNED_SEVERITY) {
-            on.retain(|e| *e != pinned);
-            named.retain(|n| n.0 != pinned);
-            withdrawn.push((pinned, Withdrawal::AtBound(fit.effects.get(pinned))));
-            base_fit.effects = base_fit.effects.without(pinned);
-            continue;
-        }
-        let series_after = series(trace, &params, profile, &fit.k, &fit.effects);
-        if structural_energy(&series_after) < energy_before {
-            for (e, s, _) in &mut named {
-                *s = fit.effects.get(*e);
+        let (effect, why) = match on.iter().find(|e| fit.effects.get(**e) >= PINNED_SEVERITY) {
+            Some(&pinned) => (pinned, Withdrawal::AtBound(fit.effects.get(pinned))),
+            None => {
+                let series_after = series(trace, &params, profile, &fit.k, &fit.effects);
+                if structural_energy(&series_after) < energy_before {
+                    for (e, s, _) in &mut named {
+                        *s = fit.effects.get(*e);
+                    }
+                    break (fit, series_after);
+                }
+                match on.last() {
+                    Some(&last) => (last, Withdrawal::GapNotShrunk),
+                    None => break (before.clone(), series_before.clone()),
+                }
             }
-            break (fit, series_after);
-        }
-        if let Some(effect) = on.pop() {
-            named.pop();
-            withdrawn.push((effect, Withdrawal::GapNotShrunk));
-            base_fit.effects = base_fit.effects.without(effect);
-        }
+        };
+        on.retain(|e| *e != effect);
+        named.retain(|n| n.0 != effect);
+        withdrawn.push((effect, why));
+        base_fit.effects = base_fit.effects.without(effect);
     };
     // 5. the diagnosis the firmware gives, before and after promoting the named effects
     let onboard = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
