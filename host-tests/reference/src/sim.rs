@@ -19,7 +19,7 @@ use crate::rng::NoiseRng;
 use crate::sensors::{self, Lag};
 
 /// Default integration step, chosen by the convergence study kept in `tests/convergence.rs`.
-pub const DEFAULT_STEP_S: f64 = 1.0e-6;
+pub const DEFAULT_STEP_S: f64 = 2.5e-7;
 
 /// What to simulate.
 #[derive(Clone, Copy, Debug, PartialEq)]
