@@ -1486,7 +1486,7 @@ mod tests {
     fn the_noise_comes_off_in_quadrature() {
         assert_eq!(above_noise_a(NOISE_FLOOR_A), 0.0);
         assert_eq!(above_noise_a(0.01), 0.0, "below the noise: nothing a model could remove");
-        // 0.080² − 0.048² = 0.064²
-        assert!((above_noise_a(0.080) - 0.064).abs() < 1e-12);
+        // 0.075² − 0.045² = 0.060²
+        assert!((above_noise_a(0.075) - 0.060).abs() < 1e-12);
     }
 }
