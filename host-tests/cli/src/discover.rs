@@ -27,7 +27,10 @@
 //!    phases) must remove a share of the gap too ([`MIN_GAP_SHARE_REPLACING`]): parsimony alone
 //!    does not make a missing effect. Confidence is the winner's
 //!    posterior weight among "no effect" and all candidates, `exp(ΔBIC_j/2)/(1 + Σ exp(ΔBIC/2))`.
-//!    The search repeats for a second effect on top of the first.
+//!    The search repeats for a second effect on top of the first. A winner at its bound may be
+//!    absorbing a second effect (a dead time that took a viscous friction too): the round runs
+//!    again with it on, and if that round names another effect and puts the pinned one back
+//!    under its bound, both are named.
 //! 4. **Add**: the named effects are refitted with the faults on the whole recording. One the
 //!    refit puts at its bound ([`PINNED_SEVERITY`]) is withdrawn, as a round would have refused
 //!    it ([`Withdrawal::AtBound`]). They must shrink its structural gap; if they do not, the last
