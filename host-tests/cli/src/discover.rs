@@ -633,6 +633,17 @@ impl Round {
     fn confidence(&self, c: &Candidate) -> f64 {
         Self::weight(c) / Self::weight_sum(&self.candidates)
     }
+
+    /// Monitor-model evaluations its candidates' fits took.
+    fn evaluations(&self) -> u64 {
+        self.candidates.iter().map(|c| u64::from(c.fit.evaluations)).sum()
+    }
+
+    /// The pinned winner (when there is one) with its fit and the confidence it would be named with.
+    fn pinned_winner(&self) -> Option<(EffectId, ModelFit, f64)> {
+        let c = self.candidates.first()?;
+        self.pinned.map(|p| (p, c.fit.clone(), self.confidence(c)))
+    }
 }
 
 /// `ΔBIC = n·ln(E0/E1) − (p1 − p0)·ln(n)`: positive when the second model pays for its extra
@@ -1004,10 +1015,10 @@ pub fn discover<const W: usize>(
     evaluations += u64::from(base_fit.evaluations);
     while named.len() < MAX_NAMED {
         let (round, reference) = search_round(trace, profile, &on, &base_fit, n_eff_part, threads);
-        evaluations += round.candidates.iter().map(|c| u64::from(c.fit.evaluations)).sum::<u64>();
+        evaluations += round.evaluations();
         let winner = round.named;
         let winner_fit = round.candidates.first().map(|c| c.fit.clone());
-        let pinned = round.pinned.zip(round.candidates.first().map(|c| (c.fit.clone(), round.confidence(c))));
+        let pinned = if winner.is_none() { round.pinned_winner() } else { None };
         rounds.push(round);
         match (winner, winner_fit) {
             (Some(w), Some(fit)) => {
@@ -1017,11 +1028,11 @@ pub fn discover<const W: usize>(
             }
             _ => {
                 // A winner at its bound may be absorbing a second effect: a round with it on
-                if let Some((p, (p_fit, p_confidence))) = pinned.filter(|_| named.len() + 2 <= MAX_NAMED) {
+                if let Some((p, p_fit, p_confidence)) = pinned.filter(|_| named.len() + 2 <= MAX_NAMED) {
                     let mut trial: Vec<EffectId> = on.clone();
                     trial.push(p);
                     let (pair_round, _) = search_round(trace, profile, &trial, &p_fit, n_eff_part, threads);
-                    evaluations += pair_round.candidates.iter().map(|c| u64::from(c.fit.evaluations)).sum::<u64>();
+                    evaluations += pair_round.evaluations();
                     let pair = pair_round.named.zip(pair_round.candidates.first().map(|c| c.fit.clone()));
                     let p_severity = pair.as_ref().map_or(0.0, |(_, fit)| fit.effects.get(p));
                     rounds.push(pair_round);

@@ -22,7 +22,7 @@
 //! surface angle within 10 % of the healthy floor's 3.4e-4 rad. The energy-balance residual must
 //! fall roughly in proportion to dt (first-order method).
 
-use ema_reference::analysis::{moving_average, rms_difference};
+use ema_reference::analysis::{equivalent_current_magnitude, moving_average, rms_difference};
 use ema_reference::{simulate, Recording, SimConfig, DEFAULT_STEP_S};
 
 /// Samples in 2 ms at the 10 kHz ACE rate.
@@ -40,8 +40,7 @@ fn angle(r: &Recording) -> Vec<f64> {
 
 /// The sampled `½Σ|i_j|` in 2 ms means, from [`SLOW_FROM_S`] on.
 fn sampled_current(r: &Recording) -> Vec<f64> {
-    let sampled: Vec<f64> =
-        r.samples.iter().map(|s| 0.5 * s.phase_current_a.iter().map(|i| i.abs()).sum::<f64>()).collect();
+    let sampled: Vec<f64> = r.samples.iter().map(|s| equivalent_current_magnitude(s.phase_current_a, 1.0)).collect();
     let means = moving_average(&sampled, MEAN_SAMPLES);
     r.samples.iter().zip(means).filter(|(s, _)| s.time_s >= SLOW_FROM_S).map(|(_, m)| m).collect()
 }
