@@ -42,7 +42,15 @@
 //! The outgoing phase's back-EMF is already on its 30° ramp while its current decays over `t_c`,
 //! so commutation also costs torque beyond the current dip: `∫(1 − f_out)·i_out dt` over `t_c`
 //! averages, per sector and in equivalent current, to `1.5·(p·ω·t_c)²·I/π²` (at every speed,
-//! ∝ ω²), which the torque (not `I_out`, which follows the third phase) loses.
+//! ∝ ω²), which the torque (not `I_out`, which follows the third phase) loses. With the Hall
+//! edges a signed angle `a` ahead of the EMFs (`hall_misalignment`, `a = δ_H·sign ω`) the
+//! outgoing phase decays partly on its flat top and the incoming one rises partly on its ramp:
+//! against the new pair's instantaneous `K_eq` at full current (the step's torque) the loss is
+//! `k·i_out·(f_in − f_out)` with `f_in − f_out = (6/π)(φ − a)` at the angle `φ` into the
+//! commutation, which averages to `1.5·α·(α − 3a)·I/π²` (`α = p·ω·t_c`; a gain when `a > α/3`).
+//! Until session 20 the loss stayed `1.5·α²·I/π²` with the offset on, on top of the incoming
+//! ramp's deficit at full current: the model's torque ran 1–1.7 % low at 15 A and 180–370 rad/s
+//! with `δ_H` = 8° (`loop_side_by_side` example).
 //! Motoring only: when braking (`I·ω < 0`) the EMF helps the incoming phase and there is no dip.
 //! **Commutation-limited current**: above the onset the current loses `ΔI` at every commutation
 //! and regains it only at `(V_dc − 2E − R_eq I)/(2L)` for the rest of the sector, so the current
@@ -274,6 +282,8 @@ struct Commutation {
     sectors_per_s: f32,
     /// `K_eq|ω|`: the new pair's back-EMF.
     pair_emf_v: f32,
+    /// `a = δ_H·sign ω`: how far (electrical rad) the commutation runs ahead of the EMFs.
+    advance_rad: f32,
 }
 
 /// `(common, outgoing, incoming)` phases of the commutation into `sector`, from `sector − 1` when
@@ -968,7 +978,19 @@ impl MonitorModel {
             _ => k[p] + k[q],
         };
         let sectors_per_s = speed * self.sectors_per_rad;
-        Commutation { time_s_per_a, drop_fraction, sector_time_s, sectors_per_s, pair_emf_v: pair_k * speed }
+        let advance_rad = match &self.emf_shape {
+            Some(shape) if MECH && w > 0.0 => shape.hall_offset_rad,
+            Some(shape) if MECH => -shape.hall_offset_rad,
+            _ => 0.0,
+        };
+        Commutation {
+            time_s_per_a,
+            drop_fraction,
+            sector_time_s,
+            sectors_per_s,
+            pair_emf_v: pair_k * speed,
+            advance_rad,
+        }
     }
 
     /// The recovery slope `(V_dc − 2ΔV − K_eq|ω| − R_eq|I|)/L_eq` of the new pair after `t_c`.
@@ -1002,8 +1024,8 @@ impl MonitorModel {
         let i_abs = libm::fabsf(i);
         let (t_c, drop) = (c.time_s_per_a * i_abs, c.drop_fraction * i_abs);
         let angle = self.pole_pairs * libm::fabsf(w) * t_c;
-        let ramp_loss = 1.5 * angle * angle * i_abs * (1.0 / (PI * PI));
-        let torque_loss = if ramp_loss < 0.5 * i_abs { ramp_loss } else { 0.5 * i_abs };
+        let ramp_loss = 1.5 * angle * (angle - 3.0 * c.advance_rad) * i_abs * (1.0 / (PI * PI));
+        let torque_loss = clamp(ramp_loss, -0.5 * i_abs, 0.5 * i_abs);
         let dip = if drop > 0.0 {
             let slope = self.recovery_a_per_s(sector, c.pair_emf_v, i_abs);
             let t_r = if slope > 0.0 { drop / slope } else { c.sector_time_s };
@@ -1564,6 +1586,46 @@ mod tests {
         let bwd_hall = hall.commutation::<true>(&kp, 0, -w);
         assert!(bwd_hall.drop_fraction < bwd_plain.drop_fraction);
         assert!(bwd_hall.time_s_per_a > bwd_plain.time_s_per_a, "the outgoing phase decays slower");
+    }
+
+    #[test]
+    fn commutation_torque_loss_with_a_hall_offset_integrates_the_ramps() {
+        // Against the new pair's K_eq at full current, a commutation over α = p·ω·t_c loses
+        // k·i_out·(f_in − f_out): the outgoing phase decays from I while its EMF leaves its flat top
+        // at φ = a (the Hall advance), the incoming one carries I − i_out while its EMF reaches its
+        // flat top at φ = a. Integrated numerically over the trapezoids' 30° ramps here; the
+        // model's sector mean in equivalent current (÷ π/3, ÷ 2k) must match.
+        let p = EmaParams::NOMINAL;
+        let k = FaultVector::HEALTHY;
+        let hall =
+            MonitorModel::with_effects(&p, &k, &ModelEffects::NONE.with(EffectId::HallMisalignment, 1.0).unwrap());
+        let plain = MonitorModel::new(&p, &k);
+        let (kp, i) = ([0.13f32; 3], 15.0f32);
+        let ramp = |x: f64| (x * 6.0 / core::f64::consts::PI).clamp(0.0, 1.0);
+        let integral = |alpha: f64, a: f64| {
+            let n = 20_000;
+            let h = alpha / n as f64;
+            let sum: f64 = (0..n)
+                .map(|j| {
+                    let phi = (j as f64 + 0.5) * h;
+                    let (f_in, f_out) = (1.0 - ramp(a - phi), 1.0 - ramp(phi - a));
+                    f64::from(i) * (1.0 - phi / alpha) * (f_in - f_out)
+                })
+                .sum();
+            sum * h / (core::f64::consts::PI / 3.0) / 2.0
+        };
+        for (m, w, a) in
+            [(&plain, 300.0f32, 0.0f64), (&hall, 300.0, 10f64.to_radians()), (&hall, -300.0, -10f64.to_radians())]
+        {
+            let c = m.commutation::<true>(&kp, 1, w);
+            let alpha = f64::from(4.0 * libm::fabsf(w) * c.time_s_per_a * i);
+            let loss = m.commutation_losses(&c, i * w.signum(), w, 1).1 * w.signum();
+            let expected = integral(alpha, a);
+            assert!((f64::from(loss) - expected).abs() < 2e-3 * f64::from(i), "a {a}: {loss} vs {expected}");
+        }
+        // forward, the advance turns the loss into a gain: the outgoing phase decays on its flat top
+        let c = hall.commutation::<true>(&kp, 1, 300.0);
+        assert!(hall.commutation_losses(&c, i, 300.0, 1).1 < 0.0);
     }
 
     #[test]
