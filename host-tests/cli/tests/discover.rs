@@ -43,8 +43,8 @@ const RAW_HALVING_FROM: f64 = 2.5 * NOISE_FLOOR_A;
 /// Named, its severity close to the truth, and the structural residual's part above the sensor
 /// noise at least halved; the raw RMS too where it starts at [`RAW_HALVING_FROM`] or above.
 /// Below that, halving the raw RMS asks the model to remove noise: a Hall offset of 1 with
-/// friction at seed 29 starts at 0.0975 A and ends at 0.0501 A (51 %), 0.0865 → 0.0219 A above
-/// the noise (25 %).
+/// friction at seed 29 starts at 0.0975 A and ends at 0.0496 A (51 %), 0.0865 → 0.0209 A above
+/// the noise (24 %; session 19, before the Hall term's commutation loss: 0.0501 and 0.0219 A).
 fn assert_found_and_halved(d: &Discovery, effect: EffectId, severity: f32) {
     assert_eq!(named(d), vec![effect], "{}", ema_cli::discover::summary(d));
     let s = d.named[0].1;
