@@ -282,8 +282,6 @@ struct Commutation {
     sectors_per_s: f32,
     /// `K_eq|ω|`: the new pair's back-EMF.
     pair_emf_v: f32,
-    /// `a = δ_H·sign ω`: how far (electrical rad) the commutation runs ahead of the EMFs.
-    advance_rad: f32,
 }
 
 /// `(common, outgoing, incoming)` phases of the commutation into `sector`, from `sector − 1` when
@@ -602,7 +600,7 @@ impl MonitorModel {
             }
             s.current_a = i + clamp(wanted, down, up);
             let (dip_a, torque_loss_a) = match commutation {
-                Some(c) => self.commutation_losses(&c, s.current_a, w, sector),
+                Some(c) => self.commutation_losses::<MECH>(&c, s.current_a, w, sector),
                 None => (0.0, 0.0),
             };
             s.output_current_a = s.current_a - dip_a;
@@ -978,19 +976,7 @@ impl MonitorModel {
             _ => k[p] + k[q],
         };
         let sectors_per_s = speed * self.sectors_per_rad;
-        let advance_rad = match &self.emf_shape {
-            Some(shape) if MECH && w > 0.0 => shape.hall_offset_rad,
-            Some(shape) if MECH => -shape.hall_offset_rad,
-            _ => 0.0,
-        };
-        Commutation {
-            time_s_per_a,
-            drop_fraction,
-            sector_time_s,
-            sectors_per_s,
-            pair_emf_v: pair_k * speed,
-            advance_rad,
-        }
+        Commutation { time_s_per_a, drop_fraction, sector_time_s, sectors_per_s, pair_emf_v: pair_k * speed }
     }
 
     /// The recovery slope `(V_dc − 2ΔV − K_eq|ω| − R_eq|I|)/L_eq` of the new pair after `t_c`.
@@ -1017,15 +1003,27 @@ impl MonitorModel {
 
     /// Sector means of the commutation dip of `I_out` and of the extra torque loss (both as
     /// equivalent currents, signed like `i`; module doc). Zero when braking or at rest.
-    fn commutation_losses(&self, c: &Commutation, i: f32, w: f32, sector: usize) -> (f32, f32) {
+    fn commutation_losses<const MECH: bool>(&self, c: &Commutation, i: f32, w: f32, sector: usize) -> (f32, f32) {
         if i * w <= 0.0 {
             return (0.0, 0.0);
         }
         let i_abs = libm::fabsf(i);
         let (t_c, drop) = (c.time_s_per_a * i_abs, c.drop_fraction * i_abs);
         let angle = self.pole_pairs * libm::fabsf(w) * t_c;
-        let ramp_loss = 1.5 * angle * (angle - 3.0 * c.advance_rad) * i_abs * (1.0 / (PI * PI));
-        let torque_loss = clamp(ramp_loss, -0.5 * i_abs, 0.5 * i_abs);
+        // the paper's model (`MECH = false`) has no Hall offset: its step stays as before
+        let torque_loss = if MECH {
+            // `a = δ_H·sign ω`: how far (electrical rad) the commutation runs ahead of the EMFs
+            let advance_rad = self.emf_shape.as_ref().map_or(0.0, |shape| shape.hall_offset_rad) * sign(w);
+            let ramp_loss = 1.5 * angle * (angle - 3.0 * advance_rad) * i_abs * (1.0 / (PI * PI));
+            clamp(ramp_loss, -0.5 * i_abs, 0.5 * i_abs)
+        } else {
+            let ramp_loss = 1.5 * angle * angle * i_abs * (1.0 / (PI * PI));
+            if ramp_loss < 0.5 * i_abs {
+                ramp_loss
+            } else {
+                0.5 * i_abs
+            }
+        };
         let dip = if drop > 0.0 {
             let slope = self.recovery_a_per_s(sector, c.pair_emf_v, i_abs);
             let t_r = if slope > 0.0 { drop / slope } else { c.sector_time_s };
@@ -1448,7 +1446,7 @@ mod tests {
     fn commutation_dip_starts_at_a_quarter_of_the_bus_voltage() {
         let m = model(FaultVector::HEALTHY.0);
         let k = [0.13f32; 3];
-        let at = |i: f32, w: f32| m.commutation_losses(&m.commutation::<true>(&k, 0, w), i, w, 0);
+        let at = |i: f32, w: f32| m.commutation_losses::<true>(&m.commutation::<true>(&k, 0, w), i, w, 0);
         let limit = |i: f32, w: f32| m.commutation_rise_limit(&m.commutation::<true>(&k, 0, w), i, w, 0);
         let onset = 270.0 / (4.0 * 0.13); // 4E = V_dc, E = k_0 ω
         assert_eq!(at(15.0, 0.98 * onset).0, 0.0);
@@ -1619,13 +1617,13 @@ mod tests {
         {
             let c = m.commutation::<true>(&kp, 1, w);
             let alpha = f64::from(4.0 * libm::fabsf(w) * c.time_s_per_a * i);
-            let loss = m.commutation_losses(&c, i * w.signum(), w, 1).1 * w.signum();
+            let loss = m.commutation_losses::<true>(&c, i * w.signum(), w, 1).1 * w.signum();
             let expected = integral(alpha, a);
             assert!((f64::from(loss) - expected).abs() < 2e-3 * f64::from(i), "a {a}: {loss} vs {expected}");
         }
         // forward, the advance turns the loss into a gain: the outgoing phase decays on its flat top
         let c = hall.commutation::<true>(&kp, 1, 300.0);
-        assert!(hall.commutation_losses(&c, i, 300.0, 1).1 < 0.0);
+        assert!(hall.commutation_losses::<true>(&c, i, 300.0, 1).1 < 0.0);
     }
 
     #[test]
