@@ -3,7 +3,7 @@
 //! vector, and both electrical angles `θ_e` are compared every 50 ms, with the cogging phase
 //! difference `6·Δθ_e` (24 cycles per mechanical turn, 4 pole pairs). The model runs without the
 //! effect's term, or with it at severity `MODEL_S`: whether the term moves the model's rotor the
-//! way the effect moves the actuator's.
+//! way the effect moves the actuator's. `SEED` 0 records without sensor noise.
 //!
 //! ```text
 //! cargo run --release -p ema-cli --example rotor_angle_drift -- SEED [EFFECT=S] [K1,...,K8] [MODEL_S]
@@ -42,7 +42,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(term) = term {
         model_effects.set(term, model_s)?;
     }
-    let cfg = SimConfig { seed, effects, faults: k, ..SimConfig::default() };
+    // seed 0: the sensors without noise
+    let cfg = SimConfig { seed: seed.max(1), noise: seed != 0, effects, faults: k, ..SimConfig::default() };
     // the actuator's electrical angle at every sample instant
     let mut sim = Simulator::new(&cfg)?;
     let actuator: Vec<f64> = (0..sim.sample_count())
