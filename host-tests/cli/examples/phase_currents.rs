@@ -1,7 +1,7 @@
 //! The reference model's three phase currents inside control periods: sensor noise off, the
 //! standard manoeuvre run to `T0`, then `PERIODS` control periods printed every `EVERY`
-//! integration steps (1 µs each) with `½Σ|i_j|` (what the conditioning measures) and the
-//! controller's current reference. It is how the braking commutation's bump was seen (README,
+//! integration steps (the reference model's step, 0.25 µs) with `½Σ|i_j|` (what the
+//! conditioning measures) and the controller's current reference. It is how the braking commutation's bump was seen (README,
 //! "the mismatch floor").
 //!
 //! ```text
