@@ -1052,7 +1052,8 @@ impl MonitorModel {
 
     /// Cogging effect: the mean of `A·sin(24·θ_m)` over the step from `θ_m` at speed `ω`,
     /// `A·sin(24θ_m + x/2)·sin(x/2)/(x/2)` with `x = 24·ω·T` (the control step spans up to a third
-    /// of a cogging period at full speed, where the reference model, at its 0.25 µs step, sees its mean).
+    /// of a cogging period at full speed, where the reference model, at its 0.25 µs step, sees
+    /// its mean).
     fn cogging_n_m(&self, motor_angle_wrapped_rad: f32, w: f32) -> f32 {
         let fx = &self.mech_effects;
         let half = 0.5 * fx.cogging_phase_per_speed_s * w;
