@@ -7,7 +7,9 @@
 //! throughout) and `2L·I/V_dc`, the mean when the common phase's hysteresis chops it: below the
 //! dip onset (`4E < V_dc`) the common phase would rise past `I` while its switch is on, and
 //! while it is off the outgoing phase decays at `(2V_dc + 2E)/3L` instead of `(V_dc + 2E)/3L`;
-//! the duty that holds the common phase at `I` averages these to `V_dc/2L`, whatever the speed
+//! the duty that holds the common phase at `I` averages these to `V_dc/2L`, whatever the speed.
+//! That holds where the common phase's rise would cross its hysteresis band within the
+//! commutation; near the onset it rises inside the band unchopped and Carlson's formula applies
 //! (README, "the pair model's commutation time").
 //!
 //! ```text
