@@ -1010,7 +1010,9 @@ impl MonitorModel {
         let i_abs = libm::fabsf(i);
         let (t_c, drop) = (c.time_s_per_a * i_abs, c.drop_fraction * i_abs);
         let angle = self.pole_pairs * libm::fabsf(w) * t_c;
-        // the paper's model (`MECH = false`) has no Hall offset: its step stays as before
+        // The paper's model (`MECH = false`) has no Hall offset and keeps its own expression: one
+        // form for both (the advance 0, the lower clamp unused) ran 0.54 % more instructions on
+        // the built-in trace (8.904e9 against 8.856e9, session 20).
         let torque_loss = if MECH {
             // `a = δ_H·sign ω`: how far (electrical rad) the commutation runs ahead of the EMFs
             let advance_rad = self.emf_shape.as_ref().map_or(0.0, |shape| shape.hall_offset_rad) * sign(w);
