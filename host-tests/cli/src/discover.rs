@@ -1017,7 +1017,7 @@ pub fn discover<const W: usize>(
         let (round, reference) = search_round(trace, profile, &on, &base_fit, n_eff_part, threads);
         evaluations += round.evaluations();
         let winner = round.named;
-        let winner_fit = round.candidates.first().map(|c| c.fit.clone());
+        let winner_fit = winner.and(round.candidates.first()).map(|c| c.fit.clone());
         let pinned = if winner.is_none() { round.pinned_winner() } else { None };
         rounds.push(round);
         match (winner, winner_fit) {
