@@ -1,8 +1,8 @@
 //! Build script.
 //!
-//! 1. Puts `memory.x` on the link path and adds the Cortex-M link scripts, only for the thumb
-//!    target (toolchain.md pitfall 1: `rustc-link-arg`, not `-arg-bins`, so the QEMU test binary
-//!    links too).
+//! 1. Puts `memory.x` on the link path and adds the Cortex-M link scripts (`link.x`, and
+//!    `defmt.x`, without which defmt links but logs nothing), only for the thumb target. They are
+//!    `rustc-link-arg`, not `-arg-bins`, so the QEMU test binary links with them too.
 //! 2. With the `firmware` feature, writes `$OUT_DIR/model_config.rs` for `src/main.rs`:
 //!    - `MODEL_EFFECTS`: the monitor model's effect terms, from the model configuration file named
 //!      by `EMA_MODEL_CONFIG` (parsed by `ema_monitor::effects::parse_model_config`, the very code
