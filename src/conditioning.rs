@@ -131,14 +131,10 @@ impl MeasuredEnvelope {
         libm::sqrtf(sum)
     }
 
-    /// `σ_j`, the RMS current the controller's derivative on measurement puts on the pair from the
-    /// position transducer's noise and resolution: `Kd·(α/T)·σ_θ·√(2/(2−α))`, `α = T/τ_D`,
-    /// `σ_θ² = σ_pos² + q²/12`.
+    /// `σ_j`, the RMS current the controller's derivative on measurement puts on the pair
+    /// ([`EmaParams::controller_jitter_a`]).
     pub fn controller_jitter_a(params: &EmaParams) -> f32 {
-        let q = params.position_resolution_rad;
-        let sigma_theta = libm::sqrtf(params.position_noise_rad * params.position_noise_rad + q * q * (1.0 / 12.0));
-        let alpha = params.control_period_s / params.derivative_filter_s;
-        params.kd_a_s_per_rad * (alpha / params.control_period_s) * sigma_theta * libm::sqrtf(2.0 / (2.0 - alpha))
+        params.controller_jitter_a()
     }
 
     /// Expected measured `I_3eq` for a true pair current `current_a`.
@@ -201,7 +197,7 @@ impl SensorErrorEnvelope {
         let mut pair = [[0.0; 4]; 6];
         let mut open_a = [0.0; 6];
         let mut open = [[1.0, 0.0]; 6];
-        for (sector, &(p, q)) in crate::model::PAIRS.iter().enumerate() {
+        for (sector, &(p, q)) in crate::six_step::PAIRS.iter().enumerate() {
             pair[sector] = [1.0 + gain[p], offset_a[p], 1.0 + gain[q], -offset_a[q]];
             let r = 3 - p - q;
             open_a[sector] = 0.5 * folded_normal_mean_a(offset_a[r], params.current_noise_a);
@@ -224,7 +220,7 @@ impl SensorErrorEnvelope {
     /// the phases' mean currents moved by the freewheel's `shift_a` (`δ_j` above).
     pub fn expected_a(&self, sector: usize, current_a: f32, shift_a: &[f32; 3]) -> f32 {
         let sector = sector % 6;
-        let (p, q) = crate::model::PAIRS[sector];
+        let (p, q) = crate::six_step::PAIRS[sector];
         let [gain_p, off_p, gain_q, off_q] = self.pair[sector];
         let [gain_r, off_r] = self.open[sector];
         let idle_a = shift_a[3 - p - q];

@@ -114,6 +114,23 @@ impl EmaParams {
     pub fn equivalent_inertia_kg_m2(&self) -> f32 {
         self.motor_inertia_kg_m2 + self.surface_inertia_kg_m2 / (self.gear_ratio * self.gear_ratio)
     }
+
+    /// `σ_J`, the RMS current the controller's derivative on measurement puts on the pair from the
+    /// position transducer's noise and resolution `q`:
+    ///
+    /// ```text
+    /// σ_J = Kd·(α/T)·σ_θ·√(2/(2−α)),   α = T/τ_D,   σ_θ² = σ_pos² + q²/12
+    /// ```
+    ///
+    /// (the first-order derivative filter's output variance for white input). The conditioning
+    /// counts it in the rectification of the measured `I_3eq`, the monitor model in its current
+    /// loop on measured currents.
+    pub fn controller_jitter_a(&self) -> f32 {
+        let q = self.position_resolution_rad;
+        let sigma_theta = libm::sqrtf(self.position_noise_rad * self.position_noise_rad + q * q * (1.0 / 12.0));
+        let alpha = self.control_period_s / self.derivative_filter_s;
+        self.kd_a_s_per_rad * (alpha / self.control_period_s) * sigma_theta * libm::sqrtf(2.0 / (2.0 - alpha))
+    }
 }
 
 impl Default for EmaParams {
