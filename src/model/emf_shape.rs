@@ -16,9 +16,9 @@ use core::f32::consts::{FRAC_PI_3, FRAC_PI_6};
 /// pair  K_eq(θ_e) = k_p·f_p(θ_e) − k_q·f_q(θ_e)     (p positive, q negative phase of the sector)
 /// ```
 ///
-/// `K_eq` then drives the torque and the back-EMF of the voltage clamp. The commutation terms
-/// (flat-top EMFs `k_j|ω|` at the commutation angle, `pair` module) scale each
-/// phase's `k_j` by how its shaped EMF compares with the ideal one over the commutation: turning
+/// `K_eq` then drives the torque and the back-EMF of the voltage clamp. The commutation terms of
+/// the pair regime (flat-top EMFs `k_j|ω|` at the commutation angle) scale each phase's `k_j` by
+/// how its shaped EMF compares with the ideal one over the commutation: turning
 /// forward the commutation into sector `s` happens at `θ_e = s·π/3 + π/6 − δ_H`, backward at
 /// `(s+1)·π/3 + π/6 − δ_H`, and lasts about 30° electrical where it matters (`t_c ≈ 0.2 ms` at
 /// the dip onset and above), so the factor is `⟨f_j⟩/⟨f_j,ideal⟩` over the 30° after the

@@ -103,7 +103,7 @@ pub struct ModelState {
     /// Current reference `I_ref` computed by the controller.
     pub current_ref_a: f32,
     /// Signed phase currents `i_a, i_b, i_c` while the electrical step resolves the phases (fast
-    /// regime, [`MonitorModel::phase_resolved_step`]); zero otherwise.
+    /// regime, above [`PHASE_RESOLVED_ONSET_FRACTION`] of the dip onset); zero otherwise.
     pub phase_current_a: [f32; 3],
     /// `true` while the electrical step resolves the phases.
     pub phase_resolved: bool,

@@ -16,7 +16,7 @@ use super::{sign, ModelState, MonitorModel};
 use crate::six_step::{ideal_emf_shapes, phase_emf_shape_near_turn, sector_of, wrap, PAIRS};
 use core::f32::consts::{FRAC_PI_3, FRAC_PI_6};
 
-/// The electrical step resolves the three phases ([`MonitorModel::phase_resolved_step`]) above
+/// The electrical step resolves the three phases (the fast regime) above
 /// this fraction of the healthy dip onset `V_dc/(4k_0)` (519 rad/s nominal): an eccentric phase
 /// reaches its own onset from `1/(1 + ζ_max)` = 0.67 of it.
 pub const PHASE_RESOLVED_ONSET_FRACTION: f32 = 0.6;
