@@ -44,12 +44,13 @@ pub fn equivalent_current_a(ia_a: f32, ib_a: f32, ic_a: f32) -> f32 {
 ///   `h²/3` is the hysteresis current ripple, a triangle wave of half band `h` (RMS `h/√3` =
 ///   0.173 A): the reference model with noise off shows `½Σ|i_j| − |I_ref|` with an SD of
 ///   0.14–0.25 A in regulation. Without it the model reads below the measurement on slow,
-///   low-current samples and the identification turns that into friction (k1 0.01–0.02 high);
+///   low-current samples and the identification turns that into friction;
 /// - the open phase reads sensor noise only, `F_{σ_s}(0)`;
 ///
 /// so `E[I_3eq] = F_{σ_pair}(|I|) + ½F_{σ_s}(0)`, where `F_σ(μ) = μ·erf(μ/(σ√2)) + σ√(2/π)e^{−μ²/(2σ²)}`
-/// is the folded-normal mean. Nominal sensors: `σ_j = 0.29 A`, `σ_s = 0.02 A`. Without it the monitor
-/// read the bias as extra friction (k1 ≈ 0.05 on a healthy actuator; README, "accuracy").
+/// is the folded-normal mean. Nominal sensors: `σ_j = 0.29 A`, `σ_s = 0.02 A`. Without the
+/// envelope the identification reads the bias as extra friction on a healthy actuator
+/// (`docs/decisions/0008-measured-envelope.md`).
 /// `F_σ(μ) − μ` is tabulated once over `[0, 4σ_pair]` (beyond, below 1e-5·σ: taken as 0) and
 /// interpolated linearly: f32 only in the hot loop.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -110,10 +111,9 @@ impl MeasuredEnvelope {
     /// σ_ripple² = Σ_{n odd} ½·(8h/(π²n²))² / (1 + (2πnτ_i/P)²)
     /// ```
     ///
-    /// 0.058 A nominal, a third of the winding's `h/√3` = 0.173 A. Until session 19 the envelope
-    /// took the winding's ripple, 0.02–0.03 A too much rectification at the slow, low-current
-    /// samples; the reference model's 1 µs steps had hidden it (their switching instants, locked
-    /// to the step, alias the ripple into the 2 ms means; README, "the reference's own step").
+    /// 0.058 A nominal, a third of the winding's `h/√3` = 0.173 A: the ADC sees the current
+    /// through the sensor, so the winding's ripple would overstate the rectification at the slow,
+    /// low-current samples (`docs/decisions/0008-measured-envelope.md`).
     pub fn sensed_ripple_a(params: &EmaParams) -> f32 {
         let h = params.hysteresis_half_band_a;
         let slew_a_per_s = params.supply_voltage_v / (2.0 * params.phase_inductance_h);
@@ -131,14 +131,10 @@ impl MeasuredEnvelope {
         libm::sqrtf(sum)
     }
 
-    /// `σ_j`, the RMS current the controller's derivative on measurement puts on the pair from the
-    /// position transducer's noise and resolution: `Kd·(α/T)·σ_θ·√(2/(2−α))`, `α = T/τ_D`,
-    /// `σ_θ² = σ_pos² + q²/12`.
+    /// `σ_j`, the RMS current the controller's derivative on measurement puts on the pair
+    /// ([`EmaParams::controller_jitter_a`]).
     pub fn controller_jitter_a(params: &EmaParams) -> f32 {
-        let q = params.position_resolution_rad;
-        let sigma_theta = libm::sqrtf(params.position_noise_rad * params.position_noise_rad + q * q * (1.0 / 12.0));
-        let alpha = params.control_period_s / params.derivative_filter_s;
-        params.kd_a_s_per_rad * (alpha / params.control_period_s) * sigma_theta * libm::sqrtf(2.0 / (2.0 - alpha))
+        params.controller_jitter_a()
     }
 
     /// Expected measured `I_3eq` for a true pair current `current_a`.
@@ -201,7 +197,7 @@ impl SensorErrorEnvelope {
         let mut pair = [[0.0; 4]; 6];
         let mut open_a = [0.0; 6];
         let mut open = [[1.0, 0.0]; 6];
-        for (sector, &(p, q)) in crate::model::PAIRS.iter().enumerate() {
+        for (sector, &(p, q)) in crate::six_step::PAIRS.iter().enumerate() {
             pair[sector] = [1.0 + gain[p], offset_a[p], 1.0 + gain[q], -offset_a[q]];
             let r = 3 - p - q;
             open_a[sector] = 0.5 * folded_normal_mean_a(offset_a[r], params.current_noise_a);
@@ -224,7 +220,7 @@ impl SensorErrorEnvelope {
     /// the phases' mean currents moved by the freewheel's `shift_a` (`δ_j` above).
     pub fn expected_a(&self, sector: usize, current_a: f32, shift_a: &[f32; 3]) -> f32 {
         let sector = sector % 6;
-        let (p, q) = crate::model::PAIRS[sector];
+        let (p, q) = crate::six_step::PAIRS[sector];
         let [gain_p, off_p, gain_q, off_q] = self.pair[sector];
         let [gain_r, off_r] = self.open[sector];
         let idle_a = shift_a[3 - p - q];
@@ -549,7 +545,7 @@ mod tests {
             // standard error ≈ 0.3/√n ≈ 7e-4 A
             assert!((env.expected_a(current) - mc).abs() < 3e-3, "I = {current}: {} vs {mc}", env.expected_a(current));
             if current < 0.6 {
-                // the winding's ripple h/√3 (sessions 6–18) reads 0.010–0.034 A high here
+                // the winding's ripple h/√3 reads 0.010–0.034 A high here
                 assert!(winding_ripple.expected_a(current) - mc > 0.008, "I = {current}: the sensor's lag matters");
             }
             if current < 0.3 {

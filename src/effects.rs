@@ -1,4 +1,4 @@
-//! Optional effect terms of the monitor model (physics.md §10), all off by default.
+//! Optional effect terms of the monitor model (equations in `docs/model.md`), all off by default.
 //!
 //! The reference model can play ten "library" effects the paper's monitor model does not know
 //! (`host-tests/reference`, same IDs). Each has a severity `s` mapped to a physical magnitude by
@@ -7,8 +7,8 @@
 //! workflow (`ema discover`) can be switched on here with the severity it estimated, on the host
 //! and on board alike. Storage is one fixed array of severities: no allocation, `Copy`.
 //!
-//! A model built with [`ModelEffects::NONE`] runs exactly (bit for bit) the code it ran before the
-//! effects existed: every term is guarded by its severity being non-zero.
+//! A model built with [`ModelEffects::NONE`] runs exactly (bit for bit) the paper's model: every
+//! term is guarded by its severity being non-zero.
 //!
 //! [`parse_model_config`] reads the model configuration file (`monitor-model.conf`, written by
 //! `ema discover`) that switches effects on; the firmware's `build.rs` includes this file with
@@ -23,7 +23,7 @@ pub const EFFECT_COUNT: usize = 10;
 /// [`maxima`]), where every term's physics still holds (the magnitudes scale linearly). A fit
 /// needs room beyond the maximum to tell an effect *at* its maximum (fitted about 1) from one
 /// stronger than, or different from, the library's (fitted at this bound): with the bound at 1
-/// the two were the same verdict and an effect at its maximum was refused (`ema discover`).
+/// the two would be the same verdict and an effect at its maximum refused (`ema discover`).
 pub const MAX_SEVERITY: f32 = 1.25;
 
 /// One library effect, by the ID the reference model and the command line use.

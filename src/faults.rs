@@ -1,7 +1,7 @@
 //! The normalized fault vector `k` and its physical meaning: the one place the mapping lives.
 //!
-//! Same vector, same order and same mapping as the paper (`shared/seed/`, §VI), used by the monitor
-//! model, the reference model and the health report:
+//! Same vector, same order and same mapping as the paper (Dalla Vedova, Berri, Re, ICSRS 2018,
+//! §VI), used by the monitor model, the reference model and the health report:
 //!
 //! | i | name | healthy | physical parameter | mapping |
 //! |---|------|---------|--------------------|---------|
@@ -12,8 +12,8 @@
 //! | k7 | eccentricity phase (not a severity) | 0.5 | angle of the minimum air gap `φ` | `φ = 2π·k7 − π` (paper), periodic |
 //! | k8 | proportional gain drift | 0.5 | `Kp` | `Kp = Kp_0·(0.5 + k8)` (50 % to 150 % of nominal, paper) |
 //!
-//! Effect of a short circuit on phase j (physics.md §3.6): `R_j = R_0·(1−s_j)`, `L_j = L_0·(1−s_j)²`,
-//! `k_j = k_0·(1−s_j)`. Eccentricity (first-order, per-phase form, physics.md §3.6):
+//! Effect of a short circuit on phase j (`docs/model.md`): `R_j = R_0·(1−s_j)`, `L_j = L_0·(1−s_j)²`,
+//! `k_j = k_0·(1−s_j)`. Eccentricity (first-order, per-phase form, `docs/model.md`):
 //! `k_j(θ_m) = k_0·(1−s_j)·[1 + ζ·cos(θ_m − φ − j·2π/3)]`.
 
 use crate::params::EmaParams;
@@ -68,8 +68,8 @@ impl FaultVector {
     /// where `k̂` is the reference (true) vector. The phase term is weighted by the true magnitude
     /// because the phase means nothing without eccentricity. `d` is the distance on the circle,
     /// `min(|k_7 − k̂_7|, 1 − |k_7 − k̂_7|)`: `k_7` = 0 and 1 are the same phase (−π ≡ π), as the
-    /// optimizers treat it (periodic bounds); the paper's plain difference scored a phase found at
-    /// 0.998 for a true 0.021 as a 74 % error (campaign, session 15).
+    /// optimizers treat it (periodic bounds); the paper's plain difference would score a phase
+    /// found at 0.998 for a true 0.021 as a 74 % error.
     pub fn paper_error_percent(&self, truth: &FaultVector) -> f32 {
         let (k, t) = (&self.0, &truth.0);
         let mut sum = 0.0;

@@ -51,7 +51,7 @@ pub mod monitor;
 pub mod optimizer;
 pub mod params;
 pub mod profile;
-mod sector_effects;
+mod six_step;
 pub mod trace;
 pub mod trig;
 

@@ -1,9 +1,9 @@
 //! Nominal parameters of the actuator: a ~1 kW flight-control EMA on a 270 V bus.
 //!
 //! One table shared by the monitor model (this crate, `f32`) and the reference model
-//! (`host-tests/ema-reference`, which converts to `f64`). Origin: `shared/design/physics.md` §6.2
-//! (tag \[P\], a physically consistent proposal, no published table exists), except the nominal
-//! backlash, chosen so that the paper's "1 to 100 times nominal" range ends at 5 mrad.
+//! (`host-tests/reference`, which converts to `f64`). The values are a physically consistent
+//! proposal (no published table exists; `docs/model.md`), except the nominal backlash, chosen so
+//! that the paper's "1 to 100 times nominal" range ends at 5 mrad.
 //!
 //! Derived values: electrical time constant L/R = 4 ms; torque constant of the conducting pair
 //! `Kt = 2·k_0 = 0.26 N·m/A`; no-load motor speed `V_dc/(2 k_0) ≈ 1038 rad/s`; closed position
@@ -61,8 +61,8 @@ pub struct EmaParams {
     pub derivative_filter_s: f32,
     /// Equivalent closed current-loop lag `τ_c` of the monitor model: the hysteresis loop follows
     /// its reference at the voltage's slew rate, seen through the current sensor's 20 kHz
-    /// bandwidth, `1/(2π·20 kHz)` = 8 µs (until session 15, 0.2 ms: the position transducer's lag,
-    /// put on the wrong side of the loop; see [`EmaParams::position_lag_s`]).
+    /// bandwidth, `1/(2π·20 kHz)` = 8 µs. The 0.2 ms lag of the loop is the position
+    /// transducer's ([`EmaParams::position_lag_s`]), on the other side of the current loop.
     pub current_loop_lag_s: f32,
     /// RMS white noise `σ` of each phase-current sensor (datasheet or bench calibration). The
     /// monitor uses it to predict the rectification bias of the measured `I_3eq`
@@ -78,7 +78,7 @@ pub struct EmaParams {
 }
 
 impl EmaParams {
-    /// The proposed nominal actuator (physics.md §6.2).
+    /// The proposed nominal actuator.
     pub const NOMINAL: Self = Self {
         supply_voltage_v: 270.0,
         pole_pairs: 4.0,
@@ -113,6 +113,23 @@ impl EmaParams {
     /// Inertia referred to the motor shaft, `J_eq = J_m + J_u/N²`.
     pub fn equivalent_inertia_kg_m2(&self) -> f32 {
         self.motor_inertia_kg_m2 + self.surface_inertia_kg_m2 / (self.gear_ratio * self.gear_ratio)
+    }
+
+    /// `σ_J`, the RMS current the controller's derivative on measurement puts on the pair from the
+    /// position transducer's noise and resolution `q`:
+    ///
+    /// ```text
+    /// σ_J = Kd·(α/T)·σ_θ·√(2/(2−α)),   α = T/τ_D,   σ_θ² = σ_pos² + q²/12
+    /// ```
+    ///
+    /// (the first-order derivative filter's output variance for white input). The conditioning
+    /// counts it in the rectification of the measured `I_3eq`, the monitor model in its current
+    /// loop on measured currents.
+    pub fn controller_jitter_a(&self) -> f32 {
+        let q = self.position_resolution_rad;
+        let sigma_theta = libm::sqrtf(self.position_noise_rad * self.position_noise_rad + q * q * (1.0 / 12.0));
+        let alpha = self.control_period_s / self.derivative_filter_s;
+        self.kd_a_s_per_rad * (alpha / self.control_period_s) * sigma_theta * libm::sqrtf(2.0 / (2.0 - alpha))
     }
 }
 

@@ -1,7 +1,7 @@
 //! The test manoeuvre: the surface position command `θ_cmd(t)` both models are driven by.
 //!
 //! A profile is a short list of segments, each starting at `start_s` and lasting until the next.
-//! The standard profile (physics.md §7.1) gives every fault a visible signature: a step
+//! The standard profile gives every fault a visible signature: a step
 //! (current saturation, overshoot: gain, friction), a fast reversal (voltage limit, backlash),
 //! a slow ramp (friction level, short-circuit and eccentricity ripple) and a small 4 Hz sine
 //! (repeated reversals: stick-slip, backlash).
@@ -103,7 +103,7 @@ pub struct Profile {
 const EMPTY: Segment = Segment::Hold { start_s: 0.0, value_rad: 0.0 };
 
 impl Profile {
-    /// The standard 0.85 s test manoeuvre (physics.md §7.1).
+    /// The standard 0.85 s test manoeuvre.
     pub const STANDARD: Profile = {
         let mut segments = [EMPTY; MAX_SEGMENTS];
         segments[0] = Segment::Hold { start_s: 0.0, value_rad: 0.0 };

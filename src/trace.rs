@@ -1,7 +1,7 @@
 //! Phase-current ADC format shared by the reference model (which records it), the firmware's
 //! built-in trace (which stores it packed in flash) and acquisition (which converts it back).
 //!
-//! Current sensors: 12-bit ADC over ±20 A, mid-scale at zero current (physics.md §3.8):
+//! Current sensors: 12-bit ADC over ±20 A, mid-scale at zero current:
 //! `counts = clamp(round(ADC_MIDSCALE + i/AMPS_PER_COUNT), 0, ADC_MAX)`.
 //!
 //! **Packed trace** ([`PackedTrace`], [`pack`]): the compact on-flash form of a recording.
@@ -265,9 +265,8 @@ pub(crate) mod synthetic {
         i
     }
 
-    /// A synthetic six-step recording (the placeholder built-in trace before the reference model
-    /// wrote `traces/standard.ematrace`), 10 kHz, 2400 frames, noiseless: 30 ms at rest with zero current (all codes constant), 30 ms at standstill holding 3 A in
-    /// sector 0 (phase C off for the whole segment), then 180 ms of six-step accelerating from 5 Hz
+    /// A synthetic six-step recording, 10 kHz, 2400 frames, noiseless: 30 ms at rest with zero
+    /// current (all codes constant), 30 ms at standstill holding 3 A in sector 0 (phase C off for the whole segment), then 180 ms of six-step accelerating from 5 Hz
     /// to 100 Hz electrical at 5 A, with a ±0.15 A hysteresis ripple on the conducting pair.
     pub fn placeholder_frames() -> std::vec::Vec<[u16; 3]> {
         let rate = super::SAMPLE_RATE_HZ as f32;

@@ -2,7 +2,8 @@
 //!
 //! Why not `libm::sincosf`: musl's `sinf`/`cosf` (ported by `libm`) evaluate their kernels in
 //! **double** precision. A Cortex-M4F has a single-precision FPU only, so every call runs
-//! soft-float `__aeabi_dmul`/`__aeabi_dadd`: measured at ~2 000 instructions per model step in QEMU.
+//! soft-float `__aeabi_dmul`/`__aeabi_dadd`, about 2 000 instructions per model step
+//! (`docs/decisions/0011-libm-and-own-trig.md`).
 //! This module uses f32 arithmetic only (still bit-identical on every target: IEEE-754 `+ − ×`,
 //! no fused multiply-add, no platform library).
 //!
