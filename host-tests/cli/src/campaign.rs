@@ -1,9 +1,9 @@
 //! `ema campaign`: the paper's Table II protocol with our reference model and the on-board core.
 //!
-//! Protocol (Dalla Vedova, Berri, Re, ICSRS 2018, §VII): 5 single-fault modes × {low, high} × `--runs` runs ×
-//! algorithms. Each run draws a fault with a seeded generator, lets the reference model record the
-//! standard manoeuvre with sensor noise on, identifies it with the `no_std` core (the firmware's
-//! code, built for the host) and scores it with the paper's error
+//! Protocol (Dalla Vedova, Berri, Re, ICSRS 2018, §VII): 5 single-fault modes × {low, high} ×
+//! `--runs` runs × algorithms. Each run draws a fault with a seeded generator, lets the reference
+//! model record the standard manoeuvre with sensor noise on, identifies it with the `no_std` core
+//! (the firmware's code, built for the host) and scores it with the paper's error
 //! `Err% = 100·sqrt(Σ_{i≤6}(k_i − k̂_i)² + k̂6 (k7 − k̂7)² + (k8 − k̂8)²)`.
 //!
 //! Draws (all from `SplitMix64(seed ⊕ run-key)`, so a run does not depend on the thread count):
