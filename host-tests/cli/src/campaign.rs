@@ -1,9 +1,9 @@
 //! `ema campaign`: the paper's Table II protocol with our reference model and the on-board core.
 //!
-//! Protocol (ICSRS 2018 §VII, `shared/seed/`): 5 single-fault modes × {low, high} × `--runs` runs ×
-//! algorithms. Each run draws a fault with a seeded generator, lets the reference model record the
-//! standard manoeuvre with sensor noise on, identifies it with the `no_std` core (the firmware's
-//! code, built for the host) and scores it with the paper's error
+//! Protocol (Dalla Vedova, Berri, Re, ICSRS 2018, §VII): 5 single-fault modes × {low, high} ×
+//! `--runs` runs × algorithms. Each run draws a fault with a seeded generator, lets the reference
+//! model record the standard manoeuvre with sensor noise on, identifies it with the `no_std` core
+//! (the firmware's code, built for the host) and scores it with the paper's error
 //! `Err% = 100·sqrt(Σ_{i≤6}(k_i − k̂_i)² + k̂6 (k7 − k̂7)² + (k8 − k̂8)²)`.
 //!
 //! Draws (all from `SplitMix64(seed ⊕ run-key)`, so a run does not depend on the thread count):
@@ -36,6 +36,7 @@ use crate::error::CliError;
 use crate::identify::{condition_recording, identify_trace, AlgorithmArg};
 use crate::recording_io::Recording;
 use crate::simulate::resolve_profile;
+use crate::svg;
 
 /// Order of the algorithms in the table: the paper's two, then differential evolution (not in the paper).
 const ALGORITHM_ORDER: [&str; 3] = ["pso", "ga", "de"];
@@ -519,7 +520,9 @@ pub fn runs_csv(results: &[RunResult]) -> String {
     out
 }
 
-/// Grouped bar chart (SVG): one group per fault mode, one bar per (algorithm, level).
+/// Grouped bar chart (SVG, [`svg::grouped_bars`]): one group per fault mode, one bar per
+/// (algorithm, level); the value axis reaches the largest value of any cell, totals and
+/// multi-fault cells included.
 pub fn bar_chart(title: &str, unit: &str, summary: &BTreeMap<CellKey, Cell>, value: fn(&Cell) -> f64) -> String {
     let series: Vec<(String, String)> = summary
         .keys()
@@ -528,72 +531,12 @@ pub fn bar_chart(title: &str, unit: &str, summary: &BTreeMap<CellKey, Cell>, val
         .collect::<std::collections::BTreeSet<_>>()
         .into_iter()
         .collect();
+    let names: Vec<String> = series.iter().map(|(alg, level)| format!("{alg} {level}")).collect();
     let max = summary.values().map(value).fold(0.0f64, f64::max).max(1e-9);
-    let (w, h, left, bottom, top) = (760.0, 360.0, 60.0, 50.0, 40.0);
-    let group_w = (w - left - 20.0) / MODES.len() as f64;
-    let bar_w = group_w * 0.8 / series.len().max(1) as f64;
-    let colors = ["#1f77b4", "#aec7e8", "#d62728", "#ff9896", "#2ca02c", "#98df8a"];
-    let mut svg = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n\
-         <rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n<text x=\"{}\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">{title}</text>\n",
-        w / 2.0
-    );
-    let plot_h = h - top - bottom;
-    for t in 0..=4 {
-        let v = max * f64::from(t) / 4.0;
-        let y = top + plot_h * (1.0 - f64::from(t) / 4.0);
-        let _ = writeln!(
-            svg,
-            "<line x1=\"{left}\" y1=\"{y:.1}\" x2=\"{:.1}\" y2=\"{y:.1}\" stroke=\"#ddd\"/><text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{v:.2}</text>",
-            w - 20.0,
-            left - 6.0,
-            y + 4.0
-        );
-    }
-    let _ = writeln!(
-        svg,
-        "<text x=\"14\" y=\"{:.1}\" transform=\"rotate(-90 14 {:.1})\" text-anchor=\"middle\">{unit}</text>",
-        top + plot_h / 2.0,
-        top + plot_h / 2.0
-    );
-    for (g, mode) in MODES.iter().enumerate() {
-        let x0 = left + group_w * g as f64 + group_w * 0.1;
-        for (s, (alg, level)) in series.iter().enumerate() {
-            if let Some(c) = summary.get(&(alg.clone(), mode.to_string(), level.clone())) {
-                let bh = plot_h * value(c) / max;
-                let _ = writeln!(
-                    svg,
-                    "<rect x=\"{:.1}\" y=\"{:.1}\" width=\"{:.1}\" height=\"{bh:.1}\" fill=\"{}\"><title>{alg} {level} {mode}: {:.3}</title></rect>",
-                    x0 + bar_w * s as f64,
-                    top + plot_h - bh,
-                    bar_w * 0.95,
-                    colors[s % colors.len()],
-                    value(c)
-                );
-            }
-        }
-        let _ = writeln!(
-            svg,
-            "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{mode}</text>",
-            x0 + group_w * 0.4,
-            h - bottom + 18.0
-        );
-    }
-    // Legend entries 130 px apart, closer when six series (three algorithms) would overflow the width.
-    let legend_step = ((w - left - 20.0) / series.len().max(1) as f64).min(130.0);
-    for (s, (alg, level)) in series.iter().enumerate() {
-        let x = left + 10.0 + legend_step * s as f64;
-        let _ = writeln!(
-            svg,
-            "<rect x=\"{x:.1}\" y=\"{:.1}\" width=\"12\" height=\"12\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{:.1}\">{alg} {level}</text>",
-            h - 18.0,
-            colors[s % colors.len()],
-            x + 16.0,
-            h - 8.0
-        );
-    }
-    svg.push_str("</svg>\n");
-    svg
+    svg::grouped_bars(title, unit, &MODES, &names, max, |g, s| {
+        let (alg, level) = &series[s];
+        summary.get(&(alg.clone(), MODES[g].to_string(), level.clone())).map(value)
+    })
 }
 
 /// Runs `ema campaign`.

@@ -1,7 +1,8 @@
 //! # ema-cli: the host command line of ema-monitor (`ema`)
 //!
 //! One module per subcommand (`simulate`, …) plus the shared recording reader/writer
-//! ([`recording_io`]), profile files ([`profile_file`]) and the error type ([`error`]).
+//! ([`recording_io`]), profile files ([`profile_file`]), the hand-written SVG plots ([`svg`]) and
+//! the error type ([`error`]).
 //! The binary (`src/main.rs`) parses the command line with clap and prints every error as a
 //! single `error: …` line on stderr with exit status 2.
 #![deny(missing_docs)]
@@ -16,3 +17,4 @@ pub mod identify;
 pub mod profile_file;
 pub mod recording_io;
 pub mod simulate;
+pub mod svg;

@@ -94,9 +94,9 @@ pub fn parse_effects(list: &[String]) -> Result<Effects, CliError> {
     Ok(fx)
 }
 
-/// One `ID=S` for both sides of a side-by-side run (the examples): the actuator's effect, and the
-/// monitor model's term at the same severity when the library has one (none for `compliance` or
-/// `bus_sag`); `None` gives neither.
+/// One `ID=S` for both sides of a side-by-side run (the `ema-investigations` programs): the
+/// actuator's effect, and the monitor model's term at the same severity when the library has one
+/// (none for `compliance` or `bus_sag`); `None` gives neither.
 pub fn parse_effect_both_sides(item: Option<&str>) -> Result<(Effects, ModelEffects), CliError> {
     let actuator = match item {
         Some(item) => parse_effects(&[item.to_string()])?,

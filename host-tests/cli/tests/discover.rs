@@ -44,7 +44,7 @@ const RAW_HALVING_FROM: f64 = 2.5 * NOISE_FLOOR_A;
 /// noise at least halved; the raw RMS too where it starts at [`RAW_HALVING_FROM`] or above.
 /// Below that, halving the raw RMS asks the model to remove noise: a Hall offset of 1 with
 /// friction at seed 29 starts at 0.0975 A and ends at 0.0496 A (51 %), 0.0865 → 0.0209 A above
-/// the noise (24 %; session 19, before the Hall term's commutation loss: 0.0501 and 0.0219 A).
+/// the noise (24 %).
 fn assert_found_and_halved(d: &Discovery, effect: EffectId, severity: f32) {
     assert_eq!(named(d), vec![effect], "{}", ema_cli::discover::summary(d));
     let s = d.named[0].1;
@@ -92,18 +92,18 @@ const ONBOARD_GOOD_PERCENT: f32 = 0.7;
 /// read as shorts, a sensor offset or stiction read as friction and gain): the residual left
 /// before is near the floor, so it cannot halve; they are named, and the diagnosis the firmware
 /// gives improves once the named effect is promoted (`Discovery::onboard_before/after`: the
-/// on-board identification, fast regime weighted 0.1, without and with the effect term).
-/// Session 10 asked this of the full-weight refit instead, and had to loosen it for Stribeck on a
-/// healthy actuator (seed 44, a spurious 0.015 short A kept by the refit); the refit's Err% is
-/// still reported (`err_percent_after`), the firmware's is what the promotion is for.
+/// on-board identification, fast regime weighted 0.1, without and with the effect term). The
+/// firmware's diagnosis is what the promotion is for; the full-weight refit of step 4 is not held
+/// to it (it can keep a small spurious fault the on-board selection drops), and its Err% is still
+/// reported (`err_percent_after`).
 ///
 /// What can halve is the residual's part above the sensor noise (`discover::above_noise_a`: the
-/// noise alone is 0.045 A of the 0.048 A floor since session 19's reference step, 0.048 of 0.052
-/// before), and it does in six of the eight (session 16: to 41–49 % of before). Not for the sensor offset with friction (56 % in session 16, 51.5 % since
-/// session 17's freewheel terms), whose term leaves a mismatch of 0.045 A above the noise even at
-/// the true severity (README, `floor_split`), nor for Stribeck on a healthy actuator (62 %): there
-/// the effect adds only 0.043 A above the noise, less than twice what the model's own mismatch
-/// leaves (0.024 A with the term on).
+/// noise alone is 0.045 A of the 0.048 A floor), and it does in six of the eight. Not for the
+/// sensor offset with friction (51.5 %), whose term leaves a mismatch of 0.045 A above the noise
+/// even at the true severity (the `floor_split` investigation,
+/// `docs/results/mismatch-floor.md`), nor for Stribeck on a healthy actuator (62 %): there the
+/// effect adds only 0.043 A above the noise, less than twice what the model's own mismatch leaves
+/// (0.024 A with the term on).
 #[test]
 fn effects_the_faults_had_absorbed_are_named_and_the_fault_vector_repaired() {
     let cases = [
@@ -123,9 +123,9 @@ fn effects_the_faults_had_absorbed_are_named_and_the_fault_vector_repaired() {
         let truth = FaultVector(faults);
         let (before, after) =
             (d.onboard_before.paper_error_percent(&truth), d.onboard_after.paper_error_percent(&truth));
-        // where the firmware's fault-only fit was not misled (Err% under the paper's best;
-        // Stribeck at seed 44 since session 19's reference step: 0.00), promotion must keep it
-        // so: there it reads 0.28 % promoted (a first try asked a third of 0.7 %, 0.23: failed)
+        // where the firmware's fault-only fit is not misled (Err% under the paper's best, as for
+        // Stribeck at seed 44: 0.00), promotion must keep it so (there it reads 0.28 % promoted,
+        // so a bar tighter than the paper's best would test the noise, not the promotion)
         if before < ONBOARD_GOOD_PERCENT {
             assert!(after < ONBOARD_GOOD_PERCENT, "{effect}: on-board Err% {before} -> {after}");
         } else {
@@ -140,20 +140,20 @@ fn effects_the_faults_had_absorbed_are_named_and_the_fault_vector_repaired() {
 }
 
 /// A second effect is not named for what a refit of the faults alone explains: with a sensor
-/// offset and friction at seed 8, round 1's fit kept an eccentricity of 0.39 that any round-2
-/// refit dropped, and a dead time of 0.08 (session 16: a viscous friction of 0.07) was named for
-/// it (`discover::BIC_OWN_STRONG`).
+/// offset and friction at seed 8, round 1's fit keeps an eccentricity of 0.39 that any round-2
+/// refit drops, and without the bar on the effect's own evidence (`discover::BIC_OWN_STRONG`) a
+/// dead time of 0.08 would be named for it.
 #[test]
 fn a_refit_of_the_faults_is_not_named_as_a_second_effect() {
     let d = run(&[(Effect::SensorOffset, 0.9)], FRICTION, 8);
     assert_eq!(named(&d), vec![EffectId::SensorOffset], "{}", ema_cli::discover::summary(&d));
 }
 
-/// Two effects at once: both named, the gap at least halved. At seed 71 (since session 19's
-/// reference step) the fault-only fit reads an eccentricity of 0.99 and friction 0.50, round 1's
-/// dead time alone lands at its bound absorbing the viscous friction too, and nothing was named;
-/// a round with the pinned effect on then names the viscous friction beside it and puts the dead
-/// time back under its bound (0.84; `discover`, step 3).
+/// Two effects at once: both named, the gap at least halved. At seed 71 the fault-only fit reads
+/// an eccentricity of 0.99 and friction 0.50, and round 1's dead time alone lands at its bound,
+/// absorbing the viscous friction too, so round 1 names nothing; a round with the pinned effect
+/// on then names the viscous friction beside it and puts the dead time back under its bound
+/// (0.84; `discover`, step 3).
 #[test]
 fn two_effects_at_once_are_both_named() {
     let friction = [0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
@@ -185,10 +185,10 @@ fn effects_outside_the_library_are_not_mislabelled() {
 }
 
 /// A DC-link sag fits as a dead time under the bound on the fit part and at it on the whole
-/// recording: step 4 withdraws it (`Withdrawal::AtBound`), and the verdict says why. Before
-/// session 18 it was named dead time (friction 0.3, seed 8, 1.23). Since session 19's reference
-/// step: with friction 0.2 at seed 51 (the recording of the test above) 1.25, with friction 0.3
-/// at seeds 10 and 11 1.22 and 1.23; at seeds 8, 9 and 12 no round names it.
+/// recording: step 4 withdraws it (`Withdrawal::AtBound`), and the verdict says why. With
+/// friction 0.2 at seed 51 (the recording of the test above) the whole-recording refit puts it at
+/// 1.25, with friction 0.3 at seeds 10 and 11 at 1.22 and 1.23; at seeds 8, 9 and 12 no round
+/// names it.
 #[test]
 fn an_effect_refitted_at_its_bound_is_withdrawn() {
     let d = run(&[(Effect::BusSag, 1.0)], [0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5], 51);
@@ -202,14 +202,14 @@ fn an_effect_refitted_at_its_bound_is_withdrawn() {
 }
 
 /// Cogging on a healthy actuator, hidden: the firmware's own identification must not read it as
-/// an eccentricity. Its ripple is periodic in the rotor angle, as eccentricity's is; at seed 8 the
-/// on-board fit kept an eccentricity of 0.22 (DEGRADED) until session 12, all of whose net gain
-/// came from the last 40 ms of the manoeuvre (`monitor::helps_without_its_best_window`; since
-/// session 16 the rest must gain a quarter of that window's gain: with the braking phases
-/// resolved, seed 8 read 0.21 again, the rest gaining 2 % of it). With friction 0.3 the window
-/// check is not enough (seeds 10 and 30 read 0.19 and 0.16), nor at seed 30 without it (0.15):
-/// with friction the repair is naming the cogging and promoting it (the test below); on the
-/// healthy seed 30 it is not named (README).
+/// an eccentricity. Its ripple is periodic in the rotor angle, as eccentricity's is; at seed 8 an
+/// eccentricity of about 0.2 fits, with all of its net gain in the last 40 ms of the manoeuvre
+/// (the rest gaining 2 % of it), and the window check drops it: the other windows must gain a
+/// quarter of the best window's gain (`monitor::helps_without_its_best_window`,
+/// `docs/decisions/0002-window-check.md`). With friction 0.3 the window check is not enough
+/// (seeds 10 and 30 read 0.19 and 0.16), nor at seed 30 without it (0.15): with friction the
+/// repair is naming the cogging and promoting it (the test below); on the healthy seed 30 it is
+/// not named.
 #[test]
 fn the_on_board_fit_does_not_read_cogging_as_eccentricity() {
     for seed in [8, 9, 10] {
@@ -226,11 +226,10 @@ fn the_on_board_fit_does_not_read_cogging_as_eccentricity() {
 /// model's floor is most of it), but the held-out evidence names it at about its severity. With
 /// friction 0.3 at seeds 30 and 31 the firmware's own identification reads it as an eccentricity
 /// of 0.17 and 0.12 (DEGRADED on a healthy motor); promoted, the firmware reads none. Over seeds
-/// 8–10, 30 and 31, with and without friction, it is named in 7 of the 10 recordings since
-/// session 19's reference step (9 of 10 in session 18, 4 of 10 in session 16); with friction at
-/// seeds 10, 30 and 31, these three. With friction at seed 8 it was named in round 1 (1.08) and
-/// withdrawn at step 4 (whole-recording refit 1.22, at the bound), and the firmware's misread
-/// eccentricity of 0.19 stays (README); nothing else is named in any of the ten.
+/// 8–10, 30 and 31, with and without friction, it is named in 7 of the 10 recordings; with
+/// friction at seeds 10, 30 and 31, these three. With friction at seed 8 round 1 names it (1.08)
+/// and step 4 withdraws it (whole-recording refit 1.22, at the bound), and the firmware's misread
+/// eccentricity of 0.19 stays; nothing else is named in any of the ten.
 #[test]
 fn cogging_is_named_and_the_firmware_stops_reading_it_as_eccentricity() {
     for (seed, misread) in [(10, false), (30, true), (31, true)] {
@@ -249,10 +248,8 @@ fn cogging_is_named_and_the_firmware_stops_reading_it_as_eccentricity() {
 }
 
 /// The Hall offset below its documented maximum: named at about its severity, and the
-/// firmware's diagnosis repaired once it is promoted. Until session 15 it read high (1.00 for 0.8:
-/// the term absorbed part of the fast regime's half-substep lag, README) and at s = 1 the fit
-/// landed on the bound and the effect was refused as "stronger or different"; s = 1 is now among
-/// the effects above the floor (the test above).
+/// firmware's diagnosis repaired once it is promoted. At s = 1 it is among the effects above the
+/// floor (the test above).
 #[test]
 fn a_hall_offset_below_its_maximum_is_named() {
     for (seed, faults) in [(60, HEALTHY), (61, FRICTION)] {

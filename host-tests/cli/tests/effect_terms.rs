@@ -3,8 +3,8 @@
 //! For each effect: a reference recording of the standard profile with the effect on (noise on,
 //! seed 3), then the `I_3eq` residual of the monitor model with the **true** faults, without and
 //! with the effect term at the true severity, smoothed over 5 conditioned blocks (the identification
-//! compares block means; the raw residual is dominated by the sensor noise). Clean floor (no effect
-//! in either model): 0.075 A healthy.
+//! compares block means; the raw residual is dominated by the sensor noise). The clean floor (no
+//! effect in either model, [`floor`]) is measured on the same seed.
 //!
 //! Where the signature is well above the floor (saturation, dead time, viscous, winding temperature,
 //! hinge stiffness, Stribeck on a worn joint) the term must at least halve the residual; every term

@@ -1,10 +1,10 @@
-//! The monitor model's sector effect terms (`emf_harmonics`, `hall_misalignment`,
-//! `sensor_offset`, `ema_monitor` `sector_effects`) against the reference model playing the same
-//! effect: a recording with the effect on (noise on), the monitor model with the true faults, with
-//! and without the effect term at the true severity; residual RMS of `I_3eq` after smoothing over
-//! 5 window samples (2 ms). Where the term should bring the residual back near the clean floor it
-//! must at least halve it, or its excess over that floor; `hall_misalignment` must remove nearly
-//! all of its excess (since session 20's commutation loss).
+//! The monitor model's sector-shape effect terms (`emf_harmonics`, `hall_misalignment`,
+//! `sensor_offset`) against the reference model playing the same effect: a recording with the
+//! effect on (noise on), the monitor model with the true faults, with and without the effect term
+//! at the true severity; residual RMS of `I_3eq` after smoothing over 5 window samples (2 ms).
+//! Where the term should bring the residual back near the clean floor it must at least halve it,
+//! or its excess over that floor; `hall_misalignment` must remove nearly all of its excess (the
+//! pair model's commutation loss takes the offset into account).
 
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::fitness::simulate_window_with_effects;
@@ -57,11 +57,10 @@ fn shorted_a() -> FaultVector {
 
 #[test]
 fn narrowed_emf_flat_top_term_halves_the_residual() {
-    // Measured (2026-11-24, session 20): 0.441 → 0.050 A (clean floor 0.051 A; 0.447 → 0.084
-    // against a floor of 0.075 A when this test was written).
+    // Full severity, healthy: 0.441 → 0.050 A (clean floor 0.051 A).
     let (without, with) = residuals(Effect::EmfHarmonics, EffectId::EmfHarmonics, 1.0, FaultVector::HEALTHY);
     assert!(with <= 0.5 * without, "{with} vs {without}");
-    // Half severity with a short on phase a: 0.163 → 0.047 A (when written: 0.179 → 0.076 A).
+    // Half severity with a short on phase a: 0.163 → 0.047 A.
     let (without, with) = residuals(Effect::EmfHarmonics, EffectId::EmfHarmonics, 0.5, shorted_a());
     assert!(with <= 0.5 * without, "{with} vs {without}");
 }
@@ -74,8 +73,7 @@ fn excess_a(r: f64, floor: f64) -> f64 {
 #[test]
 fn sensor_offset_term_halves_the_excess_over_the_clean_floor() {
     // Even a perfect term leaves the clean floor (0.051 A against 0.150 A without the term):
-    // compare the excess √(r² − floor²). Measured (session 20): 0.141 → 0.051 A (when
-    // written: 0.131 → 0.053 A against a floor of 0.075 A).
+    // compare the excess √(r² − floor²): 0.141 → 0.051 A.
     let k = FaultVector::HEALTHY;
     let floor = smoothed_residual_a(&recording(Effects::NONE, k), &k, &ModelEffects::NONE);
     let (without, with) = residuals(Effect::SensorOffset, EffectId::SensorOffset, 1.0, k);
@@ -87,11 +85,10 @@ fn hall_offset_term_removes_nearly_all_the_excess_over_the_clean_floor() {
     // Excess over the clean floor without → with the term (seed 3), and its share:
     // s = 1, healthy:        0.2678 → 0.0052 A (1.9 %)
     // s = 0.8, friction 0.3: 0.2014 → 0.0099 A (4.9 %)
-    // Until session 20 the pair model's commutation loss ignored the offset (the outgoing phase
-    // decaying partly on its flat top, the incoming rising partly on its ramp): 0.0273 A (10.2 %)
-    // and 0.0184 A (9.1 %). When this test was written the residual went only 0.277 → 0.195 A
-    // at s = 1 (it asked for 20 % less). The bar, 7 %, sits between the two models' worst cases
-    // (4.9 % and 9.1 %): the test fails without the commutation loss (checked).
+    // A commutation loss that ignores the offset (the outgoing phase decaying partly on its flat
+    // top, the incoming rising partly on its ramp) leaves 0.0273 A (10.2 %) and 0.0184 A
+    // (9.1 %). The bar, 7 %, sits between the two forms' worst cases (4.9 % and 9.1 %): the test
+    // fails without the offset in the commutation loss.
     for (severity, k) in [(1.0, FaultVector::HEALTHY), (0.8, friction())] {
         let floor = smoothed_residual_a(&recording(Effects::NONE, k), &k, &ModelEffects::NONE);
         let (without, with) = residuals(Effect::HallMisalignment, EffectId::HallMisalignment, severity, k);

@@ -1,4 +1,4 @@
-//! Actuator control electronics: the PID position loop (physics.md §3.1), identical in the monitor model.
+//! Actuator control electronics: the PID position loop (docs/model.md), identical in the monitor model.
 //!
 //! Sampled every `T` at `t_k = k·T`, output held (ZOH) until the next sample:
 //! ```text

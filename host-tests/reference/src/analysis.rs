@@ -3,14 +3,14 @@
 
 use crate::electrical::emf_shapes;
 
-/// Equivalent current, torque-projection form (physics.md §4.4 B): `I_3eq = ½·Σ f_j(θ_e)·i_j`,
+/// Equivalent current, torque-projection form (docs/model.md): `I_3eq = ½·Σ f_j(θ_e)·i_j`,
 /// ideal 120° shapes. Equals `T_m/(2 k_0)` in a healthy motor.
 pub fn equivalent_current_projection(theta_e_rad: f64, i: [f64; 3]) -> f64 {
     let f = emf_shapes(theta_e_rad, core::f64::consts::PI / 6.0);
     0.5 * (f[0] * i[0] + f[1] * i[1] + f[2] * i[2])
 }
 
-/// Equivalent current, magnitude form (physics.md §4.4 A): `I_3eq = ½·(|i_a| + |i_b| + |i_c|)·sign`.
+/// Equivalent current, magnitude form (docs/model.md): `I_3eq = ½·(|i_a| + |i_b| + |i_c|)·sign`.
 pub fn equivalent_current_magnitude(i: [f64; 3], sign: f64) -> f64 {
     0.5 * (i[0].abs() + i[1].abs() + i[2].abs()) * if sign < 0.0 { -1.0 } else { 1.0 }
 }

@@ -1,4 +1,4 @@
-//! Effects the monitor model lacks (physics.md §10), each OFF by default with a severity `s ∈ [0, 1]`.
+//! Effects the monitor model lacks (docs/model.md), each OFF by default with a severity `s ∈ [0, 1]`.
 //!
 //! A severity maps to a physical magnitude; `s = 1` is the documented maximum of the table in the
 //! crate documentation (and `host-tests/reference/README.md`). The mapping is linear in `s` unless

@@ -1,5 +1,5 @@
 //! Hall commutation, hysteresis current control, three-phase inverter and star-connected windings
-//! (physics.md §3.2–§3.5).
+//! (docs/model.md).
 //!
 //! ```text
 //! sector s = floor(((θ_e + δ_H − π/6) mod 2π) / (π/3))          (Hall logic, δ_H = Hall offset)
@@ -19,7 +19,7 @@
 
 use core::f64::consts::{PI, TAU};
 
-/// Commutation table `c_j(s)` for sectors 0..5 (physics.md §3.2).
+/// Commutation table `c_j(s)` for sectors 0..5 (docs/model.md).
 pub const COMMUTATION: [[i8; 3]; 6] = [[1, -1, 0], [1, 0, -1], [0, 1, -1], [-1, 1, 0], [-1, 0, 1], [0, -1, 1]];
 
 /// Hall sector of an electrical angle (already offset by `δ_H` if the Hall sensors are misaligned).
@@ -29,7 +29,7 @@ pub fn hall_sector(theta_e_rad: f64) -> u8 {
     ((x / (PI / 3.0)) as u8).min(5)
 }
 
-/// Hall signals (a, b, c) of a sector, as in the table of physics.md §3.2.
+/// Hall signals (a, b, c) of a sector, as in the table of docs/model.md.
 pub fn hall_signals(sector: u8) -> [bool; 3] {
     const H: [[bool; 3]; 6] = [
         [true, false, true],
@@ -43,7 +43,7 @@ pub fn hall_signals(sector: u8) -> [bool; 3] {
 }
 
 /// Trapezoidal shape `f_a(θ_e)`: linear ramps of width `ramp_rad` around the zero crossings at 0 and π,
-/// flat top ±1 in between (`ramp_rad = π/6` gives the ideal 120° flat top of physics.md §3.4).
+/// flat top ±1 in between (`ramp_rad = π/6` gives the ideal 120° flat top of docs/model.md).
 pub fn trapezoid(theta_e_rad: f64, ramp_rad: f64) -> f64 {
     let x = theta_e_rad.rem_euclid(TAU);
     let (sign, y) = if x < PI { (1.0, x) } else { (-1.0, x - PI) };

@@ -2,7 +2,7 @@
 //!
 //! The RM plays the real actuator on the host, in `f64`: its recordings stand in for flight data
 //! when the on-board monitor (`ema-monitor`, whose light single-phase *monitor model* runs in `f32`)
-//! is tested. It follows `shared/design/physics.md` §3 and takes every shared definition from the
+//! is tested. Its equations are in `docs/model.md`; it takes every shared definition from the
 //! `ema-monitor` crate: the nominal table [`ema_monitor::EmaParams::NOMINAL`], the one fault mapping
 //! [`ema_monitor::FaultVector::physical`], the command [`ema_monitor::Profile::command_rad`] (an `f32`
 //! digital signal) and the 12-bit current ADC format [`ema_monitor::trace`].
@@ -21,12 +21,14 @@
 //! [`Simulator`] by hand (`sample`, `advance_period`, `step`) to inspect the state at every step.
 //!
 //! ## Numerics
-//! Fixed step `dt` = 1 µs ([`DEFAULT_STEP_S`]), explicit Euler on the currents, semi-implicit Euler on
-//! the mechanics, 100 steps per ACE period. The choice is kept honest by `tests/convergence.rs`
-//! (dt = 2, 1, 0.5 µs). Currents sum to zero after every step (isolated-neutral formula weighted by
-//! `1/L_j`; a diode current clamped at zero gives its residue back with the same weights).
+//! Fixed step `dt` = 0.25 µs ([`DEFAULT_STEP_S`]), explicit Euler on the currents, semi-implicit
+//! Euler on the mechanics, 400 steps per ACE period. `tests/convergence.rs` holds the choice to
+//! the finest run (dt = 1, 0.5 and 0.25 µs against 0.05 µs; why 0.25 µs:
+//! `docs/decisions/0004-reference-step.md`). Currents sum to zero after every step
+//! (isolated-neutral formula weighted by `1/L_j`; a diode current clamped at zero gives its
+//! residue back with the same weights).
 //!
-//! ## Modelling choices (where physics.md leaves a choice)
+//! ## Modelling choices (where docs/model.md leaves a choice)
 //! * Backlash: the kinematic play operator by default ([`BacklashModel::Play`], as the monitor model);
 //!   [`BacklashModel::FreeSurface`] gives the surface its own inertia inside the gap (stiff, heavily
 //!   damped contact). The `compliance` effect always uses the 2-DOF dead-zone spring.
@@ -41,7 +43,7 @@
 //!
 //! ## Effects (all off by default; severity `s ∈ [0, 1]`, linear in `s` unless stated)
 //!
-//! | ID | physics | `s = 1` (maximum) | signature (physics.md §10) |
+//! | ID | physics | `s = 1` (maximum) | signature (docs/model.md) |
 //! |----|---------|-------------------|-----------|
 //! | `cogging` | `T_cog = A·sin(24·θ_m)` added to the motor torque | `A` = 0.04 N·m (≈1 % of 3.9 N·m) | 24/rev ripple, present at zero current |
 //! | `stribeck` | breakaway `FSJ(1+s)`, sliding `FDJ + s(2FSJ − FDJ)·e^{−(ω/ω_s)²}`, `ω_s` = 5 rad/s | stiction 2×FSJ | current spikes at breakaway, stick-slip |

@@ -1,4 +1,4 @@
-//! Motor, gearbox and surface mechanics (physics.md §3.7): Borello dry friction with the
+//! Motor, gearbox and surface mechanics (docs/model.md): Borello dry friction with the
 //! load-dependent term, viscous friction, hinge load, backlash, end stops; rigid (1-DOF, play operator)
 //! or compliant (2-DOF, dead-zone spring) transmission.
 //!

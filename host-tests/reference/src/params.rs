@@ -10,7 +10,7 @@ use crate::effects::{maxima, Effect, Effects};
 /// How the free play between the gear output and the surface is modelled when the transmission is rigid.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum BacklashModel {
-    /// Kinematic play operator `θ_u ← clamp(θ_u, θ_m/N − BL/2, θ_m/N + BL/2)` (physics.md §3.7), the
+    /// Kinematic play operator `θ_u ← clamp(θ_u, θ_m/N − BL/2, θ_m/N + BL/2)` (docs/model.md), the
     /// monitor model's choice: one mechanical degree of freedom, `J_eq = J_m + J_u/N²`, the hinge load
     /// always reflected to the motor.
     #[default]

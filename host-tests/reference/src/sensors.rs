@@ -1,4 +1,4 @@
-//! Transducers (physics.md §3.8): first-order lags, white noise, quantization.
+//! Transducers (docs/model.md): first-order lags, white noise, quantization.
 //!
 //! | channel | model |
 //! |---|---|

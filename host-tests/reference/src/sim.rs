@@ -1,6 +1,6 @@
 //! The simulation loop: configuration, fixed-step integration, sampling and the recording.
 //!
-//! Order of operations (physics.md §3.9). At every ACE instant `t_k = k·T` the sensors are sampled
+//! Order of operations (docs/model.md). At every ACE instant `t_k = k·T` the sensors are sampled
 //! (noise, quantization), the PID computes `I_ref` (held until `t_{k+1}`) and the sample is recorded.
 //! Then `T/dt` integration steps follow, each: `θ_e, f_j, k_j, e_j` → Hall sector → inverter and
 //! currents → `T_m` → friction and mechanics → sensor lags.

@@ -10,12 +10,12 @@
 //!   after the fast reversal (t ≥ 0.32 s): there the loop is not chaotic, so what differs is the
 //!   integrator.
 //!
-//! Why not 1 µs (sessions 1–18): the hysteresis comparators switch on the step grid, the ripple's
-//! switching instants lock to it and to the 100 µs sample period, and the samples alias the ripple
-//! into the 2 ms means: 0.040 A RMS off the finest run after 0.32 s, 7× the 0.25 µs step's 0.0055 A
-//! and twice the monitor model's whole mismatch with the actuator (README, "the reference's own
-//! step"). The earlier study compared per-period means of every step, which hide that aliasing,
-//! against a floor of 0.36 A (physics.md §7.2, session 1); the model's mismatch is now 0.015 A.
+//! Why not 1 µs: the hysteresis comparators switch on the step grid, the ripple's switching
+//! instants lock to it and to the 100 µs sample period, and the samples alias the ripple into the
+//! 2 ms means: 0.040 A RMS off the finest run after 0.32 s, 7× the 0.25 µs step's 0.0055 A and
+//! twice the monitor model's whole mismatch with the actuator. Per-period means of every step hide
+//! that aliasing, so the study compares the sampled current (`docs/decisions/0004-reference-step.md`;
+//! the `reference_step` investigation prints the table for any steps).
 //!
 //! Tolerance: the chosen step's sampled 2 ms means within 0.01 A of the finest run's (a quarter
 //! of the sensor noise of a 2 ms mean, 0.045 A) and at most half the 1 µs step's difference; the

@@ -1,4 +1,4 @@
-//! Each unmodelled effect moves the signals in its documented direction (physics.md §10), with the
+//! Each unmodelled effect moves the signals in its documented direction (docs/model.md), with the
 //! magnitudes of the crate-level table where they can be predicted.
 
 mod common;

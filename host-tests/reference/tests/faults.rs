@@ -1,4 +1,4 @@
-//! Each fault k1…k8 moves the signals in its documented direction (physics.md §5, §7.2).
+//! Each fault k1…k8 moves the signals in its documented direction (docs/model.md).
 
 mod common;
 
@@ -98,7 +98,7 @@ fn kt_order_9(r: &Recording) -> (f64, f64, f64) {
 }
 
 /// k6 (eccentricity ζ = 0.5·k6): a torque-constant ripple of order 2p+1 = 9 per revolution whose
-/// amplitude grows in proportion to ζ, with no change of the mean (physics.md §3.6).
+/// amplitude grows in proportion to ζ, with no change of the mean (docs/model.md).
 /// k7 (its angle φ = 2πk7 − π) turns the ripple: half a turn of φ flips its sign.
 #[test]
 fn eccentricity_ripple_grows_with_magnitude_and_turns_with_phase() {

@@ -55,7 +55,7 @@ fn measured_currents_sum_to_zero_on_average() {
 }
 
 /// Power balance over the standard profile:
-/// `E_in = W_load + E_cu + E_visc + E_fric + ΔE_mag + ΔE_kin` within 0.1 % of `E_in` at dt = 1 µs
+/// `E_in = W_load + E_cu + E_visc + E_fric + ΔE_mag + ΔE_kin` within 0.1 % of `E_in` at the default step
 /// (the residual is the O(dt) error of the explicit step, see tests/convergence.rs), each side
 /// checked against independent physical expectations.
 #[test]

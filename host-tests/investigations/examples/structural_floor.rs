@@ -3,8 +3,11 @@
 //! overall, by time band of the standard manoeuvre, by motor speed, and the 5 ms windows holding
 //! the most of its energy.
 //!
+//! Produces the per-recording bands of `docs/results/mismatch-floor.md`. From `host-tests/`
+//! (the recording from `ema simulate`):
+//!
 //! ```text
-//! cargo run --release -p ema-cli --example structural_floor -- FILE.csv [K1,...,K8] [EFFECT=S]
+//! cargo run --release -p ema-investigations --example structural_floor -- FILE.csv [K1,...,K8] [EFFECT=S]
 //! ```
 //! `K` defaults to healthy; `EFFECT=S` switches one effect term of the model on.
 

@@ -13,8 +13,12 @@
 //!   drift (the regulating leg's pulse), at 0 V (freewheel), and at `V` with the drift (the other
 //!   leg, which the term takes as latched, pulsing), with and without the idle phase conducting.
 //!
+//! Produces the sensor-offset term's held-current and idle-phase figures of `docs/model.md`.
+//! From `host-tests/`:
+//!
 //! ```text
-//! cargo run --release -p ema-cli --example freewheel -- N [EFFECT=S] [K1,...,K8]
+//! cargo run --release -p ema-investigations --example freewheel -- N [EFFECT=S] [K1,...,K8]
+//! cargo run --release -p ema-investigations --example freewheel -- 4
 //! ```
 //! Without `EFFECT=S`: `sensor_offset=0.9`. The healthy actuator's idle phase, for comparison:
 //! `EFFECT` = `cogging=0` (no effect).

@@ -3,13 +3,16 @@
 //! true fault vector, and between `T0` and `T1` each block of `EVERY` control periods prints the
 //! means of both controllers' current reference `I_ref`, of both currents (the actuator's `½Σ|i_j|`
 //! of its true phase currents, the model's pair current) and of both motor torques, and at the
-//! block's end both motor speeds and the surface angles' difference. It is how the end of the fast
-//! reversal was read (README, "the mismatch floor"). `EFFECT=S` puts an unmodelled effect into
-//! the actuator and, when the library has its term, that term at the same severity into the model:
-//! where the two still disagree, the term's physics does.
+//! block's end both motor speeds and the surface angles' difference. `EFFECT=S` puts an
+//! unmodelled effect into the actuator and, when the library has its term, that term at the same
+//! severity into the model: where the two still disagree, the term's physics does.
+//!
+//! Produces the loop comparisons of `docs/model.md` (the end of the fast reversal, the
+//! commutation loss). From `host-tests/`:
 //!
 //! ```text
-//! cargo run --release -p ema-cli --example loop_side_by_side -- T0 T1 [EVERY] [EFFECT=S] [K1,...,K8]
+//! cargo run --release -p ema-investigations --example loop_side_by_side -- T0 T1 [EVERY] [EFFECT=S] [K1,...,K8]
+//! cargo run --release -p ema-investigations --example loop_side_by_side -- 0.165 0.19 20
 //! ```
 
 use ema_cli::simulate::{parse_effect_both_sides, parse_faults};

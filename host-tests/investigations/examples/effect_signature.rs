@@ -9,11 +9,15 @@
 //! compares and on the 2 ms means the structural residual uses. Then the RMS of the measured
 //! seeds' mean minus the model with its term at `s` = 0, 0.1·S, …, 1.2·S by band: where in the
 //! recording a fit of the term would settle, and whether it moves smoothly with `s` (a jump is a
-//! discrete event of the model, session 18's lost step at a reversal); then the lag (in blocks) at
+//! discrete event of the model, such as a lost step at a reversal); then the lag (in blocks) at
 //! which the two signatures agree best, and with `T0 T1` the blocks between them.
 //!
+//! Produces the effect-term signatures of `docs/model.md` (e.g. the cogging term with friction).
+//! From `host-tests/`:
+//!
 //! ```text
-//! cargo run --release -p ema-cli --example effect_signature -- N EFFECT=S [K1,...,K8 [T0 T1]]
+//! cargo run --release -p ema-investigations --example effect_signature -- N EFFECT=S [K1,...,K8 [T0 T1]]
+//! cargo run --release -p ema-investigations --example effect_signature -- 16 cogging=1 0.3,0,0,0,0,0,0.5,0.5
 //! ```
 
 use std::path::Path;

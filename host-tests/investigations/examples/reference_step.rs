@@ -2,11 +2,13 @@
 //! manoeuvre, noise and quantization off, at each step `STEP_S` against the finest `FINE_S`; the
 //! RMS difference of the sampled `½Σ|i_j|` in 2 ms means (what the monitor reads, ripple and all)
 //! over the whole recording and after the fast reversal (t ≥ 0.32 s), where the loop is not
-//! chaotic. `tests/convergence.rs` in the reference crate holds the chosen step to it (README,
-//! "the reference model's own step").
+//! chaotic. The reference crate's `tests/convergence.rs` holds the chosen step to it.
+//!
+//! Produces the step table of `docs/decisions/0004-reference-step.md`. From `host-tests/`:
 //!
 //! ```text
-//! cargo run --release -p ema-cli --example reference_step -- FINE_S STEP_S [STEP_S ...]
+//! cargo run --release -p ema-investigations --example reference_step -- FINE_S STEP_S [STEP_S ...]
+//! cargo run --release -p ema-investigations --example reference_step -- 5e-8 2e-6 1e-6 5e-7 2.5e-7 2e-7 1e-7
 //! ```
 
 use ema_reference::analysis::{equivalent_current_magnitude, moving_average, rms_difference};

@@ -4,8 +4,12 @@
 //! It is what the firmware's window check ([`ema_monitor::monitor::helps_without_its_best_window`])
 //! weighs: a group whose gain comes from one window alone is dropped.
 //!
+//! Produces the window gains of `docs/decisions/0002-window-check.md` (a hidden cogging read as
+//! an eccentricity: the recording of `ema simulate --seed 8 --effect cogging=1`). From
+//! `host-tests/`:
+//!
 //! ```text
-//! cargo run --release -p ema-cli --example window_gains -- FILE.csv K_A K_B
+//! cargo run --release -p ema-investigations --example window_gains -- FILE.csv K_A K_B
 //! ```
 //! (`K` as `k1,…,k8`; typically `K_A` without a fault group and `K_B` with it.)
 

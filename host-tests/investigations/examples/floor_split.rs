@@ -14,8 +14,12 @@
 //! Then by band of time and of speed, the 5 ms windows with the most mismatch, and the mean
 //! mismatch by half of the commutation sector (where a term's error is tied to the rotor angle).
 //!
+//! Produces the noise / mismatch split of `docs/results/mismatch-floor.md` (and
+//! `ema_cli::discover::NOISE_FLOOR_A`). From `host-tests/`:
+//!
 //! ```text
-//! cargo run --release -p ema-cli --example floor_split -- N [K1,...,K8] [EFFECT=S]
+//! cargo run --release -p ema-investigations --example floor_split -- N [K1,...,K8] [EFFECT=S]
+//! cargo run --release -p ema-investigations --example floor_split -- 16 0,0,0,0,0,0,0.5,0.5
 //! ```
 //! `EFFECT=S` puts the effect in the actuator **and** switches the model's term on at the same
 //! severity: how well the term matches the effect, with the noise taken out.

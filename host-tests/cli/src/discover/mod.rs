@@ -1,0 +1,337 @@
+//! `ema discover`: where the monitor model and a recording disagree, which library effect is
+//! missing, and how much of the gap it closes.
+//!
+//! 1. **Fit** the current model (the on-board identification: PSO, model selection, polish) and
+//!    take the residual `r_i = I_3eq,i − Ĩ_MM,i` of the 0.4 ms block means ([`residual`]). The
+//!    sensor noise is not a discrepancy any model could remove, so the residual judged here is the
+//!    *structural* one: `r` averaged over [`SMOOTH_BLOCKS`] blocks (2 ms). Its RMS is "the gap";
+//!    the raw RMS is reported beside it.
+//! 2. **Where** ([`localisation`]): the 25 ms windows holding most of the structural residual
+//!    energy, and its share per operating regime (direction, speed, reversals, current level)
+//!    against the regime's share of time; the share of the raw residual carried by rotor-angle
+//!    orders (1, 2, 6 per electrical turn; 6 per electrical turn is also cogging's 24 per
+//!    mechanical turn) by least squares on `sin/cos(n·θ)`.
+//! 3. **Name** ([`naming`]): every library effect ([`EffectId::ALL`]) is fitted with the faults
+//!    ([`fit_model`] in [`fitting`]: compass searches from the current fit and from it with its
+//!    electrical or mechanical faults reset, at the best severity of a scan, then model selection
+//!    and a polish) on alternate 25 ms chunks of the recording, and scored on the held-out chunks:
+//!    `ΔBIC = n_eff·ln(E_before/E_after) − Δp·ln(n_eff)` on each part (`Δp` the change in free
+//!    parameters, `n_eff` the residual's effective sample count,
+//!    [`CurrentFit::effective_samples`]). An effect is named only when the held-out ΔBIC exceeds
+//!    [`BIC_STRONG`] (Kass & Raftery's "very strong") and the in-sample one [`BIC_FIT_STRONG`]
+//!    ("strong"; for an effect that replaces faults: a fit of the fit part at least as good as the
+//!    reference's, [`Candidate::fit_gain`]), the fitted severity is neither negligible nor at its
+//!    bound ([`PINNED_SEVERITY`]), and the structural residual on the whole recording is smaller
+//!    with it; an effect that leaves fewer fault parameters than the fit without it (a winding
+//!    temperature rise read as shorts on three phases) must remove a share of the gap too
+//!    ([`MIN_GAP_SHARE_REPLACING`]): parsimony alone does not make a missing effect. Confidence is
+//!    the winner's posterior weight among "no effect" and all candidates,
+//!    `exp(ΔBIC_j/2)/(1 + Σ exp(ΔBIC/2))`. The search repeats for a second effect on top of the
+//!    first. A winner at its bound may be absorbing a second effect (a dead time that took a
+//!    viscous friction too): the round runs again with it on, and if that round names another
+//!    effect and puts the pinned one back under its bound, both are named. The rules and their
+//!    evidence: `docs/decisions/0009-effect-naming-rules.md`.
+//! 4. **Add**: the named effects are refitted with the faults on the whole recording. One the
+//!    refit puts at its bound ([`PINNED_SEVERITY`]) is withdrawn, as a round would have refused
+//!    it ([`Withdrawal::AtBound`]). They must shrink its structural gap; if they do not, the last
+//!    one named is withdrawn and the rest refitted: the rounds compare fits of the fit part, whose
+//!    reference can fit the whole recording worse than step 1's fit does (a compliant
+//!    transmission, outside the library, can pass for a hot winding that removes a share of the
+//!    round's gap and none of the recording's).
+//! 5. **Show** ([`report`]): structural and raw residual RMS before/after, overall and in the
+//!    windows of step 2, and the structural residual's part above the sensor noise
+//!    ([`above_noise_a`]); with `--truth`, the paper's Err% of the fault vector before/after.
+//! 6. **Diagnose as on board**: the firmware's identification ([`IdentifyConfig::onboard`])
+//!    without and with the named effects promoted: the fault vectors it would report.
+//!
+//! `--out DIR` writes `discovery.json`, `residual.csv`, `fit.svg`, `residual.svg` and
+//! `model-config.txt` (the promoted model: `effect ID SEVERITY` lines for the firmware build).
+
+pub mod fitting;
+pub mod localisation;
+pub mod naming;
+pub mod report;
+pub mod residual;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::Args;
+use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::fitness::CurrentFit;
+use ema_monitor::monitor::IdentifyConfig;
+use ema_monitor::{EffectId, EmaParams, FaultVector, ModelEffects, Profile};
+
+pub use fitting::{
+    fault_parameter_count, fit_model, parameter_count, ModelFit, Part, PartFit, CHUNK_BLOCKS, MIN_SEVERITY,
+};
+pub use localisation::{
+    hot_windows, order_share, orders, regimes, unexplained, Regime, Window, UNEXPLAINED_FACTOR, WINDOW_S,
+};
+pub use naming::{
+    Candidate, Round, BIC_FIT_STRONG, BIC_OWN_STRONG, BIC_STRONG, MAX_NAMED, MIN_GAP_SHARE_REPLACING, PINNED_SEVERITY,
+};
+pub use report::{model_config, summary, to_json, verdict, write_outputs};
+pub use residual::{above_noise_a, moving_mean, series, Series, CLEAN_FLOOR_A, NOISE_FLOOR_A, SMOOTH_BLOCKS};
+
+use crate::error::CliError;
+use crate::identify::{condition_recording, identify_trace, HOST_WINDOW};
+use crate::recording_io::read_recording;
+use crate::simulate::{parse_faults, resolve_profile};
+use localisation::window_rms;
+use naming::search_round;
+use residual::{rms, structural_energy};
+
+/// Arguments of `ema discover`.
+#[derive(Args, Debug, Clone)]
+pub struct DiscoverArgs {
+    /// Recording CSV (time_s, command_rad, position_rad, ia_A, ib_A, ic_A at 10 kHz).
+    pub file: PathBuf,
+    /// The true fault vector k1..k8, when known: reports the fault-vector error before and after.
+    #[arg(long, value_name = "K1,...,K8", allow_hyphen_values = true)]
+    pub truth: Option<String>,
+    /// Command profile the recording was made with: `standard` or a profile file.
+    #[arg(long, default_value = "standard")]
+    pub profile: String,
+    /// Print JSON instead of the readable summary.
+    #[arg(long)]
+    pub json: bool,
+    /// Write discovery.json, residual.csv, fit.svg, residual.svg and model-config.txt here.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Seed of the optimizers.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Worker threads for the candidate fits (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// Everything `ema discover` found.
+#[derive(Clone, Debug)]
+pub struct Discovery {
+    /// Recording path.
+    pub file: PathBuf,
+    /// The current model's fit (whole recording).
+    pub before: ModelFit,
+    /// The model with the named effects (whole recording).
+    pub after: ModelFit,
+    /// The on-board diagnosis ([`IdentifyConfig::onboard`]: fast regime weighted as on board,
+    /// model selection, polish) with the paper's model.
+    pub onboard_before: FaultVector,
+    /// The same with the named effects promoted at their fitted severities (what the firmware
+    /// reports once built with `model_config`); `onboard_before` when nothing is named.
+    pub onboard_after: FaultVector,
+    /// Residual series before and after.
+    pub series_before: Series,
+    /// After adding the named effects.
+    pub series_after: Series,
+    /// Hot windows (with RMS before and after).
+    pub windows: Vec<Window>,
+    /// Regime shares (before).
+    pub regimes: Vec<Regime>,
+    /// Order shares (before).
+    pub orders: Vec<(&'static str, f64)>,
+    /// The search rounds.
+    pub rounds: Vec<Round>,
+    /// Named effects: `(effect, severity, confidence)`.
+    pub named: Vec<(EffectId, f32, f64)>,
+    /// Effects a round named that step 4 withdrew, in the order withdrawn, and why.
+    pub withdrawn: Vec<(EffectId, Withdrawal)>,
+    /// Where a residual no library effect explains remains (`None`: at the model's floor).
+    pub unexplained: Option<String>,
+    /// True fault vector, when given.
+    pub truth: Option<FaultVector>,
+    /// Wall time (s).
+    pub seconds: f64,
+    /// Objective evaluations in all.
+    pub evaluations: u64,
+}
+
+impl Discovery {
+    /// Structural residual RMS before (A).
+    pub fn rms_before_a(&self) -> f64 {
+        rms(self.series_before.structural_a.iter().copied())
+    }
+    /// Structural residual RMS after (A).
+    pub fn rms_after_a(&self) -> f64 {
+        rms(self.series_after.structural_a.iter().copied())
+    }
+    /// Raw residual RMS before (A).
+    pub fn raw_rms_before_a(&self) -> f64 {
+        rms(self.series_before.residual_a.iter().copied())
+    }
+    /// Raw residual RMS after (A).
+    pub fn raw_rms_after_a(&self) -> f64 {
+        rms(self.series_after.residual_a.iter().copied())
+    }
+}
+
+/// Why step 4 withdrew a named effect.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Withdrawal {
+    /// The named effects' refit on the whole recording did not shrink its structural gap; the
+    /// last one named goes.
+    GapNotShrunk,
+    /// The refit on the whole recording put it at this severity, at its fit's bound
+    /// ([`PINNED_SEVERITY`]), as a round's fit part would have had it refused: the effect behind
+    /// the residual is stronger or different. A DC-link sag (outside the library) can fit as a
+    /// dead time just under the bound on the fit part and above it on the whole recording.
+    AtBound(f32),
+}
+
+/// Runs the whole workflow on a conditioned trace.
+pub fn discover<const W: usize>(
+    trace: &MeasuredTrace<W>,
+    profile: &Profile,
+    file: &Path,
+    truth: Option<FaultVector>,
+    seed: u64,
+    threads: usize,
+) -> Result<Discovery, CliError> {
+    let start = Instant::now();
+    let params = EmaParams::NOMINAL;
+    // 1. the current model, as on board (whole recording)
+    // Every sample at full weight: the discrepancies discover looks for live in the fast regime too.
+    let config = IdentifyConfig { seed, fast_regime_weight: 1.0, ..IdentifyConfig::onboard() };
+    let report = identify_trace(trace, profile, &config, file)?.report;
+    let mut evaluations = u64::from(report.evaluations);
+    let whole = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::All);
+    let before = ModelFit {
+        k: report.faults,
+        effects: ModelEffects::NONE,
+        error: whole.error(&report.faults, &ModelEffects::NONE, f32::INFINITY),
+        evaluations: report.evaluations,
+    };
+    let series_before = series(trace, &params, profile, &before.k, &ModelEffects::NONE);
+    // 2. where
+    let mut windows = hot_windows(&series_before);
+    let regimes = regimes(&series_before);
+    let orders = orders(&series_before);
+    // 3. name: the reference (no effect) fitted on the fit part like every candidate
+    let n_eff_part = 0.5 * f64::from(CurrentFit::new(trace, params, *profile).effective_samples(&before.k));
+    let mut on: Vec<EffectId> = Vec::new();
+    let mut named = Vec::new();
+    let mut rounds = Vec::new();
+    let mut base_fit = fit_model(trace, profile, &on, &before, Part::Fit, n_eff_part);
+    evaluations += u64::from(base_fit.evaluations);
+    while named.len() < MAX_NAMED {
+        let (round, reference) = search_round(trace, profile, &on, &base_fit, n_eff_part, threads);
+        evaluations += round.evaluations();
+        let winner = round.named;
+        let winner_fit = winner.and(round.candidates.first()).map(|c| c.fit.clone());
+        let pinned = if winner.is_none() { round.pinned_winner() } else { None };
+        rounds.push(round);
+        match (winner, winner_fit) {
+            (Some(w), Some(fit)) => {
+                named.push(w);
+                on.push(w.0);
+                base_fit = fit;
+            }
+            _ => {
+                // A winner at its bound may be absorbing a second effect: a round with it on
+                if let Some((p, p_fit, p_confidence)) = pinned.filter(|_| named.len() + 2 <= MAX_NAMED) {
+                    let mut trial: Vec<EffectId> = on.clone();
+                    trial.push(p);
+                    let (pair_round, _) = search_round(trace, profile, &trial, &p_fit, n_eff_part, threads);
+                    evaluations += pair_round.evaluations();
+                    let pair = pair_round.named.zip(pair_round.candidates.first().map(|c| c.fit.clone()));
+                    let p_severity = pair.as_ref().map_or(0.0, |(_, fit)| fit.effects.get(p));
+                    rounds.push(pair_round);
+                    if let Some((w, fit)) = pair.filter(|_| (MIN_SEVERITY..PINNED_SEVERITY).contains(&p_severity)) {
+                        named.push((p, p_severity, p_confidence));
+                        named.push(w);
+                        on.push(p);
+                        on.push(w.0);
+                        base_fit = fit;
+                        continue;
+                    }
+                }
+                base_fit = reference;
+                break;
+            }
+        }
+    }
+    // 4. add: the named effects refitted with the faults on the whole recording; one the refit
+    // puts at its bound is withdrawn, as a round would have refused it; then they must shrink the
+    // structural gap, or the last one named is withdrawn (its evidence came from comparing fits of
+    // the fit part only); the rest are refitted
+    let energy_before = structural_energy(&series_before);
+    let mut withdrawn = Vec::new();
+    let (after, series_after) = loop {
+        if on.is_empty() {
+            break (before.clone(), series_before.clone());
+        }
+        let fit = fit_model(trace, profile, &on, &base_fit, Part::All, 2.0 * n_eff_part);
+        evaluations += u64::from(fit.evaluations);
+        let (effect, why) = match on.iter().find(|e| fit.effects.get(**e) >= PINNED_SEVERITY) {
+            Some(&pinned) => (pinned, Withdrawal::AtBound(fit.effects.get(pinned))),
+            None => {
+                let series_after = series(trace, &params, profile, &fit.k, &fit.effects);
+                if structural_energy(&series_after) < energy_before {
+                    for (e, s, _) in &mut named {
+                        *s = fit.effects.get(*e);
+                    }
+                    break (fit, series_after);
+                }
+                match on.last() {
+                    Some(&last) => (last, Withdrawal::GapNotShrunk),
+                    None => break (before.clone(), series_before.clone()),
+                }
+            }
+        };
+        on.retain(|e| *e != effect);
+        named.retain(|n| n.0 != effect);
+        withdrawn.push((effect, why));
+        base_fit.effects = base_fit.effects.without(effect);
+    };
+    // 5. the diagnosis the firmware gives, before and after promoting the named effects
+    let onboard = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
+    let onboard_before = identify_trace(trace, profile, &onboard, file)?.report;
+    evaluations += u64::from(onboard_before.evaluations);
+    let onboard_after = if on.is_empty() {
+        onboard_before.faults
+    } else {
+        let promoted =
+            identify_trace(trace, profile, &IdentifyConfig { effects: after.effects, ..onboard }, file)?.report;
+        evaluations += u64::from(promoted.evaluations);
+        promoted.faults
+    };
+    for w in &mut windows {
+        w.rms_after_a = window_rms(&series_after, w.start_s, w.end_s);
+    }
+    let unexplained = unexplained(&series_after);
+    Ok(Discovery {
+        unexplained,
+        file: file.to_path_buf(),
+        before,
+        after,
+        onboard_before: onboard_before.faults,
+        onboard_after,
+        series_before,
+        series_after,
+        windows,
+        regimes,
+        orders,
+        rounds,
+        named,
+        withdrawn,
+        truth,
+        seconds: start.elapsed().as_secs_f64(),
+        evaluations,
+    })
+}
+
+/// Runs `ema discover`.
+pub fn run(args: &DiscoverArgs) -> Result<String, CliError> {
+    let profile = resolve_profile(&args.profile)?;
+    let truth = args.truth.as_deref().map(parse_faults).transpose()?;
+    let recording = read_recording(&args.file).map_err(CliError::Recording)?;
+    let trace = condition_recording(&recording, &args.file, &profile)?;
+    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let d = discover::<HOST_WINDOW>(&trace, &profile, &args.file, truth, args.seed, threads)?;
+    if let Some(dir) = &args.out {
+        write_outputs(dir, &d)?;
+    }
+    Ok(if args.json { to_json(&d).to_string() } else { summary(&d) })
+}
