@@ -141,7 +141,8 @@ pub struct HealthReport {
     /// Why the optimizer stopped (`None`: stopped by the caller's budget).
     pub termination: Option<TerminationReason>,
     /// Fault groups found by the global search that model selection could not price before the
-    /// later-stage budget ran out ([`crate::monitor::IdentifyConfig::later_max_evaluations`]):
+    /// budget of selection and polish ran out
+    /// ([`crate::monitor::IdentifyConfig::selection_polish_max_evaluations`]):
     /// reported as found, not tested against the information criterion. 0 when every group
     /// was tested (or model selection is off).
     pub untested_groups: u8,
