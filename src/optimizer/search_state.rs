@@ -117,6 +117,11 @@ pub(crate) struct SearchState<const D: usize, R = Stopping> {
 impl<const D: usize, R: TargetRule> SearchState<D, R> {
     /// A search that has evaluated nothing: best cost `+∞` at `start` (the point [`Self::best`]
     /// reports until the first evaluation), running.
+    ///
+    /// Not inlined: inlined into an optimizer's constructor, it leads the compiler to keep a
+    /// second copy of the whole optimizer in the caller's stack frame (the firmware's peak stack
+    /// grows by the size of a population); it runs once per search.
+    #[inline(never)]
     pub(crate) fn new(start: [f32; D], rule: R) -> Self {
         Self {
             best_position: start,
