@@ -237,7 +237,7 @@ impl core::fmt::Display for HealthReport {
         if self.untested_groups > 0 {
             write!(
                 f,
-                "\n  model selection: {} fault group(s) not tested (later-stage budget spent)",
+                "\n  model selection: {} fault group(s) not tested (selection and polish budget spent)",
                 self.untested_groups
             )?;
         }
@@ -275,6 +275,9 @@ mod tests {
         assert!(!text.contains("not tested"), "{text}");
         let cut = HealthReport { untested_groups: 2, ..r };
         let text = std::format!("{cut}");
-        assert!(text.ends_with("model selection: 2 fault group(s) not tested (later-stage budget spent)"), "{text}");
+        assert!(
+            text.ends_with("model selection: 2 fault group(s) not tested (selection and polish budget spent)"),
+            "{text}"
+        );
     }
 }
