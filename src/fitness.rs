@@ -16,13 +16,9 @@
 //! **Fast-regime weight** (ours, [`CurrentFit::with_fast_regime_weight`]; the paper's fitness is
 //! weight 1): in the step and reversal transients (the healthy model's `|ω_m|` above
 //! [`FAST_REGIME_SPEED_RAD_S`]) the residual is dominated by what the monitor model gets only
-//! approximately (the current through each commutation above the dip onset; README, "mismatch
-//! floor"), not by noise, and that error is correlated over many samples. Least squares that
-//! weighs those samples like the rest lets the mismatch pull the estimate: high short circuits
-//! drew a spurious eccentricity from it and low ones read 0.02 low. With the phase-resolved fast
-//! regime ([`crate::model`], session 10) the mismatch there is smaller, but a campaign at ρ = 0.3
-//! still ended 2 of 10 high short circuits far off (high total 4.11 against 1.17 at 0.1, low 1.63
-//! against 2.31), so ρ stays 0.1.
+//! approximately (the current through each commutation above the dip onset), not by noise, and
+//! that error is correlated over many samples. Least squares that weighs those samples like the
+//! rest lets the mismatch pull the estimate (a short circuit drawing a spurious eccentricity).
 //! Their terms are multiplied by `ρ` ([`FAST_REGIME_WEIGHT`] in the monitor's configuration):
 //! `E(k) = (1/n)·Σ_i ρ_i·w_i·r_i²`, `ρ_i = ρ` in the fast regime, 1 elsewhere.
 
@@ -41,14 +37,9 @@ use heapless::Vec;
 pub const FAST_REGIME_SPEED_RAD_S: f32 = 300.0;
 
 /// The weight `ρ` of a fast-regime sample in the monitor's fitness ([`CurrentFit::with_fast_regime_weight`]).
-/// Chosen from PSO campaigns at the on-board budget (`ema campaign --algorithms pso --runs 10
-/// --max-iterations 40 --fast-regime-weight ρ`, 2026-11-23, session 4, before the hysteresis ripple
-/// entered [`MeasuredEnvelope`]; with it, 2.79 / 2.31 at 0.1): low / high mean Err% 1.79 / 6.34 at
-/// 1, 2.78 / 4.04 at 0.5, 3.34 / 4.41 at 0.25, 3.05 / 2.33 at 0.1; on master seed 1 (`--seed 1`)
-/// 2.68 / 3.87 at 1, 3.35 / 2.11 at 0.1. 0.1 removes the spurious eccentricities of high short
-/// circuits and low gains; the price is low eccentricities, whose evidence lies mostly in the
-/// fast regime (README, "identification campaign"). With the phase-resolved fast regime (session
-/// 10, same command): 2.31 / 1.17 at 0.1, 1.63 / 4.11 at 0.3 (two high short circuits in 10 read far off).
+/// 0.1 removes the spurious eccentricities of high short circuits and low gains that the
+/// fast-regime mismatch draws; the price is low eccentricities, whose evidence lies mostly in the
+/// fast regime. The campaigns behind the value are in `docs/decisions/0001-fast-regime-weight.md`.
 pub const FAST_REGIME_WEIGHT: f32 = 0.1;
 
 /// `true` when `weight` is a fast-regime weight the fitness accepts: in `(0, 1]` (NaN is not).

@@ -141,7 +141,8 @@ pub struct HealthReport {
     /// Why the optimizer stopped (`None`: stopped by the caller's budget).
     pub termination: Option<TerminationReason>,
     /// Fault groups found by the global search that model selection could not price before the
-    /// later-stage budget ran out ([`crate::monitor::IdentifyConfig::later_max_evaluations`]):
+    /// budget of selection and polish ran out
+    /// ([`crate::monitor::IdentifyConfig::selection_polish_max_evaluations`]):
     /// reported as found, not tested against the information criterion. 0 when every group
     /// was tested (or model selection is off).
     pub untested_groups: u8,
@@ -236,7 +237,7 @@ impl core::fmt::Display for HealthReport {
         if self.untested_groups > 0 {
             write!(
                 f,
-                "\n  model selection: {} fault group(s) not tested (later-stage budget spent)",
+                "\n  model selection: {} fault group(s) not tested (selection and polish budget spent)",
                 self.untested_groups
             )?;
         }
@@ -274,6 +275,9 @@ mod tests {
         assert!(!text.contains("not tested"), "{text}");
         let cut = HealthReport { untested_groups: 2, ..r };
         let text = std::format!("{cut}");
-        assert!(text.ends_with("model selection: 2 fault group(s) not tested (later-stage budget spent)"), "{text}");
+        assert!(
+            text.ends_with("model selection: 2 fault group(s) not tested (selection and polish budget spent)"),
+            "{text}"
+        );
     }
 }

@@ -4,7 +4,7 @@
 //! friction and backlash grow, stator coils partially short, the rotor goes eccentric, the
 //! controller gain drifts. This crate catches it on board, without an allocator and without panics,
 //! by the method of Dalla Vedova, Berri and Re (ICSRS 2018): a light *monitor model* of the EMA is
-//! simulated again and again by a bio-inspired optimizer (PSO; GA for comparison) until its
+//! simulated again and again by a bio-inspired optimizer (PSO; GA and DE for comparison) until its
 //! equivalent current matches the measured one; the 8 fault parameters that make it match are the
 //! diagnosis.
 //!
@@ -25,14 +25,9 @@
 //! actuator), [`faults`] (the fault vector and its physical mapping), [`profile`] (the test
 //! manoeuvre), [`trace`] (the ADC format).
 //!
-//! **Inlining.** The fitness loop is generic, so it is compiled in the caller's crate; the
-//! non-generic helpers it calls every model step (the rotor-angle sine, the command profile, the
-//! expected envelope, the phases' back-EMF constants) carry `#[inline]` on hosted targets only,
-//! where the host tool is built without link-time optimization: without the hint they were
-//! out-of-line calls, and one fitness evaluation took 5–10 % longer (`cargo bench -p ema-cli
-//! --bench fitness`, before and after, 2026-11-23). The firmware is built with fat LTO, which
-//! inlines on its own; the hint there cost 1 % more instructions and 0.8 kB more stack (QEMU), so
-//! it is not given (`target_os = "none"`). Inlining changes no result: no float contraction.
+//! **Inlining.** The non-generic helpers the fitness loop calls every model step carry
+//! `#[inline]` on hosted targets only (the firmware's fat LTO inlines on its own), which changes
+//! no result; see `docs/decisions/0012-inlining-hosted-only.md`.
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]

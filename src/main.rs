@@ -16,7 +16,7 @@
 #![no_std]
 #![no_main]
 
-use cortex_m as _; // critical-section implementation (toolchain.md pitfall 4)
+use cortex_m as _; // links cortex-m's critical-section implementation, which defmt needs
 use defmt_semihosting as _; // global defmt logger over semihosting stdout
 use panic_probe as _; // panic → defmt message → `udf` → HardFault → exit(1)
 
@@ -103,8 +103,8 @@ fn main() -> ! {
 }
 
 /// Logs where the trace and the model effects come from when they are not the defaults, then the
-/// effects that are on (`model effects: none` for the paper's model). Not inlined: `main`'s frame
-/// (below the identification's, for the peak-stack figure) stays as it was.
+/// effects that are on (`model effects: none` for the paper's model). Not inlined, so that its
+/// formatting locals stay out of `main`'s frame, which lies below the identification's.
 #[inline(never)]
 fn log_model_effects() {
     if TRACE_SOURCE != "traces/standard.ematrace" {
@@ -178,7 +178,7 @@ fn log_report(r: &HealthReport) {
     );
     if r.untested_groups > 0 {
         defmt::warn!(
-            "model selection: {=u8} fault group(s) not tested (later-stage budget spent): reported as found",
+            "model selection: {=u8} fault group(s) not tested (selection and polish budget spent): reported as found",
             r.untested_groups
         );
     }
@@ -212,8 +212,8 @@ fn exit(ok: bool) -> ! {
     }
 }
 
-/// A fault (or a panic, which panic-probe ends with `udf`) must not spin forever under QEMU
-/// (toolchain.md pitfall 5): exit with failure.
+/// A fault (or a panic, which panic-probe ends with `udf`) must not spin forever under QEMU,
+/// where the default handler would loop: exit with failure.
 #[exception]
 unsafe fn HardFault(_frame: &ExceptionFrame) -> ! {
     exit(false)

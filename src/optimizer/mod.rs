@@ -4,7 +4,10 @@
 //! - an [`Objective`] maps a candidate `x ∈ R^D` to a cost (lower is better);
 //! - an optimizer owns all its storage, sized by const generics (`P` individuals × `D` parameters);
 //! - [`Optimizer::step`] does at most ONE objective evaluation, so firmware can budget work per
-//!   control cycle; [`run`] loops until termination or an evaluation budget.
+//!   control cycle; [`run`] loops until termination or an evaluation budget;
+//! - every optimizer keeps its best point, its counters, its status and its stopping rule in one
+//!   shared search state (`search_state.rs`), so the four obey the same bookkeeping, and one
+//!   contract-test suite (`tests.rs`) checks that contract against all four.
 //!
 //! Invalid costs: a non-finite cost ranks worst (it is treated as `f32::INFINITY`), never a panic.
 
@@ -13,6 +16,12 @@ pub mod ga;
 pub mod pattern;
 pub mod pso;
 pub mod rng;
+mod search_state;
+#[cfg(test)]
+mod tests;
+
+pub use search_state::MAX_STALL_ITERATIONS;
+pub(crate) use search_state::{NoTarget, SearchState, Stopping};
 
 /// A function to minimise over `D` parameters.
 pub trait Objective<const D: usize> {
@@ -38,6 +47,16 @@ impl<const D: usize> Bounds<D> {
     /// The unit box `[0, 1]^D`, nothing periodic.
     pub const fn unit() -> Self {
         Self { lower: [0.0; D], upper: [1.0; D], periodic: [false; D] }
+    }
+
+    /// The centre of the box, `(lᵢ + uᵢ)/2` per parameter: the best point an optimizer reports
+    /// before its first evaluation.
+    pub fn centre(&self) -> [f32; D] {
+        let mut c = [0.0; D];
+        for (d, x) in c.iter_mut().enumerate() {
+            *x = 0.5 * (self.lower[d] + self.upper[d]);
+        }
+        c
     }
 
     /// `true` when every bound is finite and `lower < upper`.
@@ -152,81 +171,6 @@ impl core::fmt::Display for ConfigError {
 }
 
 impl core::error::Error for ConfigError {}
-
-/// Largest accepted stall window (`stall_iterations`); the window is a fixed ring of this many + 1 costs.
-pub const MAX_STALL_ITERATIONS: u32 = 64;
-
-/// Termination bookkeeping shared by the optimizers (MATLAB `particleswarm` / `ga` discipline): after each
-/// completed iteration `k` with best cost `f_k`, stop when
-/// 1. `f_k <= target_cost` ([`TerminationReason::TargetReached`]; the optimizers also check after every evaluation),
-/// 2. `k > s` and `f_{k−s} − f_k <= tol · max(1, |f_k|)` with `s = stall_iterations`
-///    ([`TerminationReason::FunctionTolerance`]; an infinite best never stalls since `∞ − ∞` is NaN),
-/// 3. `k >= max_iterations` ([`TerminationReason::MaxIterations`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Stopping {
-    max_iterations: u32,
-    stall_iterations: u32,
-    function_tolerance: f32,
-    target_cost: f32,
-    /// `history[k % len]` = best cost after iteration `k`.
-    history: [f32; MAX_STALL_ITERATIONS as usize + 1],
-}
-
-impl Stopping {
-    /// Validates the termination settings (see [`ConfigError::Termination`]).
-    pub(crate) fn new(
-        max_iterations: u32,
-        stall_iterations: u32,
-        function_tolerance: f32,
-        target_cost: f32,
-    ) -> Result<Self, ConfigError> {
-        let tolerance_ok = function_tolerance.is_finite() && function_tolerance >= 0.0;
-        let target_ok = !target_cost.is_nan() && target_cost != f32::INFINITY;
-        if max_iterations == 0
-            || stall_iterations == 0
-            || stall_iterations > MAX_STALL_ITERATIONS
-            || !tolerance_ok
-            || !target_ok
-        {
-            return Err(ConfigError::Termination);
-        }
-        Ok(Self {
-            max_iterations,
-            stall_iterations,
-            function_tolerance,
-            target_cost,
-            history: [f32::INFINITY; MAX_STALL_ITERATIONS as usize + 1],
-        })
-    }
-
-    /// `true` when `cost` reaches the target (never for the default `−∞`).
-    pub(crate) fn target_reached(&self, cost: f32) -> bool {
-        cost <= self.target_cost
-    }
-
-    /// Records the best cost after completed iteration `k >= 1` and says whether to stop.
-    pub(crate) fn after_iteration(&mut self, k: u32, best: f32) -> Option<TerminationReason> {
-        const LEN: usize = MAX_STALL_ITERATIONS as usize + 1;
-        if let Some(slot) = self.history.get_mut(k as usize % LEN) {
-            *slot = best;
-        }
-        if self.target_reached(best) {
-            return Some(TerminationReason::TargetReached);
-        }
-        if k > self.stall_iterations {
-            let then = self.history.get((k - self.stall_iterations) as usize % LEN).copied().unwrap_or(f32::INFINITY);
-            let scale = if libm::fabsf(best) > 1.0 { libm::fabsf(best) } else { 1.0 };
-            // NaN (∞ − ∞) compares false: an all-infinite history never counts as stalled.
-            if then - best <= self.function_tolerance * scale {
-                return Some(TerminationReason::FunctionTolerance);
-            }
-        }
-        if k >= self.max_iterations {
-            return Some(TerminationReason::MaxIterations);
-        }
-        None
-    }
-}
 
 /// Common step-wise interface of the population optimizers.
 pub trait Optimizer<const D: usize> {

@@ -12,7 +12,7 @@
 //! Storage: two points of `D` parameters and a mask; one evaluation per [`Optimizer::step`].
 //! [`Optimizer::iterations`] counts the step halvings.
 
-use super::{Bounds, ConfigError, Objective, Optimizer, Status, TerminationReason};
+use super::{Bounds, ConfigError, NoTarget, Objective, Optimizer, SearchState, Status, TerminationReason};
 
 /// Settings of a [`PatternSearch`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,16 +39,15 @@ pub struct PatternSearch<const D: usize> {
     bounds: Bounds<D>,
     config: PatternConfig,
     free: [bool; D],
-    best: [f32; D],
-    best_cost: f32,
+    /// The current point (the best so far), counters and status; iterations count step halvings.
+    state: SearchState<D, NoTarget>,
+    /// The start point still waits for its evaluation.
+    start_pending: bool,
     step_size: f32,
     /// Parameter tried next, and the direction (+1 or −1).
     coordinate: usize,
     direction: f32,
     improved_this_sweep: bool,
-    evaluations: u32,
-    halvings: u32,
-    status: Status,
 }
 
 impl<const D: usize> PatternSearch<D> {
@@ -76,32 +75,42 @@ impl<const D: usize> PatternSearch<D> {
         }
         let mut best = start;
         bounds.enforce_point(&mut best);
-        let best_cost = match start_cost {
-            Some(c) if c.is_nan() => f32::INFINITY,
-            Some(c) => c,
-            None => f32::NAN, // evaluated by the first step
+        let mut state = match start_cost {
+            Some(c) if c.is_nan() => SearchState::with_best(best, f32::INFINITY, NoTarget),
+            Some(c) => SearchState::with_best(best, c, NoTarget),
+            None => SearchState::new(best, NoTarget), // evaluated by the first step
         };
         // With nothing free there is nothing to search, but a start given without its cost is
         // still evaluated (model selection compares a lone fault group against that cost).
-        let status = if best_cost.is_nan() || free.iter().any(|f| *f) {
-            Status::Running
-        } else {
-            Status::Done(TerminationReason::FunctionTolerance)
-        };
+        if start_cost.is_some() && !free.iter().any(|f| *f) {
+            state.finish(TerminationReason::FunctionTolerance);
+        }
         Ok(Self {
             bounds,
             config,
             free,
-            best,
-            best_cost,
+            state,
+            start_pending: start_cost.is_none(),
             step_size: config.initial_step,
             coordinate: 0,
             direction: 1.0,
             improved_this_sweep: false,
-            evaluations: 0,
-            halvings: 0,
-            status,
         })
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &PatternConfig {
+        &self.config
+    }
+
+    /// The search box.
+    pub fn bounds(&self) -> &Bounds<D> {
+        &self.bounds
+    }
+
+    /// Status after the last step.
+    pub fn status(&self) -> Status {
+        self.state.status()
     }
 
     /// The current step `h`.
@@ -122,7 +131,7 @@ impl<const D: usize> PatternSearch<D> {
             self.coordinate = 0;
             if !self.improved_this_sweep {
                 self.step_size *= 0.5;
-                self.halvings += 1;
+                self.state.count_iteration();
                 if self.step_size < self.config.min_step {
                     return false;
                 }
@@ -139,7 +148,7 @@ impl<const D: usize> PatternSearch<D> {
         for _ in 0..(2 * D + 2) * 32 {
             let i = self.coordinate;
             if self.free.get(i).copied().unwrap_or(false) {
-                let mut trial = self.best;
+                let mut trial = *self.state.best().0;
                 let mut v = trial[i] + self.direction * self.step_size;
                 self.bounds.enforce(i, &mut v);
                 if v != trial[i] {
@@ -157,50 +166,46 @@ impl<const D: usize> PatternSearch<D> {
 
 impl<const D: usize> Optimizer<D> for PatternSearch<D> {
     fn step<O: Objective<D>>(&mut self, objective: &mut O) -> Status {
-        if let Status::Done(_) = self.status {
-            return self.status;
+        if !self.state.is_running() {
+            return self.state.status();
         }
-        if self.best_cost.is_nan() {
-            let c = objective.cost(&self.best, f32::INFINITY);
-            self.best_cost = if c.is_nan() { f32::INFINITY } else { c };
-            self.evaluations += 1;
+        if self.start_pending {
+            self.start_pending = false;
+            let start = *self.state.best().0;
+            self.state.record(&start, objective.cost(&start, f32::INFINITY));
             if !self.free.iter().any(|f| *f) {
-                self.status = Status::Done(TerminationReason::FunctionTolerance);
-                return self.status;
+                self.state.finish(TerminationReason::FunctionTolerance);
+                return self.state.status();
             }
         } else {
             let Some(trial) = self.next_trial() else {
-                self.status = Status::Done(TerminationReason::FunctionTolerance);
-                return self.status;
+                self.state.finish(TerminationReason::FunctionTolerance);
+                return self.state.status();
             };
-            let c = objective.cost(&trial, self.best_cost);
-            self.evaluations += 1;
-            if c < self.best_cost {
-                self.best = trial;
-                self.best_cost = c;
+            let (_, improved) = self.state.record(&trial, objective.cost(&trial, self.state.best_cost()));
+            if improved {
                 self.improved_this_sweep = true; // same coordinate and direction next
             } else if !self.advance() {
-                self.status = Status::Done(TerminationReason::FunctionTolerance);
-                return self.status;
+                self.state.finish(TerminationReason::FunctionTolerance);
+                return self.state.status();
             }
         }
-        if self.evaluations >= self.config.max_evaluations {
-            self.status = Status::Done(TerminationReason::MaxIterations);
+        if self.state.evaluations() >= self.config.max_evaluations {
+            self.state.finish(TerminationReason::MaxIterations);
         }
-        self.status
+        self.state.status()
     }
 
     fn best(&self) -> (&[f32; D], f32) {
-        let cost = if self.best_cost.is_nan() { f32::INFINITY } else { self.best_cost };
-        (&self.best, cost)
+        self.state.best()
     }
 
     fn evaluations(&self) -> u32 {
-        self.evaluations
+        self.state.evaluations()
     }
 
     fn iterations(&self) -> u32 {
-        self.halvings
+        self.state.iterations()
     }
 }
 

@@ -1,0 +1,142 @@
+//! The pipeline: a conditioned trace + the monitor model's fitness + an optimizer → a health report.
+//!
+//! [`acquire`] reads and conditions the phase currents; [`Identification`] owns the optimizer's
+//! fixed-size state and borrows the trace; it advances one objective evaluation per
+//! [`Identification::step`], so firmware can spread the work over control cycles, or call
+//! [`Identification::run`] to finish at once. Configuration ([`IdentifyConfig`]) is checked once in
+//! [`Identification::new`]; after that nothing in the loop can fail or panic.
+//!
+//! The stages: the global search (PSO, GA or DE from [`starting_guesses`] and random points), model
+//! selection (`selection.rs`: each fault group must pay for its parameters), and the polish of the
+//! groups kept by a compass search (`identification.rs`).
+
+mod config;
+mod identification;
+mod selection;
+
+pub use config::{
+    fault_bounds, starting_guesses, Algorithm, IdentifyConfig, ONBOARD_MAX_ITERATIONS, ONBOARD_POPULATION,
+    ONBOARD_WINDOW, SELECTION_POLISH_MAX_EVALUATIONS,
+};
+pub use identification::Identification;
+pub use selection::{
+    group_pays, group_present, helps_without_its_best_window, refit_replaces, without_group, FAULT_GROUPS,
+    REPLACED_ABOVE, SELECTION_REFIT, WINDOW_GAIN_SHARE,
+};
+
+use crate::acquisition::{AcquisitionError, PhaseCurrents};
+use crate::conditioning::{ConditioningError, MeasuredTrace};
+use crate::optimizer::ConfigError;
+use crate::params::EmaParams;
+
+/// Why an identification could not start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum MonitorError {
+    /// The measured trace was refused.
+    Conditioning(ConditioningError),
+    /// The optimizer settings were refused.
+    Optimizer(ConfigError),
+    /// An actuator parameter is not finite or not physical (e.g. a non-positive inertia).
+    Params,
+    /// The trace is longer than the command profile that drives the model.
+    TraceLongerThanProfile,
+    /// The fast-regime weight is not in `(0, 1]`.
+    FastRegimeWeight,
+    /// A frame was refused by acquisition (sensor fault): `frame` is its index.
+    Acquisition {
+        /// What acquisition found.
+        error: AcquisitionError,
+        /// Index of the refused frame.
+        frame: u32,
+    },
+}
+
+impl core::fmt::Display for MonitorError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            MonitorError::Conditioning(e) => write!(f, "measured trace refused: {e}"),
+            MonitorError::Optimizer(e) => write!(f, "optimizer settings refused: {e}"),
+            MonitorError::Params => f.write_str("an actuator parameter is not finite or not physical"),
+            MonitorError::TraceLongerThanProfile => f.write_str("the trace is longer than the command profile"),
+            MonitorError::FastRegimeWeight => f.write_str("the fast-regime weight is not in (0, 1]"),
+            MonitorError::Acquisition { error, frame } => write!(f, "frame {frame} refused by acquisition: {error}"),
+        }
+    }
+}
+
+impl core::error::Error for MonitorError {}
+
+impl From<ConditioningError> for MonitorError {
+    fn from(e: ConditioningError) -> Self {
+        MonitorError::Conditioning(e)
+    }
+}
+
+impl From<ConfigError> for MonitorError {
+    fn from(e: ConfigError) -> Self {
+        MonitorError::Optimizer(e)
+    }
+}
+
+/// Reads every frame of `source` until it reports [`AcquisitionError::EndOfData`] into `trace`
+/// and closes the window. A refused frame stops the acquisition with [`MonitorError::Acquisition`]:
+/// an identification on data from a faulty sensor would diagnose the sensor, not the actuator.
+pub fn acquire<const W: usize, S: PhaseCurrents>(
+    source: &mut S,
+    trace: &mut MeasuredTrace<W>,
+) -> Result<(), MonitorError> {
+    let mut frame = 0u32;
+    loop {
+        match source.read_frame() {
+            Ok(f) => trace.push(f.ia_a, f.ib_a, f.ic_a)?,
+            Err(AcquisitionError::EndOfData) => break,
+            Err(error) => return Err(MonitorError::Acquisition { error, frame }),
+        }
+        frame = frame.wrapping_add(1);
+    }
+    Ok(trace.finish()?)
+}
+
+/// `true` when every parameter is finite and the physical ones are positive where they must be.
+pub fn params_are_valid(p: &EmaParams) -> bool {
+    let positive = [
+        p.supply_voltage_v,
+        p.pole_pairs,
+        p.phase_resistance_ohm,
+        p.phase_inductance_h,
+        p.phase_emf_constant_v_s_per_rad,
+        p.current_limit_a,
+        p.motor_inertia_kg_m2,
+        p.gear_ratio,
+        p.control_period_s,
+        p.derivative_filter_s,
+        p.current_loop_lag_s,
+        p.position_lag_s,
+        p.efficiency_opposing,
+        p.end_stop_rad,
+    ];
+    let non_negative = [
+        p.hysteresis_half_band_a,
+        p.surface_inertia_kg_m2,
+        p.viscous_friction_n_m_s_per_rad,
+        p.static_friction_n_m,
+        p.dynamic_friction_n_m,
+        p.nominal_backlash_rad,
+        p.hinge_stiffness_n_m_per_rad,
+        p.kp_a_per_rad,
+        p.ki_a_per_rad_s,
+        p.kd_a_s_per_rad,
+        p.current_noise_a,
+        p.position_noise_rad,
+        p.position_resolution_rad,
+    ];
+    positive.iter().all(|x| x.is_finite() && *x > 0.0)
+        && non_negative.iter().all(|x| x.is_finite() && *x >= 0.0)
+        && p.efficiency_aiding.is_finite()
+        && p.efficiency_aiding <= 1.0
+        && p.efficiency_opposing <= 1.0
+        && p.dynamic_friction_n_m <= p.static_friction_n_m
+        && p.control_period_s < p.derivative_filter_s
+}

@@ -1,0 +1,358 @@
+//! Model selection: after the global search, each fault group present in the best vector is set
+//! back to healthy in turn, the other groups are refitted, and the group stays only when it pays
+//! for its parameters.
+//!
+//! A group is tested in three steps, each an explicit [`Selection`] state:
+//! 1. **refit**: a compass search ([`SELECTION_REFIT`]) refits the other present groups with the
+//!    tested one healthy, so the nested model is compared at its own best;
+//! 2. **information criterion**: the group stays when
+//!    `ΔBIC = n·ln(E_without/E_with) − m·ln(n) > 0` ([`group_pays`]; `m` its parameters, `n` the
+//!    effective samples of the residual; `docs/decisions/0006-model-selection-bic.md`);
+//! 3. **window check**: a group that pays must still lower `E` on the trace without the window
+//!    where it gains most ([`helps_without_its_best_window`], two evaluations;
+//!    `docs/decisions/0002-window-check.md`).
+//!
+//! Groups refused are set back to healthy before the polish. Every step spends from the budget of
+//! [`IdentifyConfig::selection_polish_max_evaluations`](super::IdentifyConfig); the groups it has
+//! no budget left to test stay and are counted in the report.
+
+use super::config::{fault_bounds, selection_polish_left, PHASE_INDEX};
+use super::identification::{Identification, Stage};
+use crate::faults::{FaultVector, FAULT_COUNT};
+use crate::fitness::WindowErrors;
+use crate::optimizer::pattern::{PatternConfig, PatternSearch};
+use crate::optimizer::{Optimizer, Status};
+
+/// The fault groups model selection tests, as `(first, last)` indices into the fault vector:
+/// friction, backlash, the three shorts, eccentricity (magnitude and phase: 2 parameters), gain.
+pub const FAULT_GROUPS: [(usize, usize); 7] = [(0, 0), (1, 1), (2, 2), (3, 3), (4, 4), (5, 6), (7, 7)];
+
+/// The refit of the other groups when one group is set back to healthy: steps from 0.01 down to
+/// 1e-3, at most 120 evaluations. A nested model is compared at its own best, not at the full
+/// model's: otherwise parameters that co-adapted with the group make it look needed.
+pub const SELECTION_REFIT: PatternConfig = PatternConfig { initial_step: 0.01, min_step: 1e-3, max_evaluations: 120 };
+
+/// A group counts as present when one of its parameters is this far from healthy (the phase of
+/// eccentricity only counts through its magnitude).
+const PRESENT_ABOVE: f32 = 1e-4;
+
+/// `true` when the group `(first, last)` of [`FAULT_GROUPS`] differs in `k` from the healthy
+/// vector (indices outside the vector count as healthy).
+pub fn group_present(k: &[f32; FAULT_COUNT], (first, last): (usize, usize)) -> bool {
+    if first == PHASE_INDEX - 1 {
+        return k.get(first).is_some_and(|&x| x > PRESENT_ABOVE);
+    }
+    let healthy = FaultVector::HEALTHY.0;
+    (first..=last)
+        .any(|i| matches!((k.get(i), healthy.get(i)), (Some(x), Some(h)) if libm::fabsf(x - h) > PRESENT_ABOVE))
+}
+
+/// `k` with the group `(first, last)` of [`FAULT_GROUPS`] set back to healthy (indices outside
+/// the vector are ignored).
+pub fn without_group(k: &[f32; FAULT_COUNT], (first, last): (usize, usize)) -> [f32; FAULT_COUNT] {
+    let mut out = *k;
+    for (x, h) in out.iter_mut().zip(FaultVector::HEALTHY.0).skip(first).take((last + 1).saturating_sub(first)) {
+        *x = h;
+    }
+    out
+}
+
+/// Bayesian information criterion for dropping a group of `parameters`: with Gaussian residuals of
+/// `n` effective samples, `ΔBIC = n·ln(E_without/E_with) − parameters·ln(n)`; the group stays only
+/// when `ΔBIC > 0`, i.e. when it explains more than its parameters' price (G. Schwarz, "Estimating
+/// the dimension of a model", Annals of Statistics 6(2), 1978).
+pub fn group_pays(error_with: f32, error_without: f32, parameters: usize, effective_samples: f32) -> bool {
+    if !(error_with > 0.0 && error_without.is_finite() && effective_samples > 1.0) {
+        return error_without > error_with;
+    }
+    effective_samples * libm::logf(error_without / error_with) > parameters as f32 * libm::logf(effective_samples)
+}
+
+/// Share of its best window's gain a group must also gain on the rest of the trace when the refit
+/// without it brings in no group of its own ([`helps_without_its_best_window`]). A fault shows
+/// wherever the actuator moves; a group that gains a few percent of its best window elsewhere
+/// fits something local to that window (`docs/decisions/0002-window-check.md`).
+pub const WINDOW_GAIN_SHARE: f32 = 0.25;
+
+/// `true` when a group still lowers `E` on the trace without the window where it gains most:
+/// `with` and `without` are `E` per window of the vectors with and without the group (the
+/// refit), and the rest of the trace must gain more than `share` of the best window's gain.
+///
+/// A group whose net gain comes from one 40 ms stretch of the recording, and which makes the fit
+/// worse elsewhere, fits something local there (a cogging ripple read as an eccentricity), not a
+/// fault. When the refit replaced the group by another (a low short on phase A refitted as one
+/// on C, [`refit_replaces`]), pass `share` = 0: the two differ only where the phase shows, in the
+/// fast reversal, and the rest need only not lose. No price is asked on the rest: the
+/// information criterion has priced the whole trace already (`docs/decisions/0002-window-check.md`).
+pub fn helps_without_its_best_window(with: &WindowErrors, without: &WindowErrors, share: f32) -> bool {
+    let mut best = (0usize, f32::NEG_INFINITY);
+    for (j, (a, b)) in with.errors.iter().zip(&without.errors).enumerate() {
+        if b - a > best.1 {
+            best = (j, b - a);
+        }
+    }
+    let mut gain_elsewhere = 0.0f32;
+    for (j, (a, b)) in with.errors.iter().zip(&without.errors).enumerate() {
+        if j != best.0 {
+            gain_elsewhere += b - a;
+        }
+    }
+    gain_elsewhere > share * best.1
+}
+
+/// How far the refit without a group must move another group's magnitude to count as taking its
+/// place ([`refit_replaces`]): one initial step of [`SELECTION_REFIT`].
+pub const REPLACED_ABOVE: f32 = 0.01;
+
+/// `true` when the refit `without` the group `tested` moved another group's magnitude by more than
+/// [`REPLACED_ABOVE`] from `with`: another explanation took the group's place (a low short on
+/// phase A beside a smaller one on C, refitted as a larger one on C), so
+/// [`helps_without_its_best_window`] runs with `share` = 0.
+pub fn refit_replaces(with: &[f32; FAULT_COUNT], without: &[f32; FAULT_COUNT], tested: (usize, usize)) -> bool {
+    with.iter().zip(without).enumerate().any(|(i, (a, b))| {
+        i != PHASE_INDEX && !(tested.0..=tested.1).contains(&i) && libm::fabsf(a - b) > REPLACED_ABOVE
+    })
+}
+
+/// Where model selection is. `group` indexes [`FAULT_GROUPS`]; `effective_samples` is the `n` of
+/// the information criterion, evaluated once on the global search's best vector.
+#[derive(Clone, Debug)]
+#[allow(clippy::large_enum_variant, reason = "held once, inline in the identification: no allocator to box into")]
+pub(super) enum Selection {
+    /// Evaluates the effective sample count of the best vector (one evaluation).
+    EffectiveSamples,
+    /// Starts the test of the first present group from `group` on (no evaluation).
+    NextGroup {
+        /// First group to consider.
+        group: usize,
+        /// `n` of the information criterion.
+        effective_samples: f32,
+    },
+    /// Refits the other groups with `group` set back to healthy (one evaluation per step).
+    Refit {
+        /// Group under test.
+        group: usize,
+        /// `n` of the information criterion.
+        effective_samples: f32,
+        /// The compass search of the refit.
+        search: PatternSearch<FAULT_COUNT>,
+    },
+    /// Checks window by window a group that paid the information criterion.
+    WindowCheck {
+        /// Group under test.
+        group: usize,
+        /// `n` of the information criterion.
+        effective_samples: f32,
+        /// Which of the check's two evaluations is next.
+        check: WindowCheck,
+    },
+}
+
+/// The window-by-window check of a group that paid the information criterion
+/// ([`helps_without_its_best_window`]): two evaluations, one state each.
+#[derive(Clone, Debug)]
+#[allow(clippy::large_enum_variant, reason = "held once, inline in the identification: no allocator to box into")]
+pub(super) enum WindowCheck {
+    /// Evaluates `E` per window of the best vector, with the group.
+    With {
+        /// The refit without the group.
+        without: [f32; FAULT_COUNT],
+    },
+    /// Evaluates `E` per window of the refit without the group, then decides.
+    Without {
+        /// The refit without the group.
+        without: [f32; FAULT_COUNT],
+        /// `E` per window with the group.
+        with: WindowErrors,
+    },
+}
+
+impl<const W: usize, const P: usize> Identification<'_, W, P> {
+    /// One step of model selection (see [`Selection`] for what each state spends).
+    pub(super) fn selection_step(&mut self) {
+        let Stage::Select(selection) = &mut self.stage else { return };
+        match selection {
+            Selection::EffectiveSamples => {
+                let effective_samples = self.fit.effective_samples(&FaultVector(self.best));
+                self.selection_polish_evaluations += 1;
+                *selection = Selection::NextGroup { group: 0, effective_samples };
+            }
+            Selection::NextGroup { group, effective_samples } => {
+                let (group, effective_samples) = (*group, *effective_samples);
+                self.next_selection_test(group, effective_samples);
+            }
+            Selection::Refit { group, effective_samples, search } => {
+                let before = search.evaluations();
+                let status = search.step(&mut self.fit);
+                self.selection_polish_evaluations += search.evaluations() - before;
+                if let Status::Done(_) = status {
+                    let (group, effective_samples) = (*group, *effective_samples);
+                    let (x, without) = search.best();
+                    let x = *x;
+                    match self.judge_refit(group, effective_samples, x, without) {
+                        Some(check) => {
+                            self.stage = Stage::Select(Selection::WindowCheck { group, effective_samples, check })
+                        }
+                        None => self.next_selection_test(group + 1, effective_samples),
+                    }
+                }
+            }
+            Selection::WindowCheck { group, effective_samples, check } => {
+                self.selection_polish_evaluations += 1;
+                match check {
+                    WindowCheck::With { without } => {
+                        let without = *without;
+                        let with = self.fit.window_errors(&FaultVector(self.best));
+                        *check = WindowCheck::Without { without, with };
+                    }
+                    WindowCheck::Without { without, with } => {
+                        let (group, effective_samples) = (*group, *effective_samples);
+                        let without_errors = self.fit.window_errors(&FaultVector(*without));
+                        let replaced =
+                            FAULT_GROUPS.get(group).is_some_and(|&tested| refit_replaces(&self.best, without, tested));
+                        let share = if replaced { 0.0 } else { WINDOW_GAIN_SHARE };
+                        let pays = helps_without_its_best_window(with, &without_errors, share);
+                        if let Some(kept) = self.kept.get_mut(group) {
+                            *kept = pays;
+                        }
+                        self.next_selection_test(group + 1, effective_samples);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Decides on `group` once its refit `x` (cost `without`) is done: a smaller model that fits
+    /// better becomes the one to beat; otherwise the information criterion decides, and a group
+    /// that pays gets its window check when two evaluations are left for it (without them, the
+    /// plain test stands). Returns the window check to run, if any.
+    fn judge_refit(
+        &mut self,
+        group: usize,
+        effective_samples: f32,
+        x: [f32; FAULT_COUNT],
+        without: f32,
+    ) -> Option<WindowCheck> {
+        let (Some(&(first, last)), Some(kept)) = (FAULT_GROUPS.get(group), self.kept.get_mut(group)) else {
+            return None;
+        };
+        if without < self.best_cost {
+            (self.best, self.best_cost) = (x, without);
+            *kept = false;
+            return None;
+        }
+        *kept = group_pays(self.best_cost, without, last - first + 1, effective_samples);
+        let budget_left = selection_polish_left(&self.config, self.selection_polish_evaluations);
+        (*kept && budget_left >= 2).then_some(WindowCheck::With { without: x })
+    }
+
+    /// Starts the refit for the first present group from `group` on, or ends model selection and
+    /// starts the polish. Spends no evaluation (the refit's first step evaluates its start point).
+    /// A refit gets at most what is left of the budget but one, kept for the cost of a vector
+    /// selection changed; with fewer than two to give, the groups not yet tested stay.
+    fn next_selection_test(&mut self, mut group: usize, effective_samples: f32) {
+        let refit_budget = SELECTION_REFIT
+            .max_evaluations
+            .min(selection_polish_left(&self.config, self.selection_polish_evaluations).saturating_sub(1));
+        while let Some(&tested) = FAULT_GROUPS.get(group) {
+            if refit_budget < 2 {
+                self.untested_groups = self.present_groups_from(group);
+                break;
+            }
+            if group_present(&self.best, tested) {
+                let mut free = [false; FAULT_COUNT];
+                for (h, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
+                    let movable = h != group && self.kept[h] && group_present(&self.best, (first, last));
+                    free[first..=last].iter_mut().for_each(|f| *f = movable);
+                }
+                let start = without_group(&self.best, tested);
+                let config = PatternConfig { max_evaluations: refit_budget, ..SELECTION_REFIT };
+                if let Ok(search) = PatternSearch::new(fault_bounds(), config, start, None, free) {
+                    self.stage = Stage::Select(Selection::Refit { group, effective_samples, search });
+                    return;
+                }
+            }
+            group += 1;
+        }
+        self.drop_unpaid_groups();
+        self.start_polish(self.global_reason());
+    }
+
+    /// How many groups of [`FAULT_GROUPS`] from index `first` on are present in the best vector.
+    pub(super) fn present_groups_from(&self, first: usize) -> u8 {
+        let present = FAULT_GROUPS.iter().skip(first).filter(|&&g| group_present(&self.best, g)).count();
+        present as u8 // at most FAULT_GROUPS.len() = 7
+    }
+
+    /// Sets every group model selection refused back to healthy; the cost is re-evaluated by the
+    /// polish (or by a rescore when there is none).
+    fn drop_unpaid_groups(&mut self) {
+        let mut changed = false;
+        for (g, group) in FAULT_GROUPS.iter().enumerate() {
+            if !self.kept[g] && group_present(&self.best, *group) {
+                self.best = without_group(&self.best, *group);
+                changed = true;
+            }
+        }
+        if changed {
+            self.best_cost = f32::NAN; // unknown until evaluated
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fitness::MAX_EVIDENCE_WINDOWS;
+
+    #[test]
+    fn group_helpers_follow_the_groups_and_ignore_indices_outside_the_vector() {
+        let k = [0.2, 0.0, 0.0, 0.3, 0.0, 0.0, 0.9, 0.5]; // friction, short B, a phase without eccentricity
+        let present: [bool; 7] = core::array::from_fn(|g| group_present(&k, FAULT_GROUPS[g]));
+        assert_eq!(present, [true, false, false, true, false, false, false]);
+        assert_eq!(without_group(&k, FAULT_GROUPS[3]), [0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.9, 0.5]);
+        assert_eq!(without_group(&k, FAULT_GROUPS[5]), [0.2, 0.0, 0.0, 0.3, 0.0, 0.0, 0.5, 0.5]);
+        assert!(!group_present(&k, (8, 9)));
+        assert_eq!(without_group(&k, (7, 12)), [0.2, 0.0, 0.0, 0.3, 0.0, 0.0, 0.9, 0.5]);
+        assert_eq!(without_group(&k, (3, 2)), k);
+    }
+
+    #[test]
+    fn a_gain_from_one_window_alone_does_not_help() {
+        let windows = |e: &[f32]| {
+            let mut w = WindowErrors { errors: [0.0; MAX_EVIDENCE_WINDOWS], window_samples: 100, samples: 2125 };
+            w.errors[..e.len()].copy_from_slice(e);
+            w
+        };
+        let with = windows(&[1.0, 1.0, 1.0, 1.0]);
+        // all the gain in window 2, a little loss elsewhere: local
+        assert!(!helps_without_its_best_window(&with, &windows(&[0.99, 1.0, 1.5, 0.995]), 0.0));
+        // the same window, the rest gaining a little (2 % of it): enough against a refit that
+        // replaced the group, local when the refit brought in nothing
+        assert!(helps_without_its_best_window(&with, &windows(&[1.01, 1.0, 1.5, 1.0]), 0.0));
+        assert!(!helps_without_its_best_window(&with, &windows(&[1.01, 1.0, 1.5, 1.0]), WINDOW_GAIN_SHARE));
+        // the rest gaining more than a quarter of it
+        assert!(helps_without_its_best_window(&with, &windows(&[1.1, 1.0, 1.5, 1.05]), WINDOW_GAIN_SHARE));
+        // spread gains
+        assert!(helps_without_its_best_window(&with, &windows(&[1.1, 1.2, 1.1, 1.05]), WINDOW_GAIN_SHARE));
+        // no gain anywhere
+        assert!(!helps_without_its_best_window(&with, &with, 0.0));
+        // a refit that moves another group by more than a step replaced the tested one
+        let (a_and_c, c) = ([0.0, 0.0, 0.06, 0.0, 0.05, 0.0, 0.5, 0.5], [0.0, 0.0, 0.0, 0.0, 0.11, 0.0, 0.5, 0.5]);
+        assert!(refit_replaces(&a_and_c, &c, FAULT_GROUPS[2]));
+        // an eccentricity dropped, friction and gain moving by specks: nothing took its place
+        let ecc = [0.0006, 0.0, 0.0, 0.0, 0.0, 0.18, 0.18, 0.498];
+        assert!(!refit_replaces(&ecc, &[0.002, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5], FAULT_GROUPS[5]));
+    }
+
+    #[test]
+    fn the_information_criterion_prices_parameters() {
+        // n = 2000: one parameter must lower E by more than ln(2000)/2000 = 0.38 %, two by 0.76 %.
+        assert!(group_pays(1.0, 1.005, 1, 2000.0));
+        assert!(!group_pays(1.0, 1.005, 2, 2000.0));
+        assert!(!group_pays(1.0, 1.001, 1, 2000.0));
+        assert!(!group_pays(1.0, 0.99, 1, 2000.0), "a group that makes E worse never pays");
+        assert!(group_pays(0.0, 1e-9, 1, 2000.0), "an exact fit keeps what it needs");
+        assert!(!group_pays(1.0, f32::NAN, 1, 2000.0));
+    }
+}
