@@ -1,0 +1,58 @@
+//! Link-time proof that the on-board path cannot panic: `scripts/prove-no-panic` builds this
+//! program for the MCU with a panic handler that calls a function defined nowhere. The release
+//! build (fat LTO) removes every panic call the optimizer proves unreachable; if one path to a
+//! panic survives, the handler is linked and the link fails on the undefined symbol.
+//!
+//! The path covered is the firmware's: a packed trace of any content (the bytes pass through
+//! `black_box`, so nothing is folded from the built-in trace) behind the replay ADC → acquisition →
+//! identification → health report.
+#![no_std]
+#![no_main]
+
+use core::hint::black_box;
+use core::panic::PanicInfo;
+
+use cortex_m_rt::entry;
+use ema_monitor::acquisition::{AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
+use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
+use ema_monitor::trace::PackedTrace;
+use ema_monitor::{EmaParams, Profile};
+
+static TRACE: &[u8] = include_bytes!("../traces/standard.ematrace");
+
+#[entry]
+fn main() -> ! {
+    let bytes: &[u8] = black_box(TRACE);
+    let report = PackedTrace::parse(bytes).ok().and_then(|trace| {
+        let adc = ReplayAdc::new(trace);
+        let pins = (PhaseA, PhaseB, PhaseC);
+        let mut reader = PhaseCurrentReader::new(adc, pins, Calibration::NOMINAL, AcquisitionConfig::DEFAULT).ok()?;
+        let mut measured = MeasuredTrace::<ONBOARD_WINDOW>::new();
+        monitor::acquire(&mut reader, &mut measured).ok()?;
+        let config = IdentifyConfig { max_iterations: black_box(30), ..IdentifyConfig::onboard() };
+        let mut id = Identification::<ONBOARD_WINDOW, ONBOARD_POPULATION>::new(
+            &measured,
+            black_box(EmaParams::NOMINAL),
+            black_box(Profile::STANDARD),
+            &config,
+        )
+        .ok()?;
+        id.run(black_box(u32::MAX));
+        Some(id.report())
+    });
+    black_box(report);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+#[panic_handler]
+fn panic(_info: &PanicInfo) -> ! {
+    extern "C" {
+        /// Defined nowhere: referencing it fails the link.
+        fn ema_no_panic_proof_failed_a_panic_path_is_linked() -> !;
+    }
+    // SAFETY: never executed; the symbol does not exist, so a build that references it does not link.
+    unsafe { ema_no_panic_proof_failed_a_panic_path_is_linked() }
+}
