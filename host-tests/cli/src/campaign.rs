@@ -15,7 +15,9 @@
 //!
 //! Outputs: a Markdown table with the paper's Table II beside ours; `--out DIR` writes `runs.csv`,
 //! `summary.csv`, `summary.json`, `error.svg` and `time.svg` (grouped bars like the paper's
-//! Figures 4–5); `--json` prints the summary JSON.
+//! Figures 4–5; [`OUTPUT_FILES`]); `--json` prints the summary JSON. `--out DIR` is checked before
+//! the first run (an existing file there is replaced only with `--force`) and its files are
+//! written whole or not at all ([`crate::output`]).
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -34,6 +36,7 @@ use serde_json::json;
 
 use crate::error::CliError;
 use crate::identify::{condition_recording, identify_trace, AlgorithmArg};
+use crate::output::{prepare_dir, write_files, Overwrite};
 use crate::recording_io::Recording;
 use crate::simulate::resolve_profile;
 use crate::svg;
@@ -111,10 +114,18 @@ pub struct CampaignArgs {
     /// Print the summary as JSON instead of the Markdown table.
     #[arg(long)]
     pub json: bool,
-    /// Write runs.csv, summary.csv, summary.json, error.svg and time.svg here.
+    /// Write runs.csv, summary.csv, summary.json, error.svg and time.svg here (created if needed;
+    /// checked before the first run).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
+    /// Replace the files of --out DIR if they exist (without it, an existing one stops the command
+    /// before the first run).
+    #[arg(long)]
+    pub force: bool,
 }
+
+/// The files `--out DIR` receives, checked before the first run and written together at the end.
+pub const OUTPUT_FILES: [&str; 5] = ["runs.csv", "summary.csv", "summary.json", "error.svg", "time.svg"];
 
 /// One planned run.
 #[derive(Clone, Debug)]
@@ -496,10 +507,6 @@ fn summary_json(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> serde
            "cells": cells, "paper_table_ii": paper})
 }
 
-fn write_file(path: &Path, text: &str) -> Result<(), CliError> {
-    std::fs::write(path, text).map_err(|source| CliError::Io { path: path.to_path_buf(), source })
-}
-
 /// `runs.csv`: one row per run, units in the header.
 pub fn runs_csv(results: &[RunResult]) -> String {
     let mut out = String::from("algorithm,mode,level,run,seed");
@@ -551,11 +558,13 @@ pub fn run(args: &CampaignArgs) -> Result<String, CliError> {
     if threads == 0 {
         return Err(CliError::flag("--threads", "must be at least 1"));
     }
+    let overwrite = Overwrite::from_force(args.force);
+    if let Some(dir) = &args.out {
+        prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
+    }
     let results = run_all(&plans, &identify_config(args), &profile, threads, true)?;
     let summary = summarize(&results);
     if let Some(dir) = &args.out {
-        std::fs::create_dir_all(dir).map_err(|source| CliError::Io { path: dir.clone(), source })?;
-        write_file(&dir.join("runs.csv"), &runs_csv(&results))?;
         let mut csv =
             String::from("algorithm,mode,level,runs,mean_err_percent,mean_identification_s,mean_evaluations,mean_floor_err_percent\n");
         for ((alg, mode, level), c) in &summary {
@@ -565,16 +574,17 @@ pub fn run(args: &CampaignArgs) -> Result<String, CliError> {
                 c.runs, c.mean_err_percent, c.mean_seconds, c.mean_evaluations, c.mean_floor_err_percent
             );
         }
-        write_file(&dir.join("summary.csv"), &csv)?;
-        write_file(&dir.join("summary.json"), &summary_json(&summary, args).to_string())?;
-        write_file(
-            &dir.join("error.svg"),
-            &bar_chart("Mean identification error per fault mode", "Err %", &summary, |c| c.mean_err_percent),
-        )?;
-        write_file(
-            &dir.join("time.svg"),
-            &bar_chart("Mean identification time per fault mode", "seconds", &summary, |c| c.mean_seconds),
-        )?;
+        let contents = [
+            runs_csv(&results),
+            csv,
+            summary_json(&summary, args).to_string(),
+            bar_chart("Mean identification error per fault mode", "Err %", &summary, |c| c.mean_err_percent),
+            bar_chart("Mean identification time per fault mode", "seconds", &summary, |c| c.mean_seconds),
+        ];
+        let paths = OUTPUT_FILES.map(|name| dir.join(name));
+        let files: Vec<(&Path, &[u8])> =
+            paths.iter().zip(&contents).map(|(p, c)| (p.as_path(), c.as_bytes())).collect();
+        write_files(&files, overwrite)?;
     }
     Ok(if args.json { summary_json(&summary, args).to_string() } else { table(&summary, args) })
 }

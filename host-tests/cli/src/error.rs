@@ -24,6 +24,11 @@ pub enum CliError {
     Profile(ProfileFileError),
     /// A recording could not be read or written (names the file, line and field).
     Recording(RecordingError),
+    /// An output file exists and the command was not given `--force` (checked before any work).
+    Exists {
+        /// The file.
+        path: PathBuf,
+    },
     /// A file could not be created or written.
     Io {
         /// The file.
@@ -55,6 +60,9 @@ impl fmt::Display for CliError {
             CliError::Flag { flag, message } => write!(f, "{flag}: {message}"),
             CliError::Profile(e) => write!(f, "{e}"),
             CliError::Recording(e) => write!(f, "{e}"),
+            CliError::Exists { path } => {
+                write!(f, "'{}' exists; pass --force to overwrite it", path.display())
+            }
             CliError::Io { path, source } => write!(f, "cannot write '{}': {source}", path.display()),
             CliError::Simulation(m) => write!(f, "simulation refused: {m}"),
             CliError::Input { path, message } => write!(f, "{}: {message}", path.display()),

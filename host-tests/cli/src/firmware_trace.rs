@@ -2,9 +2,15 @@
 //! the reference model.
 //!
 //! ```text
-//! ema firmware-trace [--out FILE]     # default: <repo>/traces/standard.ematrace
-//! ema firmware-trace --from RECORDING.csv --out FILE.ematrace
+//! ema firmware-trace [--out FILE] [--force]                       # default: ./standard.ematrace
+//! ema firmware-trace --from RECORDING.csv [--out FILE] [--force]  # default: ./RECORDING.ematrace
 //! ```
+//!
+//! Without `--out` the file goes to the current directory, named after the input
+//! ([`default_out`]), never into the source tree: the committed trace is replaced only on request,
+//! `firmware-trace --out ../traces/standard.ematrace --force` from `host-tests/`. An existing file
+//! is replaced only with `--force`, checked before the run, and the file is written whole or not
+//! at all ([`crate::output`]).
 //!
 //! The recording is fixed, so the file is reproducible byte for byte (the test
 //! `tests/firmware_trace.rs` regenerates it in memory and compares it with the committed copy):
@@ -35,6 +41,7 @@ use ema_reference::{simulate, Effects, SimConfig};
 
 use crate::error::CliError;
 use crate::identify::check_recording;
+use crate::output::{check_file, write_files, Overwrite};
 use crate::recording_io::{read_recording, Recording};
 
 /// Fault vector of the built-in trace: friction `k1 = 0.25`, everything else healthy
@@ -47,23 +54,32 @@ pub const FIRMWARE_TRACE_SEED: u64 = 1;
 /// Arguments of `ema firmware-trace`.
 #[derive(Args, Debug, Clone)]
 pub struct FirmwareTraceArgs {
-    /// Output file [default: traces/standard.ematrace at the repository root; required with --from].
+    /// Output file [default: in the current directory, standard.ematrace, or with --from the
+    /// recording's name with the extension .ematrace]. To regenerate the committed trace, from
+    /// host-tests/: --out ../traces/standard.ematrace --force.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
     /// Pack this recording CSV (10 kHz, standard profile, 8500 rows) instead of the built-in run.
     #[arg(long, value_name = "RECORDING")]
     pub from: Option<PathBuf>,
+    /// Replace the output file if it exists (without it, an existing file stops the command
+    /// before it runs).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Frames of a firmware trace: the standard profile at 10 kHz (8500, as the built-in trace).
 pub const FIRMWARE_TRACE_FRAMES: usize = 8500;
 
-/// The firmware's built-in trace: `<repo>/traces/standard.ematrace`, found from this crate's
-/// manifest directory (`<repo>/host-tests/cli`), so it does not depend on the working directory.
-pub fn default_out() -> PathBuf {
-    let cli = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let repo = cli.parent().and_then(Path::parent).unwrap_or(cli);
-    repo.join("traces").join("standard.ematrace")
+/// Where `ema firmware-trace` writes without `--out`: a file in the current directory, named
+/// `standard.ematrace` for the built-in run, or after the recording packed with `--from`
+/// (`runs/rec.csv` gives `rec.ematrace`). A user's working directory, not the source tree: the
+/// committed `traces/standard.ematrace` changes only when named with `--out`.
+pub fn default_out(from: Option<&Path>) -> PathBuf {
+    let stem = from.and_then(Path::file_stem).map_or_else(|| "standard".into(), |s| s.to_os_string());
+    let mut name = stem;
+    name.push(".ematrace");
+    PathBuf::from(name)
 }
 
 /// The reference-model configuration of the built-in trace.
@@ -128,14 +144,16 @@ pub fn recording_trace_bytes(recording: &Recording, path: &Path) -> Result<Vec<u
 
 /// Runs `ema firmware-trace`; returns the one-line summary printed on success.
 pub fn run(args: &FirmwareTraceArgs) -> Result<String, CliError> {
+    let out = args.out.clone().unwrap_or_else(|| default_out(args.from.as_deref()));
+    let overwrite = Overwrite::from_force(args.force);
+    check_file(&out, overwrite)?;
     if let Some(from) = &args.from {
-        return run_from(from, args.out.as_deref());
+        return run_from(from, &out, overwrite);
     }
-    let out = args.out.clone().unwrap_or_else(default_out);
     let bytes = firmware_trace_bytes()?;
     let trace = PackedTrace::parse(&bytes)
         .map_err(|e| CliError::Simulation(format!("the packed trace does not read back: {e}")))?;
-    std::fs::write(&out, &bytes).map_err(|source| CliError::Io { path: out.clone(), source })?;
+    write_files(&[(&out, &bytes)], overwrite)?;
     let k: Vec<String> = FIRMWARE_TRACE_FAULTS.0.iter().map(|v| v.to_string()).collect();
     Ok(format!(
         "wrote {} frames at {} Hz ({} bytes) to {}: profile standard, faults {}, noise on, seed {}",
@@ -148,16 +166,13 @@ pub fn run(args: &FirmwareTraceArgs) -> Result<String, CliError> {
     ))
 }
 
-/// `ema firmware-trace --from RECORDING --out FILE`.
-fn run_from(from: &Path, out: Option<&Path>) -> Result<String, CliError> {
-    let out = out.ok_or_else(|| {
-        CliError::flag("--out", "--from needs --out FILE (the built-in traces/standard.ematrace is not overwritten)")
-    })?;
+/// `ema firmware-trace --from RECORDING [--out FILE]`.
+fn run_from(from: &Path, out: &Path, overwrite: Overwrite) -> Result<String, CliError> {
     let recording = read_recording(from)?;
     let bytes = recording_trace_bytes(&recording, from)?;
     let trace = PackedTrace::parse(&bytes)
         .map_err(|e| CliError::Simulation(format!("the packed trace does not read back: {e}")))?;
-    std::fs::write(out, &bytes).map_err(|source| CliError::Io { path: out.to_path_buf(), source })?;
+    write_files(&[(out, &bytes)], overwrite)?;
     Ok(format!(
         "wrote {} frames at {} Hz ({} bytes) to {} from {}; run it on board: EMA_TRACE={} cargo run --release",
         trace.frames(),

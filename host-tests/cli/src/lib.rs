@@ -2,7 +2,8 @@
 //!
 //! One module per subcommand (`simulate`, …) plus the shared recording reader/writer
 //! ([`recording_io`]), profile files ([`profile_file`]), the hand-written SVG plots ([`svg`]) and
-//! the error type ([`error`]).
+//! the error type ([`error`]). Every output file goes through [`output`]: checked before the work,
+//! an existing file replaced only with `--force`, written to a temporary file and renamed into place.
 //! The binary (`src/main.rs`) parses the command line with clap and prints every error as a
 //! single `error: …` line on stderr with exit status 2.
 #![deny(missing_docs)]
@@ -14,6 +15,7 @@ pub mod discover;
 pub mod error;
 pub mod firmware_trace;
 pub mod identify;
+pub mod output;
 pub mod profile_file;
 pub mod recording_io;
 pub mod simulate;

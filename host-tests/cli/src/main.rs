@@ -29,7 +29,7 @@ enum Command {
     Simulate(SimulateArgs),
     /// Identify the faults behind a recording with the on-board core (monitor model + PSO/GA).
     Identify(IdentifyArgs),
-    /// Regenerate the firmware's built-in trace from the reference model, or pack a recording (--from) for EMA_TRACE.
+    /// Pack the firmware's built-in trace (reference model) or a recording (--from) for EMA_TRACE; writes ./NAME.ematrace or --out.
     FirmwareTrace(FirmwareTraceArgs),
     /// Reference model vs monitor model with the true faults: the mismatch floor, per segment.
     Compare(CompareArgs),

@@ -15,8 +15,11 @@
 
 use std::fmt;
 use std::fs::File;
-use std::io::{BufRead, BufReader, BufWriter, Write};
+use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
+
+use crate::error::CliError;
+use crate::output::{self, Overwrite};
 
 /// Column names, in order.
 pub const HEADER: [&str; 6] = ["time_s", "command_rad", "position_rad", "ia_A", "ib_A", "ic_A"];
@@ -244,18 +247,12 @@ pub fn read_recording(path: impl AsRef<Path>) -> Result<Recording, RecordingErro
     Ok(rec)
 }
 
-/// Writes a recording (comment lines, header, rows in shortest round-trip form).
-pub fn write_recording(path: impl AsRef<Path>, rec: &Recording) -> Result<(), RecordingError> {
-    let path = path.as_ref();
-    let io = |e: std::io::Error| RecordingError {
-        path: path.to_owned(),
-        line: None,
-        field: None,
-        kind: RecordingErrorKind::Io(format!("cannot write: {e}")),
-    };
-    let mut w = BufWriter::new(File::create(path).map_err(io)?);
-    write_csv(&mut w, rec).map_err(io)?;
-    w.flush().map_err(io)
+/// Writes a recording (comment lines, header, rows in shortest round-trip form) through
+/// [`output::write_with`]: to a temporary file renamed into place once complete, so a failed write
+/// never leaves a truncated recording; an existing file is replaced only with
+/// [`Overwrite::Replace`].
+pub fn write_recording(path: impl AsRef<Path>, rec: &Recording, overwrite: Overwrite) -> Result<(), CliError> {
+    output::write_with(path.as_ref(), overwrite, |mut w| write_csv(&mut w, rec))
 }
 
 /// Writes a recording as CSV to any writer.
@@ -291,7 +288,8 @@ mod tests {
             row_line: vec![3, 4, 5, 6], // one comment line, the header, then the rows
         };
         let path = std::env::temp_dir().join(format!("ema-rt-{}.csv", std::process::id()));
-        write_recording(&path, &rec).expect("writable temp dir");
+        let _ = std::fs::remove_file(&path);
+        write_recording(&path, &rec, Overwrite::Refuse).expect("writable temp dir");
         let back = read_recording(&path).expect("valid file");
         let _ = std::fs::remove_file(&path);
         assert_eq!(back, rec);

@@ -1,8 +1,11 @@
 //! `ema simulate`: runs the reference model and writes a recording.
 //!
 //! ```text
-//! ema simulate --faults k1,…,k8 [--effect ID=S]… [--profile standard|FILE] [--noise on|off] [--seed N] --out FILE.csv
+//! ema simulate --faults k1,…,k8 [--effect ID=S]… [--profile standard|FILE] [--noise on|off] [--seed N] --out FILE.csv [--force]
 //! ```
+//!
+//! `--out` is checked before the simulation runs; an existing file is replaced only with
+//! `--force`, and the file is written whole or not at all ([`crate::output`]).
 
 use std::path::{Path, PathBuf};
 
@@ -11,6 +14,7 @@ use ema_monitor::{EffectId, FaultVector, ModelEffects, Profile, FAULT_COUNT};
 use ema_reference::{simulate, Effect, Effects, SimConfig};
 
 use crate::error::CliError;
+use crate::output::{check_file, Overwrite};
 use crate::profile_file::read_profile;
 use crate::recording_io::{write_recording, Recording};
 
@@ -45,9 +49,12 @@ pub struct SimulateArgs {
     /// Seed of the noise generator (same seed, same file).
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub seed: u64,
-    /// Output CSV file.
+    /// Output CSV file (written to a temporary file beside it, renamed into place when complete).
     #[arg(long, value_name = "FILE.csv")]
     pub out: PathBuf,
+    /// Replace --out if it exists (without it, an existing file stops the command before it runs).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Parses `k1,…,k8`: exactly eight numbers in `[0, 1]`.
@@ -139,6 +146,8 @@ pub fn config(args: &SimulateArgs) -> Result<SimConfig, CliError> {
 /// Runs `ema simulate`; returns the one-line summary printed on success.
 pub fn run(args: &SimulateArgs) -> Result<String, CliError> {
     let cfg = config(args)?;
+    let overwrite = Overwrite::from_force(args.force);
+    check_file(&args.out, overwrite)?;
     let result = simulate(&cfg).map_err(|e| CliError::Simulation(e.to_string()))?;
     let k = cfg.faults.0.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(",");
     let fx: Vec<String> = cfg.effects.active().map(|(e, s)| format!("{e}={s}")).collect();
@@ -151,7 +160,7 @@ pub fn run(args: &SimulateArgs) -> Result<String, CliError> {
         format!("sample_rate_hz: {}", ema_monitor::trace::SAMPLE_RATE_HZ),
     ];
     let rec = Recording::from_reference(&result, comments);
-    write_recording(&args.out, &rec)?;
+    write_recording(&args.out, &rec, overwrite)?;
     Ok(format!(
         "wrote {} samples ({} s at {} Hz) to {}",
         rec.len(),

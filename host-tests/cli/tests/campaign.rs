@@ -24,6 +24,7 @@ fn args(runs: u32, modes: &[&str]) -> CampaignArgs {
         modes: modes.iter().map(|m| m.to_string()).collect(),
         json: false,
         out: None,
+        force: false,
     }
 }
 

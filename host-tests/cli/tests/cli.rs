@@ -117,6 +117,7 @@ fn simulate_round_trips_through_the_reader() {
             "7",
             "--out",
             out.to_str().expect("utf-8"),
+            "--force", // the second run replaces the first run's file
         ]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         assert!(String::from_utf8_lossy(&o.stdout).contains("wrote 8500 samples"));

@@ -11,7 +11,8 @@ use ema_cli::recording_io::read_recording;
 use ema_monitor::trace::{counts_to_amps, PackedTrace, SAMPLE_RATE_HZ};
 
 /// The exact command that regenerates the committed trace.
-const REGENERATE: &str = "cd host-tests && cargo run --release --bin ema -- firmware-trace";
+const REGENERATE: &str =
+    "cd host-tests && cargo run --release --bin ema -- firmware-trace --out ../traces/standard.ematrace --force";
 
 fn committed_path() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../traces/standard.ematrace")
@@ -39,11 +40,9 @@ fn committed_trace_matches_the_reference_model() {
         fresh.len(),
         on_disk.len(),
     );
-    // the default --out is that same file, whatever the working directory
-    assert_eq!(
-        default_out().canonicalize().expect("default --out exists"),
-        committed_path().canonicalize().expect("committed trace exists")
-    );
+    // without --out: a file in the working directory named after the input, not the committed trace
+    assert_eq!(default_out(None), PathBuf::from("standard.ematrace"));
+    assert_eq!(default_out(Some(Path::new("runs/rec.csv"))), PathBuf::from("rec.ematrace"));
     let t = PackedTrace::parse(&fresh).expect("valid packed trace");
     assert_eq!((t.frames(), t.sample_rate_hz(), fresh.len()), (8500, SAMPLE_RATE_HZ, 38_262));
 }
@@ -114,7 +113,7 @@ fn readme_documents_the_command_faults_and_seed() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../traces/README.md");
     let readme = std::fs::read_to_string(&path).expect("traces/README.md exists");
     for needle in [
-        "cargo run --release --bin ema -- firmware-trace".to_owned(),
+        "cargo run --release --bin ema -- firmware-trace --out ../traces/standard.ematrace --force".to_owned(),
         format!("`{}`", faults_csv()),
         format!("seed `{FIRMWARE_TRACE_SEED}`"),
         "8500 frames".to_owned(),

@@ -127,8 +127,11 @@ fn recordings_the_firmware_cannot_replay_are_refused() {
     let csv = dir.join("standard.csv");
     accepted(&["simulate", "--seed", "2", "--out", s(&csv)]);
     let out = dir.join("x.ematrace");
-    // no --out: the built-in trace is never overwritten by --from
-    refused(&["firmware-trace", "--from", s(&csv)], &["--out"]);
+    // an existing file is kept without --force (the default location: tests/data_safety.rs)
+    std::fs::write(&out, b"old").expect("writable");
+    refused(&["firmware-trace", "--from", s(&csv), "--out", s(&out)], &["x.ematrace", "--force"]);
+    assert_eq!(std::fs::read(&out).expect("kept"), b"old");
+    std::fs::remove_file(&out).expect("removable");
     // fewer rows than the standard profile's 8500 frames
     let text = std::fs::read_to_string(&csv).expect("readable");
     let lines: Vec<&str> = text.lines().collect();

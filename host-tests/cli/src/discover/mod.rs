@@ -45,7 +45,9 @@
 //!    without and with the named effects promoted: the fault vectors it would report.
 //!
 //! `--out DIR` writes `discovery.json`, `residual.csv`, `fit.svg`, `residual.svg` and
-//! `model-config.txt` (the promoted model: `effect ID SEVERITY` lines for the firmware build).
+//! `model-config.txt` (the promoted model: `effect ID SEVERITY` lines for the firmware build;
+//! [`OUTPUT_FILES`]). It is checked before the fits start (an existing file there is replaced only
+//! with `--force`), and its files are written whole or not at all ([`crate::output`]).
 
 pub mod fitting;
 pub mod localisation;
@@ -71,11 +73,12 @@ pub use localisation::{
 pub use naming::{
     Candidate, Round, BIC_FIT_STRONG, BIC_OWN_STRONG, BIC_STRONG, MAX_NAMED, MIN_GAP_SHARE_REPLACING, PINNED_SEVERITY,
 };
-pub use report::{model_config, summary, to_json, verdict, write_outputs};
+pub use report::{model_config, summary, to_json, verdict, write_outputs, OUTPUT_FILES};
 pub use residual::{above_noise_a, moving_mean, series, Series, CLEAN_FLOOR_A, NOISE_FLOOR_A, SMOOTH_BLOCKS};
 
 use crate::error::CliError;
 use crate::identify::{condition_recording, identify_trace, HOST_WINDOW};
+use crate::output::{prepare_dir, Overwrite};
 use crate::recording_io::read_recording;
 use crate::simulate::{parse_faults, resolve_profile};
 use localisation::window_rms;
@@ -96,9 +99,14 @@ pub struct DiscoverArgs {
     /// Print JSON instead of the readable summary.
     #[arg(long)]
     pub json: bool,
-    /// Write discovery.json, residual.csv, fit.svg, residual.svg and model-config.txt here.
+    /// Write discovery.json, residual.csv, fit.svg, residual.svg and model-config.txt here
+    /// (created if needed; checked before the fits start).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
+    /// Replace the files of --out DIR if they exist (without it, an existing one stops the command
+    /// before the fits start).
+    #[arg(long)]
+    pub force: bool,
     /// Seed of the optimizers.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -326,12 +334,16 @@ pub fn discover<const W: usize>(
 pub fn run(args: &DiscoverArgs) -> Result<String, CliError> {
     let profile = resolve_profile(&args.profile)?;
     let truth = args.truth.as_deref().map(parse_faults).transpose()?;
+    let overwrite = Overwrite::from_force(args.force);
+    if let Some(dir) = &args.out {
+        prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
+    }
     let recording = read_recording(&args.file).map_err(CliError::Recording)?;
     let trace = condition_recording(&recording, &args.file, &profile)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let d = discover::<HOST_WINDOW>(&trace, &profile, &args.file, truth, args.seed, threads)?;
     if let Some(dir) = &args.out {
-        write_outputs(dir, &d)?;
+        write_outputs(dir, &d, overwrite)?;
     }
     Ok(if args.json { to_json(&d).to_string() } else { summary(&d) })
 }

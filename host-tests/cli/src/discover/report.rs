@@ -10,6 +10,7 @@ use serde_json::json;
 use super::residual::{above_noise_a, moving_mean, NOISE_FLOOR_A, SMOOTH_BLOCKS};
 use super::{Discovery, Withdrawal};
 use crate::error::CliError;
+use crate::output::{self, Overwrite};
 use crate::svg::line_plot;
 
 /// The model configuration the firmware build accepts (`EMA_MODEL_CONFIG`).
@@ -219,16 +220,14 @@ pub fn summary(d: &Discovery) -> String {
     s
 }
 
-/// Writes `text` to `path`, naming the path in the error.
-fn write_file(path: &Path, text: &str) -> Result<(), CliError> {
-    std::fs::write(path, text).map_err(|e| CliError::Io { path: path.to_path_buf(), source: e })
-}
+/// The files `--out DIR` receives, checked before the fits start and written together at the end.
+pub const OUTPUT_FILES: [&str; 5] = ["discovery.json", "model-config.txt", "residual.csv", "fit.svg", "residual.svg"];
 
-/// Writes discovery.json, residual.csv, fit.svg, residual.svg and model-config.txt into `dir`.
-pub fn write_outputs(dir: &Path, d: &Discovery) -> Result<(), CliError> {
-    std::fs::create_dir_all(dir).map_err(|e| CliError::Io { path: dir.to_path_buf(), source: e })?;
-    write_file(&dir.join("discovery.json"), &to_json(d).to_string())?;
-    write_file(&dir.join("model-config.txt"), &model_config(d))?;
+/// Writes discovery.json, model-config.txt, residual.csv, fit.svg and residual.svg into `dir`
+/// (created if needed) through [`output::write_files`]: all complete or none replaced; an existing
+/// file is replaced only with [`Overwrite::Replace`].
+pub fn write_outputs(dir: &Path, d: &Discovery, overwrite: Overwrite) -> Result<(), CliError> {
+    output::prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
     let (b, a) = (&d.series_before, &d.series_after);
     let mut csv = String::from(
         "time_s,measured_A,model_before_A,model_after_A,residual_before_A,residual_after_A,structural_before_A,structural_after_A\n",
@@ -247,34 +246,30 @@ pub fn write_outputs(dir: &Path, d: &Discovery) -> Result<(), CliError> {
             a.structural_a[i]
         );
     }
-    write_file(&dir.join("residual.csv"), &csv)?;
     let measured = moving_mean(&b.measured_a, SMOOTH_BLOCKS);
     let model_before = moving_mean(&b.model_a, SMOOTH_BLOCKS);
     let model_after = moving_mean(&a.model_a, SMOOTH_BLOCKS);
     let hot: Vec<(f64, f64)> = d.windows.iter().map(|w| (w.start_s, w.end_s)).collect();
-    write_file(
-        &dir.join("fit.svg"),
-        &line_plot(
-            "Equivalent current I_3eq (2 ms means): measured vs model",
-            "A",
-            &b.time_s,
-            &[
-                ("measured", "#222222", &measured),
-                ("model before", "#d62728", &model_before),
-                ("model after", "#1f77b4", &model_after),
-            ],
-            &hot,
-        ),
-    )?;
-    write_file(
-        &dir.join("residual.svg"),
-        &line_plot(
-            "Structural residual (measured - model, 2 ms means)",
-            "A",
-            &b.time_s,
-            &[("before", "#d62728", &b.structural_a), ("after", "#1f77b4", &a.structural_a)],
-            &hot,
-        ),
-    )?;
-    Ok(())
+    let fit = line_plot(
+        "Equivalent current I_3eq (2 ms means): measured vs model",
+        "A",
+        &b.time_s,
+        &[
+            ("measured", "#222222", &measured),
+            ("model before", "#d62728", &model_before),
+            ("model after", "#1f77b4", &model_after),
+        ],
+        &hot,
+    );
+    let residual = line_plot(
+        "Structural residual (measured - model, 2 ms means)",
+        "A",
+        &b.time_s,
+        &[("before", "#d62728", &b.structural_a), ("after", "#1f77b4", &a.structural_a)],
+        &hot,
+    );
+    let contents = [to_json(d).to_string(), model_config(d), csv, fit, residual];
+    let paths = OUTPUT_FILES.map(|name| dir.join(name));
+    let files: Vec<(&Path, &[u8])> = paths.iter().zip(&contents).map(|(p, c)| (p.as_path(), c.as_bytes())).collect();
+    output::write_files(&files, overwrite)
 }
