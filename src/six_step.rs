@@ -19,6 +19,32 @@ pub(crate) const TWO_PI: f32 = 2.0 * PI;
 /// Conducting pair `(positive phase, negative phase)` per Hall sector (phases a, b, c = 0, 1, 2).
 pub(crate) const PAIRS: [(usize, usize); 6] = [(0, 1), (0, 2), (1, 2), (1, 0), (2, 0), (2, 1)];
 
+/// A phase (a, b, c = 0, 1, 2) held in a type whose only values are those three: an index made
+/// from it is in range of any per-phase array, so indexing one needs no bounds check and has no
+/// panic path (the on-board path is proven panic-free, `scripts/prove-no-panic`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+enum Phase {
+    A = 0,
+    B = 1,
+    C = 2,
+}
+
+/// [`PAIRS`] with the idle phase: `(p, q, r)` per Hall sector, in the bounded [`Phase`] type.
+const ROLES: [(Phase, Phase, Phase); 6] = {
+    use Phase::{A, B, C};
+    [(A, B, C), (A, C, B), (B, C, A), (B, A, C), (C, A, B), (C, B, A)]
+};
+
+/// The conducting pair `(p, q)` and the idle phase `r = 3 − p − q` of Hall sector `sector mod 6`,
+/// each an index below 3 (the compiler knows it: per-phase arrays indexed by them have no bounds
+/// check).
+#[cfg_attr(not(target_os = "none"), inline)]
+pub(crate) fn sector_phases(sector: usize) -> (usize, usize, usize) {
+    let (p, q, r) = ROLES[sector % 6];
+    (p as usize, q as usize, r as usize)
+}
+
 /// Hall sector `0..6` of a Hall angle in `[0, 2π)` (an angle that rounds to 2π reads sector 5).
 pub(crate) fn sector_of(hall_angle_rad: f32) -> usize {
     let sector = (hall_angle_rad * (1.0 / FRAC_PI_3)) as usize;
@@ -44,8 +70,8 @@ pub(crate) fn wrap(a: f32) -> f32 {
 /// turning forward, from `sector + 1` when turning backward.
 pub(crate) fn commutation_roles(sector: usize, forward: bool) -> (usize, usize, usize) {
     let previous = if forward { (sector + 5) % 6 } else { (sector + 1) % 6 };
-    let (a, b) = PAIRS[sector % 6];
-    let (x, y) = PAIRS[previous];
+    let (a, b, _) = sector_phases(sector);
+    let (x, y, _) = sector_phases(previous);
     let common = if a == x || a == y { a } else { b };
     let incoming = if common == a { b } else { a };
     let outgoing = if common == x { y } else { x };
@@ -94,7 +120,7 @@ pub(crate) fn phase_emf_shape_near_turn(theta_e_rad: f32, inv_ramp_per_rad: f32)
 /// its 60° ramp, falling in even sectors, rising in odd ones. [`phase_emf_shape`] of ramp `π/6`
 /// without its folds.
 pub(crate) fn ideal_emf_shapes(sector: usize, hall_rad: f32) -> [f32; 3] {
-    let (a, b) = PAIRS[sector % 6];
+    let (a, b, idle) = sector_phases(sector);
     // The angle into the sector; at the 5 → 0 edge `hall_rad` may round to either side of 2π.
     let mut within = wrap(hall_rad) - sector as f32 * FRAC_PI_3;
     if within > PI {
@@ -107,7 +133,7 @@ pub(crate) fn ideal_emf_shapes(sector: usize, hall_rad: f32) -> [f32; 3] {
     let mut f = [0.0f32; 3];
     f[a] = 1.0;
     f[b] = -1.0;
-    f[3 - a - b] = if sector.is_multiple_of(2) { ramp } else { -ramp };
+    f[idle] = if sector.is_multiple_of(2) { ramp } else { -ramp };
     f
 }
 
@@ -165,6 +191,14 @@ mod tests {
                 let (p, q) = PAIRS[sector];
                 assert!((c == p || c == q) && (n == p || n == q), "the new pair is (common, incoming)");
             }
+        }
+    }
+
+    #[test]
+    fn sector_phases_are_the_pairs_and_the_idle_phase() {
+        for sector in 0..12 {
+            let (p, q) = PAIRS[sector % 6];
+            assert_eq!(sector_phases(sector), (p, q, 3 - p - q), "sector {sector}");
         }
     }
 }
