@@ -67,16 +67,34 @@ pub(crate) fn wrap(a: f32) -> f32 {
 }
 
 /// `(common, outgoing, incoming)` phases of the commutation into `sector`, from `sector − 1` when
-/// turning forward, from `sector + 1` when turning backward.
+/// turning forward, from `sector + 1` when turning backward: a look-up in [`COMMUTATION_ROLES`].
 pub(crate) fn commutation_roles(sector: usize, forward: bool) -> (usize, usize, usize) {
-    let previous = if forward { (sector + 5) % 6 } else { (sector + 1) % 6 };
-    let (a, b, _) = sector_phases(sector);
-    let (x, y, _) = sector_phases(previous);
-    let common = if a == x || a == y { a } else { b };
-    let incoming = if common == a { b } else { a };
-    let outgoing = if common == x { y } else { x };
-    (common, outgoing, incoming)
+    let (c, o, n) = COMMUTATION_ROLES[sector % 6][usize::from(forward)];
+    (c as usize, o as usize, n as usize)
 }
+
+/// [`commutation_roles`] of every sector, backward (`[0]`) and forward (`[1]`), derived from
+/// [`ROLES`] at compile time: the common phase is the one both pairs share, the incoming one the
+/// new pair's other phase, the outgoing one the old pair's.
+const COMMUTATION_ROLES: [[(Phase, Phase, Phase); 2]; 6] = {
+    let mut table = [[(Phase::A, Phase::A, Phase::A); 2]; 6];
+    let mut sector = 0;
+    while sector < 6 {
+        let mut direction = 0;
+        while direction < 2 {
+            let previous = if direction == 1 { (sector + 5) % 6 } else { (sector + 1) % 6 };
+            let (a, b, _) = ROLES[sector];
+            let (x, y, _) = ROLES[previous];
+            let common = if a as u8 == x as u8 || a as u8 == y as u8 { a } else { b };
+            let incoming = if common as u8 == a as u8 { b } else { a };
+            let outgoing = if common as u8 == x as u8 { y } else { x };
+            table[sector][direction] = (common, outgoing, incoming);
+            direction += 1;
+        }
+        sector += 1;
+    }
+    table
+};
 
 /// Trapezoidal back-EMF shape `f(θ_e)` of phase a at any electrical angle: linear ramps of width
 /// `1/inv_ramp_per_rad` from the zero crossings at 0 and π, flat top ±1 between (ramp `π/6`: the
@@ -190,6 +208,19 @@ mod tests {
                 assert!(c != o && o != n && c != n);
                 let (p, q) = PAIRS[sector];
                 assert!((c == p || c == q) && (n == p || n == q), "the new pair is (common, incoming)");
+            }
+        }
+    }
+
+    #[test]
+    fn commutation_roles_table_is_the_shared_and_the_changed_phases() {
+        for sector in 0..12 {
+            for forward in [true, false] {
+                let previous = if forward { (sector + 5) % 6 } else { (sector + 1) % 6 };
+                let ((a, b), (x, y)) = (PAIRS[sector % 6], PAIRS[previous]);
+                let common = if a == x || a == y { a } else { b };
+                let expected = (common, if common == x { y } else { x }, if common == a { b } else { a });
+                assert_eq!(commutation_roles(sector, forward), expected, "sector {sector}, forward {forward}");
             }
         }
     }
