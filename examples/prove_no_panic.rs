@@ -5,7 +5,10 @@
 //!
 //! The path covered is the firmware's: a packed trace of any content (the bytes pass through
 //! `black_box`, so nothing is folded from the built-in trace) behind the replay ADC → acquisition →
-//! identification → health report.
+//! identification → health report. The calibration, the acquisition and identification settings,
+//! the actuator parameters and the command profile pass through `black_box` too: the proof holds
+//! for any of them (the solver, the polish, model selection and the effect terms included), not
+//! only for the on-board defaults.
 #![no_std]
 #![no_main]
 
@@ -27,10 +30,11 @@ fn main() -> ! {
     let report = PackedTrace::parse(bytes).ok().and_then(|trace| {
         let adc = ReplayAdc::new(trace);
         let pins = (PhaseA, PhaseB, PhaseC);
-        let mut reader = PhaseCurrentReader::new(adc, pins, Calibration::NOMINAL, AcquisitionConfig::DEFAULT).ok()?;
+        let (calibration, acquisition) = black_box((Calibration::NOMINAL, AcquisitionConfig::DEFAULT));
+        let mut reader = PhaseCurrentReader::new(adc, pins, calibration, acquisition).ok()?;
         let mut measured = MeasuredTrace::<ONBOARD_WINDOW>::new();
         monitor::acquire(&mut reader, &mut measured).ok()?;
-        let config = IdentifyConfig { max_iterations: black_box(30), ..IdentifyConfig::onboard() };
+        let config = black_box(IdentifyConfig { max_iterations: 30, ..IdentifyConfig::onboard() });
         let mut id = Identification::<ONBOARD_WINDOW, ONBOARD_POPULATION>::new(
             &measured,
             black_box(EmaParams::NOMINAL),
@@ -38,8 +42,12 @@ fn main() -> ! {
             &config,
         )
         .ok()?;
+        // The public calls in any order: a report before the first evaluation, the search, then a
+        // step after the end.
+        let early = id.report();
         id.run(black_box(u32::MAX));
-        Some(id.report())
+        id.step();
+        Some((early, id.report()))
     });
     black_box(report);
     loop {

@@ -21,6 +21,7 @@ use crate::params::EmaParams;
 
 /// Intervals of the [`MeasuredEnvelope`] table over `[0, 4σ]`.
 const ENVELOPE_TABLE_LEN: usize = 32;
+const _: () = assert!(ENVELOPE_TABLE_LEN.is_power_of_two(), "indices are masked with ENVELOPE_TABLE_LEN − 1");
 
 /// Frames averaged into one window sample (10 kHz control rate → 2.5 kHz fitness rate).
 pub const DECIMATION: usize = 4;
@@ -151,10 +152,12 @@ impl MeasuredEnvelope {
         let mu = libm::fabsf(mean_a);
         let x = mu * self.index_per_a;
         let excess = if x < ENVELOPE_TABLE_LEN as f32 {
-            let k = x as usize; // x ≥ 0 and below the table length: a valid index
+            // x ≥ 0 and below the table length, so k < ENVELOPE_TABLE_LEN, a power of two: the mask
+            // changes no value and states the bound to the compiler (no bounds check, no panic path).
+            let k = (x as usize) & (ENVELOPE_TABLE_LEN - 1);
             let frac = x - k as f32;
             let lo = self.excess_a[k];
-            let hi = self.excess_a[if k < ENVELOPE_TABLE_LEN { k + 1 } else { k }];
+            let hi = self.excess_a[k + 1];
             lo + (hi - lo) * frac
         } else {
             0.0
@@ -197,9 +200,9 @@ impl SensorErrorEnvelope {
         let mut pair = [[0.0; 4]; 6];
         let mut open_a = [0.0; 6];
         let mut open = [[1.0, 0.0]; 6];
-        for (sector, &(p, q)) in crate::six_step::PAIRS.iter().enumerate() {
+        for sector in 0..6 {
+            let (p, q, r) = crate::six_step::sector_phases(sector);
             pair[sector] = [1.0 + gain[p], offset_a[p], 1.0 + gain[q], -offset_a[q]];
-            let r = 3 - p - q;
             open_a[sector] = 0.5 * folded_normal_mean_a(offset_a[r], params.current_noise_a);
             open[sector] = [1.0 + gain[r], offset_a[r]];
         }
@@ -220,10 +223,10 @@ impl SensorErrorEnvelope {
     /// the phases' mean currents moved by the freewheel's `shift_a` (`δ_j` above).
     pub fn expected_a(&self, sector: usize, current_a: f32, shift_a: &[f32; 3]) -> f32 {
         let sector = sector % 6;
-        let (p, q) = crate::six_step::PAIRS[sector];
+        let (p, q, r) = crate::six_step::sector_phases(sector);
         let [gain_p, off_p, gain_q, off_q] = self.pair[sector];
         let [gain_r, off_r] = self.open[sector];
-        let idle_a = shift_a[3 - p - q];
+        let idle_a = shift_a[r];
         0.5 * (self.envelope.conducting_phase_a(gain_p * (current_a + shift_a[p]) + off_p)
             + self.envelope.conducting_phase_a(gain_q * (current_a - shift_a[q]) + off_q)
             + libm::fabsf(gain_r * idle_a + off_r)
@@ -331,14 +334,17 @@ impl<const W: usize> MeasuredTrace<W> {
         if n < MIN_SAMPLES {
             return Err(ConditioningError::TooShort);
         }
-        // Central differences (one-sided at the ends); the sample period cancels in İ/C.
+        // Central differences (one-sided at the ends); the sample period cancels in İ/C. The
+        // window holds at least MIN_SAMPLES ≥ 2 samples, so every index below is in range; `at`
+        // reads 0 past the end only so that no panic path exists.
+        let at = |j: usize| y.get(j).copied().unwrap_or(0.0);
         let derivative = |i: usize| -> f32 {
             let (a, b, span) = if i == 0 {
-                (y[0], y[1], 1.0)
+                (at(0), at(1), 1.0)
             } else if i + 1 == n {
-                (y[n - 2], y[n - 1], 1.0)
+                (at(n - 2), at(n - 1), 1.0)
             } else {
-                (y[i - 1], y[i + 1], 2.0)
+                (at(i - 1), at(i + 1), 2.0)
             };
             (b - a) / span
         };

@@ -22,7 +22,7 @@
 //! Their terms are multiplied by `ρ` ([`FAST_REGIME_WEIGHT`] in the monitor's configuration):
 //! `E(k) = (1/n)·Σ_i ρ_i·w_i·r_i²`, `ρ_i = ρ` in the fast regime, 1 elsewhere.
 
-use crate::conditioning::{MeasuredEnvelope, MeasuredTrace, SensorErrorEnvelope, DECIMATION};
+use crate::conditioning::{ConditioningError, MeasuredEnvelope, MeasuredTrace, SensorErrorEnvelope, DECIMATION};
 use crate::effects::ModelEffects;
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::model::{ModelState, MonitorModel};
@@ -174,9 +174,14 @@ impl RegimeWeights<'_> {
 }
 
 impl<'a, const W: usize> CurrentFit<'a, W> {
-    /// The fitness of the monitor model of `params`, driven by `profile`, against `trace`.
-    pub fn new(trace: &'a MeasuredTrace<W>, params: EmaParams, profile: Profile) -> Self {
-        Self { trace, params, profile, effects: ModelEffects::NONE, fast_intervals: Vec::new(), fast_weight: 1.0 }
+    /// The fitness of the monitor model of `params`, driven by `profile`, against `trace`. Only a
+    /// finished trace ([`MeasuredTrace::finish`]) has the weights `w_i` the fitness needs: an
+    /// unfinished one is refused with [`ConditioningError::Finished`].
+    pub fn new(trace: &'a MeasuredTrace<W>, params: EmaParams, profile: Profile) -> Result<Self, ConditioningError> {
+        if !trace.is_finished() {
+            return Err(ConditioningError::Finished);
+        }
+        Ok(Self { trace, params, profile, effects: ModelEffects::NONE, fast_intervals: Vec::new(), fast_weight: 1.0 })
     }
 
     /// The same fitness with the fast-regime samples weighted by `weight` (module doc). The
@@ -259,8 +264,11 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
         let mut sum = 0.0f32;
         let mut rho = self.regime_weights();
         simulate_window_with_effects(&self.params, &self.profile, k, &self.effects, n, |i, model_a, _| {
-            let r = y[i] - model_a;
-            sum += rho.at(i) * w[i] * r * r;
+            // i < n and a finished trace has one weight per sample: `get` never misses (a miss
+            // would end the sum; it exists so that no panic path does).
+            let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
+            let r = y_i - model_a;
+            sum += rho.at(i) * w_i * r * r;
             sum <= limit
         });
         let e = sum * inv_n;
@@ -288,9 +296,10 @@ impl<const W: usize> CurrentFit<'_, W> {
         let mut rho = self.regime_weights();
         let errors = &mut out.errors;
         simulate_window_with_effects(&self.params, &self.profile, k, &self.effects, n, |i, model_a, _| {
-            let r = y[i] - model_a;
+            let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
+            let r = y_i - model_a;
             if let Some(e) = errors.get_mut(i / window_samples) {
-                *e += rho.at(i) * w[i] * r * r * inv_n;
+                *e += rho.at(i) * w_i * r * r * inv_n;
             }
             true
         });
@@ -308,7 +317,8 @@ impl<const W: usize> CurrentFit<'_, W> {
         let (mut sum_sq, mut sum_lag, mut previous) = (0.0f32, 0.0f32, 0.0f32);
         let mut rho = self.regime_weights();
         simulate_window_with_effects(&self.params, &self.profile, k, &self.effects, y.len(), |i, model_a, _| {
-            let u = libm::sqrtf(rho.at(i) * w[i]) * (y[i] - model_a);
+            let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
+            let u = libm::sqrtf(rho.at(i) * w_i) * (y_i - model_a);
             sum_sq += u * u;
             sum_lag += u * previous;
             previous = u;
@@ -340,6 +350,7 @@ impl<const W: usize> Objective<FAULT_COUNT> for CurrentFit<'_, W> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::conditioning::MIN_SAMPLES;
 
     /// A "measurement" made by the monitor model itself (noise-free), through the conditioner.
     fn self_trace(k: &FaultVector) -> MeasuredTrace<2200> {
@@ -358,10 +369,32 @@ mod tests {
     }
 
     #[test]
+    fn an_unfinished_trace_is_refused_not_indexed() {
+        let mut trace = MeasuredTrace::<2200>::new();
+        assert_eq!(
+            CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).err(),
+            Some(ConditioningError::Finished)
+        );
+        for k in 0..(MIN_SAMPLES + 5) * DECIMATION {
+            let i = if k % 50 < 25 { 1.0 } else { 2.0 };
+            trace.push(i, -i, 0.0).unwrap();
+        }
+        // samples in, weights not yet computed: still refused
+        assert!(!trace.is_empty());
+        assert_eq!(
+            CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).err(),
+            Some(ConditioningError::Finished)
+        );
+        trace.finish().unwrap();
+        let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
+        assert!(fit.error(&FaultVector::HEALTHY).is_finite());
+    }
+
+    #[test]
     fn the_true_vector_has_zero_error_and_others_do_not() {
         let truth = FaultVector([0.3, 0.1, 0.0, 0.2, 0.0, 0.0, 0.5, 0.4]);
         let trace = self_trace(&truth);
-        let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD);
+        let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
         assert_eq!(fit.error(&truth), 0.0);
         for i in [0usize, 1, 3, 7] {
             let mut k = truth;
@@ -374,7 +407,7 @@ mod tests {
     fn effective_samples_fall_with_a_correlated_residual() {
         let truth = FaultVector::HEALTHY;
         let trace = self_trace(&truth);
-        let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD);
+        let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
         let n = trace.len() as f32;
         // A wrong gain leaves a smooth (strongly correlated) residual: far fewer than n samples.
         let wrong = FaultVector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.3]);
@@ -388,7 +421,7 @@ mod tests {
     fn fast_regime_is_the_step_and_the_reversal_and_weighs_only_there() {
         let truth = FaultVector([0.2, 0.0, 0.0, 0.1, 0.0, 0.0, 0.5, 0.5]);
         let trace = self_trace(&FaultVector::HEALTHY);
-        let paper = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD);
+        let paper = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
         let ours = paper.clone().with_fast_regime_weight(0.1).unwrap();
         let (intervals, weight) = ours.fast_regime();
         assert_eq!(weight, 0.1);
@@ -419,7 +452,10 @@ mod tests {
     #[test]
     fn window_errors_split_the_error() {
         let trace = self_trace(&FaultVector::HEALTHY);
-        let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).with_fast_regime_weight(0.1).unwrap();
+        let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD)
+            .unwrap()
+            .with_fast_regime_weight(0.1)
+            .unwrap();
         let k = FaultVector([0.2, 0.0, 0.0, 0.1, 0.0, 0.0, 0.5, 0.45]);
         let w = fit.window_errors(&k);
         assert_eq!((w.window_samples, w.samples), (EVIDENCE_WINDOW_SAMPLES, trace.len()));
@@ -433,7 +469,7 @@ mod tests {
     #[test]
     fn abandoning_returns_above_the_bound_or_the_exact_value() {
         let trace = self_trace(&FaultVector::HEALTHY);
-        let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD);
+        let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
         let k = FaultVector([0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.8]);
         let exact = fit.error(&k);
         assert!(exact > 0.0);

@@ -153,7 +153,8 @@ impl Profile {
 
     /// The segments in time order.
     pub fn segments(&self) -> &[Segment] {
-        &self.segments[..self.len]
+        // `len` ≤ MAX_SEGMENTS by construction; the `min` states it to the compiler (no panic path).
+        &self.segments[..self.len.min(MAX_SEGMENTS)]
     }
 
     /// Total duration of the manoeuvre.

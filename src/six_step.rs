@@ -19,6 +19,32 @@ pub(crate) const TWO_PI: f32 = 2.0 * PI;
 /// Conducting pair `(positive phase, negative phase)` per Hall sector (phases a, b, c = 0, 1, 2).
 pub(crate) const PAIRS: [(usize, usize); 6] = [(0, 1), (0, 2), (1, 2), (1, 0), (2, 0), (2, 1)];
 
+/// A phase (a, b, c = 0, 1, 2) held in a type whose only values are those three: an index made
+/// from it is in range of any per-phase array, so indexing one needs no bounds check and has no
+/// panic path (the on-board path is proven panic-free, `scripts/prove-no-panic`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+enum Phase {
+    A = 0,
+    B = 1,
+    C = 2,
+}
+
+/// [`PAIRS`] with the idle phase: `(p, q, r)` per Hall sector, in the bounded [`Phase`] type.
+const ROLES: [(Phase, Phase, Phase); 6] = {
+    use Phase::{A, B, C};
+    [(A, B, C), (A, C, B), (B, C, A), (B, A, C), (C, A, B), (C, B, A)]
+};
+
+/// The conducting pair `(p, q)` and the idle phase `r = 3 − p − q` of Hall sector `sector mod 6`,
+/// each an index below 3 (the compiler knows it: per-phase arrays indexed by them have no bounds
+/// check).
+#[cfg_attr(not(target_os = "none"), inline)]
+pub(crate) fn sector_phases(sector: usize) -> (usize, usize, usize) {
+    let (p, q, r) = ROLES[sector % 6];
+    (p as usize, q as usize, r as usize)
+}
+
 /// Hall sector `0..6` of a Hall angle in `[0, 2π)` (an angle that rounds to 2π reads sector 5).
 pub(crate) fn sector_of(hall_angle_rad: f32) -> usize {
     let sector = (hall_angle_rad * (1.0 / FRAC_PI_3)) as usize;
@@ -41,16 +67,34 @@ pub(crate) fn wrap(a: f32) -> f32 {
 }
 
 /// `(common, outgoing, incoming)` phases of the commutation into `sector`, from `sector − 1` when
-/// turning forward, from `sector + 1` when turning backward.
+/// turning forward, from `sector + 1` when turning backward: a look-up in [`COMMUTATION_ROLES`].
 pub(crate) fn commutation_roles(sector: usize, forward: bool) -> (usize, usize, usize) {
-    let previous = if forward { (sector + 5) % 6 } else { (sector + 1) % 6 };
-    let (a, b) = PAIRS[sector % 6];
-    let (x, y) = PAIRS[previous];
-    let common = if a == x || a == y { a } else { b };
-    let incoming = if common == a { b } else { a };
-    let outgoing = if common == x { y } else { x };
-    (common, outgoing, incoming)
+    let (c, o, n) = COMMUTATION_ROLES[sector % 6][usize::from(forward)];
+    (c as usize, o as usize, n as usize)
 }
+
+/// [`commutation_roles`] of every sector, backward (`[0]`) and forward (`[1]`), derived from
+/// [`ROLES`] at compile time: the common phase is the one both pairs share, the incoming one the
+/// new pair's other phase, the outgoing one the old pair's.
+const COMMUTATION_ROLES: [[(Phase, Phase, Phase); 2]; 6] = {
+    let mut table = [[(Phase::A, Phase::A, Phase::A); 2]; 6];
+    let mut sector = 0;
+    while sector < 6 {
+        let mut direction = 0;
+        while direction < 2 {
+            let previous = if direction == 1 { (sector + 5) % 6 } else { (sector + 1) % 6 };
+            let (a, b, _) = ROLES[sector];
+            let (x, y, _) = ROLES[previous];
+            let common = if a as u8 == x as u8 || a as u8 == y as u8 { a } else { b };
+            let incoming = if common as u8 == a as u8 { b } else { a };
+            let outgoing = if common as u8 == x as u8 { y } else { x };
+            table[sector][direction] = (common, outgoing, incoming);
+            direction += 1;
+        }
+        sector += 1;
+    }
+    table
+};
 
 /// Trapezoidal back-EMF shape `f(θ_e)` of phase a at any electrical angle: linear ramps of width
 /// `1/inv_ramp_per_rad` from the zero crossings at 0 and π, flat top ±1 between (ramp `π/6`: the
@@ -94,7 +138,7 @@ pub(crate) fn phase_emf_shape_near_turn(theta_e_rad: f32, inv_ramp_per_rad: f32)
 /// its 60° ramp, falling in even sectors, rising in odd ones. [`phase_emf_shape`] of ramp `π/6`
 /// without its folds.
 pub(crate) fn ideal_emf_shapes(sector: usize, hall_rad: f32) -> [f32; 3] {
-    let (a, b) = PAIRS[sector % 6];
+    let (a, b, idle) = sector_phases(sector);
     // The angle into the sector; at the 5 → 0 edge `hall_rad` may round to either side of 2π.
     let mut within = wrap(hall_rad) - sector as f32 * FRAC_PI_3;
     if within > PI {
@@ -107,7 +151,7 @@ pub(crate) fn ideal_emf_shapes(sector: usize, hall_rad: f32) -> [f32; 3] {
     let mut f = [0.0f32; 3];
     f[a] = 1.0;
     f[b] = -1.0;
-    f[3 - a - b] = if sector.is_multiple_of(2) { ramp } else { -ramp };
+    f[idle] = if sector.is_multiple_of(2) { ramp } else { -ramp };
     f
 }
 
@@ -165,6 +209,27 @@ mod tests {
                 let (p, q) = PAIRS[sector];
                 assert!((c == p || c == q) && (n == p || n == q), "the new pair is (common, incoming)");
             }
+        }
+    }
+
+    #[test]
+    fn commutation_roles_table_is_the_shared_and_the_changed_phases() {
+        for sector in 0..12 {
+            for forward in [true, false] {
+                let previous = if forward { (sector + 5) % 6 } else { (sector + 1) % 6 };
+                let ((a, b), (x, y)) = (PAIRS[sector % 6], PAIRS[previous]);
+                let common = if a == x || a == y { a } else { b };
+                let expected = (common, if common == x { y } else { x }, if common == a { b } else { a });
+                assert_eq!(commutation_roles(sector, forward), expected, "sector {sector}, forward {forward}");
+            }
+        }
+    }
+
+    #[test]
+    fn sector_phases_are_the_pairs_and_the_idle_phase() {
+        for sector in 0..12 {
+            let (p, q) = PAIRS[sector % 6];
+            assert_eq!(sector_phases(sector), (p, q, 3 - p - q), "sector {sector}");
         }
     }
 }

@@ -354,7 +354,7 @@ fn fitness_zero_at_the_true_vector() -> Result<(), &'static str> {
     let truth = FaultVector([0.3, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.4]);
     let mut t = MeasuredTrace::new();
     self_trace(&truth, &mut t)?;
-    let fit = CurrentFit::new(&t, EmaParams::NOMINAL, Profile::STANDARD);
+    let fit = CurrentFit::new(&t, EmaParams::NOMINAL, Profile::STANDARD).map_err(|_| "trace not finished")?;
     ensure(fit.error(&truth) == 0.0, "nonzero at the truth")?;
     let mut other = truth;
     other.0[7] = 0.6;

@@ -23,7 +23,7 @@ use super::{ModelState, MonitorModel};
 use crate::effects::{maxima, EffectId, ModelEffects};
 use crate::faults::FaultPhysics;
 use crate::params::EmaParams;
-use crate::six_step::{ideal_emf_shapes, PAIRS};
+use crate::six_step::{ideal_emf_shapes, sector_phases};
 
 /// Constants of the cogging, Stribeck, saturation and dead-time terms (0 = off), precomputed from
 /// the severities (equations in the module doc).
@@ -132,8 +132,7 @@ impl MonitorModel {
         i_ref: f32,
         back_v: f32,
     ) -> Hold {
-        let (p, q) = PAIRS[sector];
-        let r = 3 - p - q;
+        let (_, _, r) = sector_phases(sector);
         let w = s.motor_speed_rad_s;
         let mid_hall = s.hall_angle_rad + 0.5 * self.pole_pairs * w * self.dt_s;
         let idle_emf_v = k_phase[r] * ideal_emf_shapes(sector, mid_hall)[r] * w;
@@ -146,8 +145,7 @@ impl MonitorModel {
     /// current is then zero).
     #[inline(never)]
     pub(super) fn freewheel_torque(&self, s: &mut ModelState, hold: &Hold, k_phase: &[f32; 3], sector: usize) -> f32 {
-        let (p, q) = PAIRS[sector];
-        let r = 3 - p - q;
+        let (p, q, r) = sector_phases(sector);
         s.freewheel_shift_a = [0.0; 3];
         if hold.idle_a == 0.0 || (s.phase_resolved && s.phase_current_a[r] != 0.0) {
             return 0.0;

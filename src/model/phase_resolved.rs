@@ -13,7 +13,7 @@
 //! rail, so the measured `½Σ|i_j|` bumps up where the pair model holds it.
 
 use super::{sign, ModelState, MonitorModel};
-use crate::six_step::{ideal_emf_shapes, phase_emf_shape_near_turn, sector_of, wrap, PAIRS};
+use crate::six_step::{ideal_emf_shapes, phase_emf_shape_near_turn, sector_of, sector_phases, wrap, PAIRS};
 use core::f32::consts::{FRAC_PI_3, FRAC_PI_6};
 
 /// The electrical step resolves the three phases (the fast regime) above
@@ -136,8 +136,8 @@ impl MonitorModel {
         g: f32,
         h: f32,
     ) -> f32 {
-        let (a, b) = PAIRS[sector];
-        let r = 3 - a - b;
+        let sector = sector % 6; // a Hall sector is below 6: no value changes, no bounds check remains
+        let (a, b, r) = sector_phases(sector);
         let f = match &self.emf_shape {
             Some(shape) if EFFECTS => {
                 let (theta_e, inv_ramp) = (hall_rad + FRAC_PI_6, shape.inv_ramp_per_rad);

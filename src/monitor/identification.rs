@@ -146,7 +146,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                 )
             }
         };
-        let fit = CurrentFit::new(trace, params, profile)
+        let fit = CurrentFit::new(trace, params, profile)?
             .with_effects(config.effects)
             .with_fast_regime_weight(config.fast_regime_weight)
             .ok_or(MonitorError::FastRegimeWeight)?;
@@ -218,11 +218,15 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         let mut free = [false; FAULT_COUNT];
         for (g, &group) in FAULT_GROUPS.iter().enumerate() {
             let present = group_present(&self.best, group);
-            if !present && self.best[group.0..=group.1] != FaultVector::HEALTHY.0[group.0..=group.1] {
+            // The group's indices by iteration, not by slicing: no range to check, no panic path.
+            let in_group = |i: usize| (group.0..=group.1).contains(&i);
+            let healthy = FaultVector::HEALTHY.0;
+            if !present && self.best.iter().zip(healthy).enumerate().any(|(i, (&x, h))| in_group(i) && x != h) {
                 self.best = without_group(&self.best, group);
                 self.best_cost = f32::NAN; // re-evaluated by the polish's first step
             }
-            free[group.0..=group.1].iter_mut().for_each(|f| *f = self.kept[g] && present);
+            let keep = self.kept.get(g).is_some_and(|&kept| kept) && present;
+            free.iter_mut().enumerate().filter(|&(i, _)| in_group(i)).for_each(|(_, f)| *f = keep);
         }
         let unscored = if self.best_cost.is_nan() { Stage::Rescore(reason) } else { Stage::Done(reason) };
         let Some(polish) = self.config.polish else {
@@ -463,6 +467,23 @@ mod tests {
         assert!(err < 0.1, "Err% {err}: {:?}", r.faults.0);
         assert!(r.evaluations <= config.max_iterations * ONBOARD_POPULATION as u32);
         assert_eq!(r.evaluations, r.iterations * ONBOARD_POPULATION as u32);
+    }
+
+    #[test]
+    fn the_public_calls_in_any_order_give_values() {
+        let trace = self_trace(&FaultVector::HEALTHY);
+        let config = IdentifyConfig { max_iterations: 2, ..IdentifyConfig::onboard() };
+        let mut id =
+            Identification::<ONBOARD_WINDOW, 8>::new(&trace, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap();
+        // a report before the first evaluation: nothing evaluated, no termination reason
+        let early = id.report();
+        assert_eq!((early.evaluations, early.termination), (0, None));
+        let done = id.run(u32::MAX);
+        assert!(matches!(done, Status::Done(_)));
+        // a step after the end changes nothing
+        let report = id.report();
+        assert_eq!(id.step(), done);
+        assert_eq!(id.report(), report);
     }
 
     #[test]

@@ -228,13 +228,14 @@ impl<const P: usize, const D: usize> Genetic<P, D> {
 
     /// Moves the `elites` best parents to the front (partial selection sort) and copies them with their costs.
     fn select_elites(&mut self, elites: usize) {
-        for e in 0..elites {
-            let mut best = e;
-            for j in e + 1..P {
-                if self.parent_cost[j] < self.parent_cost[best] {
-                    best = j;
+        for e in 0..elites.min(P) {
+            let (mut best, mut best_cost) = (e, self.parent_cost[e]);
+            for (j, &c) in self.parent_cost.iter().enumerate().skip(e + 1) {
+                if c < best_cost {
+                    (best, best_cost) = (j, c);
                 }
             }
+            let best = best.min(P - 1); // an index of `parent_cost` already: states it, changes nothing
             self.parent_cost.swap(e, best);
             self.parents.swap(e, best);
             self.population[e] = self.parents[e];

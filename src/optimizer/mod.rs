@@ -93,7 +93,7 @@ impl<const D: usize> Bounds<D> {
         }
         if self.periodic[i] {
             let span = hi - lo;
-            let mut y = lo + libm::fmodf(*x - lo, span);
+            let mut y = lo + fmod_exact(*x - lo, span);
             if y < lo {
                 y += span;
             }
@@ -199,6 +199,101 @@ pub fn run<const D: usize, S: Optimizer<D>, O: Objective<D>>(
         }
         if optimizer.evaluations().wrapping_sub(start) >= max_evaluations {
             return Status::Running;
+        }
+    }
+}
+
+/// `x mod y` with the sign of `x` (C's `fmod`), by binary long division of the significands:
+/// shifts and subtractions only. `fmod` is exact (its result is representable), so this returns
+/// the bits of `libm::fmodf`; it is used instead because libm's version keeps a remainder by a
+/// divisor the compiler cannot prove non-zero, a panic path the on-board code must not link
+/// (`scripts/prove-no-panic`). After musl's `fmodf`. NaN when `x` is not finite or `y` is NaN or 0.
+fn fmod_exact(x: f32, y: f32) -> f32 {
+    let (mut ux, mut uy) = (x.to_bits(), y.to_bits());
+    let (mut ex, mut ey) = (((ux >> 23) & 0xff) as i32, ((uy >> 23) & 0xff) as i32);
+    let sign = ux & 0x8000_0000;
+    if uy << 1 == 0 || y.is_nan() || ex == 0xff {
+        #[allow(clippy::eq_op)] // 0/0 or ∞/∞: the NaN libm returns in these cases
+        return (x * y) / (x * y);
+    }
+    if ux << 1 <= uy << 1 {
+        return if ux << 1 == uy << 1 { 0.0 * x } else { x };
+    }
+    // Significands with the implicit bit; subnormals normalized.
+    (ux, ex) = normalized_significand(ux, ex);
+    (uy, ey) = normalized_significand(uy, ey);
+    while ex > ey {
+        let d = ux.wrapping_sub(uy);
+        if d >> 31 == 0 {
+            if d == 0 {
+                return 0.0 * x;
+            }
+            ux = d;
+        }
+        ux <<= 1;
+        ex -= 1;
+    }
+    let d = ux.wrapping_sub(uy);
+    if d >> 31 == 0 {
+        if d == 0 {
+            return 0.0 * x;
+        }
+        ux = d;
+    }
+    while ux >> 23 == 0 {
+        ux <<= 1;
+        ex -= 1;
+    }
+    if ex > 0 {
+        ux = (ux - (1 << 23)) | ((ex as u32) << 23);
+    } else {
+        ux = ux.wrapping_shr((1 - ex) as u32);
+    }
+    f32::from_bits(ux | sign)
+}
+
+/// The significand of the finite, non-zero `f32` bits `u` of biased exponent `e`, with its
+/// implicit bit at bit 23 (a subnormal's shifted up, its exponent lowered to match).
+fn normalized_significand(u: u32, e: i32) -> (u32, i32) {
+    if e != 0 {
+        return ((u & 0x007f_ffff) | (1 << 23), e);
+    }
+    let mut e = e;
+    let mut i = u << 9;
+    while i >> 31 == 0 && i != 0 {
+        e -= 1;
+        i <<= 1;
+    }
+    (u.wrapping_shl((1 - e) as u32), e)
+}
+
+#[cfg(test)]
+mod fmod_tests {
+    use super::fmod_exact;
+
+    #[test]
+    fn fmod_exact_has_the_bits_of_libm() {
+        let mut state = 0x9e37_79b9u32;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            f32::from_bits(state)
+        };
+        let special = [0.0, -0.0, 1.0, -1.0, core::f32::consts::TAU, 1e-40, -3e-39, 1e30, f32::MIN_POSITIVE];
+        for &x in &special {
+            for &y in &special {
+                let (a, b) = (fmod_exact(x, y), libm::fmodf(x, y));
+                assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()), "{x} mod {y}: {a} vs {b}");
+            }
+        }
+        for _ in 0..200_000 {
+            let (x, y) = (next(), next());
+            let (a, b) = (fmod_exact(x, y), libm::fmodf(x, y));
+            assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()), "{x} mod {y}: {a} vs {b}");
+            let (x, y) = (next() * 1e-30, core::f32::consts::TAU);
+            let (a, b) = (fmod_exact(x, y), libm::fmodf(x, y));
+            assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()), "{x} mod {y}: {a} vs {b}");
         }
     }
 }

@@ -114,6 +114,7 @@ fn ours(trace: &MeasuredTrace<HOST_WINDOW>, algorithm: Algorithm, max_iterations
 /// weighted by [`FAST_REGIME_WEIGHT`] (`IdentifyConfig::default()`'s).
 fn objective(trace: &MeasuredTrace<HOST_WINDOW>) -> CurrentFit<'_, HOST_WINDOW> {
     CurrentFit::new(trace, EmaParams::NOMINAL, Profile::STANDARD)
+        .expect("a conditioned trace is finished")
         .with_fast_regime_weight(FAST_REGIME_WEIGHT)
         .expect("the on-board weight is valid")
 }

@@ -176,8 +176,9 @@ pub fn detectability_floor<const W: usize>(
     truth: &FaultVector,
 ) -> FaultVector {
     let Some(fit) = CurrentFit::new(trace, EmaParams::NOMINAL, *profile)
-        .with_effects(config.effects)
-        .with_fast_regime_weight(config.fast_regime_weight)
+        .ok()
+        .map(|fit| fit.with_effects(config.effects))
+        .and_then(|fit| fit.with_fast_regime_weight(config.fast_regime_weight))
     else {
         return *truth;
     };

@@ -217,7 +217,8 @@ pub fn discover<const W: usize>(
     let regimes = regimes(&series_before);
     let orders = orders(&series_before);
     // 3. name: the reference (no effect) fitted on the fit part like every candidate
-    let n_eff_part = 0.5 * f64::from(CurrentFit::new(trace, params, *profile).effective_samples(&before.k));
+    let fit = CurrentFit::new(trace, params, *profile).map_err(|e| CliError::Simulation(e.to_string()))?;
+    let n_eff_part = 0.5 * f64::from(fit.effective_samples(&before.k));
     let mut on: Vec<EffectId> = Vec::new();
     let mut named = Vec::new();
     let mut rounds = Vec::new();
