@@ -29,34 +29,9 @@
 //! `#[inline]` on hosted targets only (the firmware's fat LTO inlines on its own), which changes
 //! no result; see `docs/decisions/0012-inlining-hosted-only.md`.
 //!
-//! # Example
-//!
-//! The on-board path on the host: a recorded trace behind the replay ADC, acquisition into the
-//! conditioned window, identification, health report (the firmware, `src/main.rs`, does the same).
-//!
-//! ```
-//! use ema_monitor::acquisition::{AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
-//! use ema_monitor::conditioning::MeasuredTrace;
-//! use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
-//! use ema_monitor::{health::Condition, trace::PackedTrace, EmaParams, Profile};
-//!
-//! // A reference-model recording of the standard manoeuvre, friction at 1.5x nominal.
-//! let bytes = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/traces/standard.ematrace"));
-//! let adc = ReplayAdc::new(PackedTrace::parse(bytes)?);
-//! let pins = (PhaseA, PhaseB, PhaseC);
-//! let mut reader = PhaseCurrentReader::new(adc, pins, Calibration::NOMINAL, AcquisitionConfig::DEFAULT)?;
-//! let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
-//! monitor::acquire(&mut reader, &mut trace)?;
-//!
-//! let config = IdentifyConfig::onboard();
-//! let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
-//!     Identification::new(&trace, EmaParams::NOMINAL, Profile::STANDARD, &config)?;
-//! id.run(u32::MAX); // or `id.step()`, one model evaluation at a time, between other work
-//! let report = id.report();
-//! println!("{report}");
-//! assert_eq!(report.overall(), Condition::Degraded); // the recording's friction fault
-//! # Ok::<(), Box<dyn std::error::Error>>(())
-//! ```
+//! The example below runs as a doctest on the host; it is left out of MCU builds, whose
+//! doctests could not link `std`.
+#![cfg_attr(not(target_os = "none"), doc = include_str!("example.md"))]
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
