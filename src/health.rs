@@ -471,4 +471,60 @@ mod tests {
             "{text}"
         );
     }
+
+    #[test]
+    fn abstentions_withhold_the_diagnosis_and_outrank_it() {
+        let k = FaultVector([0.25, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+        let r = HealthReport::new(k, &EmaParams::NOMINAL, 0.0, 1, 1, None);
+        assert_eq!(r.status, Status::Degraded);
+        assert!(r.status.is_diagnosis());
+        let poor = r.abstaining(Status::Inconclusive(Abstain::PoorFit));
+        assert_eq!(poor.status.label(), "INCONCLUSIVE");
+        assert_eq!(poor.status.reason(), Some(Abstain::PoorFit));
+        let text = std::format!("{poor}");
+        assert!(text.starts_with("EMA health: INCONCLUSIVE (poor fit)"), "{text}");
+        assert!(!text.contains("friction") && text.contains("k (not a diagnosis)"), "{text}");
+        // a sensor fault outranks an abstention, a diagnosis never replaces one
+        let fault = poor.abstaining(Status::SensorFault);
+        assert_eq!(fault.status.label(), "SENSOR_FAULT");
+        assert_eq!(fault.abstaining(Status::Inconclusive(Abstain::RateMismatch)).status, Status::SensorFault);
+        assert_eq!(poor.abstaining(Status::Healthy).status, poor.status);
+        let summary = AcquisitionSummary { frames: 8500, refused: 200, longest_refused_run: 200 };
+        let r2 = r.with_acquisition(&summary);
+        assert_eq!((r2.status, r2.refused_frames), (Status::SensorFault, 200));
+        let one = AcquisitionSummary { frames: 8500, refused: 1, longest_refused_run: 1 };
+        assert_eq!(r.with_acquisition(&one).status, Status::Degraded);
+    }
+
+    #[test]
+    fn the_fit_test_is_a_chi_square_normal_score() {
+        // E equal to the expected variance: T = n, z = 0
+        let c = FitCheck::new(0.02, 2000.0, 0.02);
+        assert!(c.z.abs() < 1e-4 && c.passes());
+        // 20 % above with 2000 effective samples: z = 400/√4000 = 6.3, rejected
+        let c = FitCheck::new(0.024, 2000.0, 0.02);
+        assert!((c.z - 6.325).abs() < 0.01 && !c.passes(), "{c:?}");
+        // the same excess with 200 effective samples is within the noise: z = 2.0
+        assert!(FitCheck::new(0.024, 200.0, 0.02).passes());
+        assert!(!FitCheck::new(f32::INFINITY, 2000.0, 0.02).passes());
+        assert!(!FitCheck::new(f32::NAN, 2000.0, 0.02).passes());
+    }
+
+    #[test]
+    fn sensor_fault_coverage_and_rate_rules() {
+        use crate::monitor::{covers, rate_matches, MAX_REFUSED_RUN};
+        let p = EmaParams::NOMINAL;
+        assert!(covers(2125, 0.85, &p) && covers(2124, 0.85, &p) && !covers(2125 / 6, 0.85, &p));
+        assert!(rate_matches(10_000.0, &p) && !rate_matches(1_000.0, &p) && !rate_matches(f32::NAN, &p));
+        let run = AcquisitionSummary {
+            frames: 100_000,
+            refused: MAX_REFUSED_RUN + 1,
+            longest_refused_run: MAX_REFUSED_RUN + 1,
+        };
+        assert!(run.is_sensor_fault());
+        let scattered = AcquisitionSummary { frames: 8500, refused: 86, longest_refused_run: 1 };
+        assert!(scattered.is_sensor_fault());
+        let few = AcquisitionSummary { frames: 8500, refused: 85, longest_refused_run: 1 };
+        assert!(!few.is_sensor_fault());
+    }
 }

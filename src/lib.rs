@@ -38,7 +38,7 @@
 //! use ema_monitor::acquisition::{AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
 //! use ema_monitor::conditioning::MeasuredTrace;
 //! use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
-//! use ema_monitor::{health::Condition, trace::PackedTrace, EmaParams, Profile};
+//! use ema_monitor::{health::Status, trace::PackedTrace, EmaParams, Profile};
 //!
 //! // A reference-model recording of the standard manoeuvre, friction at 1.5x nominal.
 //! let bytes = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/traces/standard.ematrace"));
@@ -46,15 +46,15 @@
 //! let pins = (PhaseA, PhaseB, PhaseC);
 //! let mut reader = PhaseCurrentReader::new(adc, pins, Calibration::NOMINAL, AcquisitionConfig::DEFAULT)?;
 //! let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
-//! monitor::acquire(&mut reader, &mut trace)?;
+//! let acquired = monitor::acquire(&mut reader, &mut trace)?; // refused frames held and counted
 //!
 //! let config = IdentifyConfig::onboard();
 //! let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
 //!     Identification::new(&trace, EmaParams::NOMINAL, Profile::STANDARD, &config)?;
 //! id.run(u32::MAX); // or `id.step()`, one model evaluation at a time, between other work
-//! let report = id.report();
+//! let report = id.report().with_acquisition(&acquired);
 //! println!("{report}");
-//! assert_eq!(report.overall(), Condition::Degraded); // the recording's friction fault
+//! assert_eq!(report.status, Status::Degraded); // the recording's friction fault
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 #![cfg_attr(not(test), no_std)]

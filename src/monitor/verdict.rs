@@ -66,10 +66,11 @@ pub fn window_noise_variance_a2(params: &EmaParams) -> f32 {
 }
 
 /// `true` when `samples` window samples cover a manoeuvre of `duration_s` at the control period of
-/// `params`, up to one window sample (the partial block conditioning drops).
+/// `params`, up to one window sample (the partial block conditioning drops) and half a sample
+/// for the rounding of the product.
 pub fn covers(samples: usize, duration_s: f32, params: &EmaParams) -> bool {
     let sample_s = DECIMATION as f32 * params.control_period_s;
-    (samples + 1) as f32 * sample_s >= duration_s
+    (samples as f32 + 1.5) * sample_s >= duration_s
 }
 
 /// `true` when a declared sample rate (Hz) is the monitor's control rate `1/T` (to 0.1 %).
