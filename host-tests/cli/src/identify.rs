@@ -195,18 +195,29 @@ pub fn identify_recording(
 }
 
 /// Checks a recording made under `profile` (read from `path`, used for messages) and conditions it into the
-/// measured trace the core identifies (`I_3eq` block means and weights), as `ema identify` does.
+/// measured trace the core identifies (`I_3eq` block means and weights), every frame as it is:
+/// the input of `ema discover`, `ema campaign` and the investigations, which study the model on
+/// recordings whose sensor effects the frame checks would refuse (a sensor offset breaks the sum
+/// rule). `ema identify` conditions through [`condition_recording_checked`].
 pub fn condition_recording(
     recording: &Recording,
     path: &Path,
     profile: &Profile,
 ) -> Result<Box<MeasuredTrace<HOST_WINDOW>>, CliError> {
-    Ok(condition_recording_checked(recording, path, profile)?.0)
+    check_recording(recording, path, profile, &EmaParams::NOMINAL)?;
+    let mut trace = Box::new(MeasuredTrace::<HOST_WINDOW>::new());
+    for k in 0..recording.len() {
+        trace
+            .push(recording.ia_a[k] as f32, recording.ib_a[k] as f32, recording.ic_a[k] as f32)
+            .map_err(|e| input_error(path, &format!("line {}: {e}", line_of(recording, k))))?;
+    }
+    trace.finish().map_err(|e| input_error(path, &e.to_string()))?;
+    Ok(trace)
 }
 
-/// As [`condition_recording`], with the acquisition's counts: every frame passes the core's
-/// frame checks ([`FrameCheck::amps`], nominal calibration, default settings); a refused frame is
-/// held at the last good one (zero currents before the first), as on board.
+/// As [`condition_recording`], as on board: every frame passes the core's frame checks
+/// ([`FrameCheck::amps`], nominal calibration, default settings); a refused frame is held at the
+/// last good one (zero currents before the first) and counted in the returned summary.
 pub fn condition_recording_checked(
     recording: &Recording,
     path: &Path,
