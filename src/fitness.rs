@@ -239,6 +239,11 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
         &self.effects
     }
 
+    /// The command profile that drives the model.
+    pub fn profile(&self) -> &Profile {
+        &self.profile
+    }
+
     /// The measured trace.
     pub fn trace(&self) -> &'a MeasuredTrace<W> {
         self.trace
@@ -304,6 +309,18 @@ impl<const W: usize> CurrentFit<'_, W> {
             true
         });
         out
+    }
+
+    /// Mean weight `w̄ = (1/n)·Σ_i ρ_i·w_i` of the samples in `E(k)`: a residual of variance `s²`
+    /// per sample gives `E ≈ w̄·s²` (the goodness-of-fit test, [`crate::health::FitCheck`]).
+    pub fn mean_sample_weight(&self) -> f32 {
+        let w = self.trace.weight();
+        if w.is_empty() {
+            return 0.0;
+        }
+        let mut rho = self.regime_weights();
+        let sum: f32 = w.iter().enumerate().map(|(i, wi)| rho.at(i) * wi).sum();
+        sum / w.len() as f32
     }
 
     /// Effective number of independent samples in the weighted residual `u_i = √w_i·r_i` of `k`:

@@ -9,8 +9,19 @@
 //! above the identification error on a healthy actuator), **degraded** below [`FAILING_AT`]
 //! (0.50: friction 2×, backlash 2.5 mrad, 25 % shorted turns, ζ = 0.25, gain ±50 %), **failing**
 //! above.
+//!
+//! **Status.** The report's [`Status`] is the worst mode's condition only when the data support a
+//! diagnosis. The monitor abstains with [`Status::Inconclusive`] when the best fit is far worse
+//! than the sensor noise explains ([`Abstain::PoorFit`], the test of [`FitCheck`]), when the
+//! recording does not cover the manoeuvre ([`Abstain::PartialCoverage`]) or when its declared
+//! sample rate is not the monitor's ([`Abstain::RateMismatch`]); it reports
+//! [`Status::SensorFault`] when acquisition refused too many frames
+//! ([`crate::monitor::AcquisitionSummary::is_sensor_fault`]). Under either, the fault values are
+//! not a diagnosis: the text report withholds the mode lines (`docs/identification.md`, "Status
+//! and when the monitor abstains").
 
 use crate::faults::{FaultVector, BACKLASH_SPAN, FRICTION_SPAN, MAX_ECCENTRICITY, MAX_SHORTED_FRACTION};
+use crate::monitor::AcquisitionSummary;
 use crate::optimizer::TerminationReason;
 use crate::params::EmaParams;
 
@@ -91,6 +102,125 @@ impl Condition {
     }
 }
 
+/// Why the monitor abstains from a diagnosis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Abstain {
+    /// The best fit is far worse than the sensor noise and the monitor model's known mismatch
+    /// explain ([`FitCheck`]): the recording is not this actuator under this manoeuvre, or an
+    /// effect outside the model dominates it.
+    PoorFit,
+    /// The recording is shorter than the manoeuvre's profile: part of the evidence is missing.
+    PartialCoverage,
+    /// The recording's declared sample rate is not the monitor's control rate.
+    RateMismatch,
+}
+
+impl Abstain {
+    /// Lower-case reason, as logged: `poor fit`, `partial coverage`, `rate mismatch`.
+    pub const fn label(self) -> &'static str {
+        match self {
+            Abstain::PoorFit => "poor fit",
+            Abstain::PartialCoverage => "partial coverage",
+            Abstain::RateMismatch => "rate mismatch",
+        }
+    }
+}
+
+/// The overall status of a report: a diagnosis (the worst mode's [`Condition`]) or an abstention.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Status {
+    /// Every mode below [`DEGRADED_AT`].
+    Healthy,
+    /// The worst mode in `[DEGRADED_AT, FAILING_AT)`.
+    Degraded,
+    /// The worst mode from [`FAILING_AT`] on.
+    Failing,
+    /// The data do not support a diagnosis; the fault values are not reported as one.
+    Inconclusive(Abstain),
+    /// Acquisition refused too many frames: the sensors, not the actuator, are at fault.
+    SensorFault,
+}
+
+impl Status {
+    /// Upper-case label: `HEALTHY`, `DEGRADED`, `FAILING`, `INCONCLUSIVE`, `SENSOR_FAULT`.
+    pub const fn label(self) -> &'static str {
+        match self {
+            Status::Healthy => "HEALTHY",
+            Status::Degraded => "DEGRADED",
+            Status::Failing => "FAILING",
+            Status::Inconclusive(_) => "INCONCLUSIVE",
+            Status::SensorFault => "SENSOR_FAULT",
+        }
+    }
+
+    /// The reason of an [`Status::Inconclusive`] status.
+    pub const fn reason(self) -> Option<Abstain> {
+        match self {
+            Status::Inconclusive(reason) => Some(reason),
+            _ => None,
+        }
+    }
+
+    /// `true` when the fault values are a diagnosis (healthy, degraded or failing).
+    pub const fn is_diagnosis(self) -> bool {
+        matches!(self, Status::Healthy | Status::Degraded | Status::Failing)
+    }
+
+    /// The status of a diagnosis whose worst mode is `condition`.
+    pub const fn of(condition: Condition) -> Self {
+        match condition {
+            Condition::Healthy => Status::Healthy,
+            Condition::Degraded => Status::Degraded,
+            Condition::Failing => Status::Failing,
+        }
+    }
+}
+
+/// One-sided significance level of the goodness-of-fit test: `p < 10⁻⁶`, `z > 4.753` in the normal
+/// approximation of the chi-square distribution.
+pub const FIT_TEST_Z: f32 = 4.753;
+
+/// The goodness-of-fit test of the final residual against the noise model.
+///
+/// Under the hypothesis "the monitor model explains the recording up to noise", the weighted
+/// residual of the best vector is noise of variance `σ² + m²` per window sample (`σ²` the sensor,
+/// ripple and controller-jitter noise of a block mean, `m` the monitor model's documented
+/// structural mismatch), so with `n_eff` effective samples (AR(1)-corrected,
+/// [`crate::fitness::CurrentFit::effective_samples`]) `T = n_eff·E/(w̄·(σ² + m²))` follows a
+/// chi-square distribution with `n_eff` degrees of freedom, `w̄` the mean sample weight of `E`.
+/// Its normal approximation `z = (T − n_eff)/√(2·n_eff)` above [`FIT_TEST_Z`] rejects the fit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FitCheck {
+    /// Effective sample count of the residual.
+    pub effective_samples: f32,
+    /// The variance a residual of noise and known mismatch has, `w̄·(σ² + m²)` (A²).
+    pub expected_a2: f32,
+    /// `z`, the normal score of the chi-square statistic.
+    pub z: f32,
+}
+
+impl FitCheck {
+    /// The test of fitness `fitness` (A²) with `effective_samples` and expected variance
+    /// `expected_a2` (A²). A non-finite or non-positive input gives `z = +∞` (rejected).
+    pub fn new(fitness: f32, effective_samples: f32, expected_a2: f32) -> Self {
+        let z = if fitness.is_finite() && effective_samples > 0.0 && expected_a2 > 0.0 && fitness >= 0.0 {
+            let t = effective_samples * fitness / expected_a2;
+            (t - effective_samples) / libm::sqrtf(2.0 * effective_samples)
+        } else {
+            f32::INFINITY
+        };
+        Self { effective_samples, expected_a2, z }
+    }
+
+    /// `true` when the fit passes the test (`z ≤` [`FIT_TEST_Z`]; NaN fails).
+    pub fn passes(&self) -> bool {
+        self.z <= FIT_TEST_Z
+    }
+}
+
 /// One fault mode in physical terms.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -146,6 +276,12 @@ pub struct HealthReport {
     /// reported as found, not tested against the information criterion. 0 when every group
     /// was tested (or model selection is off).
     pub untested_groups: u8,
+    /// The overall status: the worst mode's condition, or an abstention (module doc).
+    pub status: Status,
+    /// The goodness-of-fit test of the best vector (`None` when not run).
+    pub fit_check: Option<FitCheck>,
+    /// Frames acquisition refused (masked by holding the last good frame).
+    pub refused_frames: u32,
 }
 
 impl HealthReport {
@@ -180,7 +316,16 @@ impl HealthReport {
             mode(FaultMode::Eccentricity, k[5], MAX_ECCENTRICITY * k[5], 0),
             mode(FaultMode::GainDrift, 2.0 * libm::fabsf(k[7] - 0.5), 100.0 * (0.5 + k[7]), 0),
         ];
+        let mut worst = Condition::Healthy;
+        for m in &modes {
+            if m.condition > worst {
+                worst = m.condition;
+            }
+        }
         Self {
+            status: Status::of(worst),
+            fit_check: None,
+            refused_frames: 0,
             faults,
             modes,
             eccentricity_phase_deg: 360.0 * k[6] - 180.0,
@@ -202,12 +347,47 @@ impl HealthReport {
         }
         worst
     }
+
+    /// The report with the refused-frame count of `summary`, a [`Status::SensorFault`] when it
+    /// shows a sensor fault ([`AcquisitionSummary::is_sensor_fault`]).
+    pub fn with_acquisition(self, summary: &AcquisitionSummary) -> Self {
+        let report = Self { refused_frames: summary.refused, ..self };
+        if summary.is_sensor_fault() {
+            report.abstaining(Status::SensorFault)
+        } else {
+            report
+        }
+    }
+
+    /// The report with `status` unless it already holds a stronger abstention: a sensor fault
+    /// outranks every other status, an inconclusive status outranks a diagnosis.
+    pub fn abstaining(self, status: Status) -> Self {
+        let rank = |s: Status| match s {
+            Status::SensorFault => 2,
+            Status::Inconclusive(_) => 1,
+            _ => 0,
+        };
+        if rank(status) > rank(self.status) {
+            Self { status, ..self }
+        } else {
+            self
+        }
+    }
 }
 
 impl core::fmt::Display for HealthReport {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        writeln!(f, "EMA health: {}", self.overall().label())?;
-        for m in &self.modes {
+        match self.status.reason() {
+            Some(reason) => writeln!(f, "EMA health: {} ({})", self.status.label(), reason.label())?,
+            None => writeln!(f, "EMA health: {}", self.status.label())?,
+        }
+        if self.refused_frames > 0 {
+            writeln!(f, "  refused frames: {} (held at the last good frame)", self.refused_frames)?;
+        }
+        if !self.status.is_diagnosis() {
+            writeln!(f, "  no diagnosis: the fault values below are withheld from the mode report")?;
+        }
+        for m in self.modes.iter().filter(|_| self.status.is_diagnosis()) {
             write!(
                 f,
                 "  {:<14} {:<9} severity {:.3}  {:.3} {}",
@@ -224,7 +404,11 @@ impl core::fmt::Display for HealthReport {
             }
             writeln!(f)?;
         }
-        write!(f, "  k =")?;
+        if self.status.is_diagnosis() {
+            write!(f, "  k =")?;
+        } else {
+            write!(f, "  k (not a diagnosis) =")?;
+        }
         for k in &self.faults.0 {
             write!(f, " {k:.4}")?;
         }
@@ -234,6 +418,13 @@ impl core::fmt::Display for HealthReport {
             "  fitness {:.4e} A^2, {} evaluations, {} iterations",
             self.fitness, self.evaluations, self.iterations
         )?;
+        if let Some(c) = &self.fit_check {
+            write!(
+                f,
+                "\n  fit test: z {:.1} (limit {FIT_TEST_Z}), {:.0} effective samples, noise {:.4e} A^2",
+                c.z, c.effective_samples, c.expected_a2
+            )?;
+        }
         if self.untested_groups > 0 {
             write!(
                 f,
@@ -279,5 +470,61 @@ mod tests {
             text.ends_with("model selection: 2 fault group(s) not tested (selection and polish budget spent)"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn abstentions_withhold_the_diagnosis_and_outrank_it() {
+        let k = FaultVector([0.25, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+        let r = HealthReport::new(k, &EmaParams::NOMINAL, 0.0, 1, 1, None);
+        assert_eq!(r.status, Status::Degraded);
+        assert!(r.status.is_diagnosis());
+        let poor = r.abstaining(Status::Inconclusive(Abstain::PoorFit));
+        assert_eq!(poor.status.label(), "INCONCLUSIVE");
+        assert_eq!(poor.status.reason(), Some(Abstain::PoorFit));
+        let text = std::format!("{poor}");
+        assert!(text.starts_with("EMA health: INCONCLUSIVE (poor fit)"), "{text}");
+        assert!(!text.contains("friction") && text.contains("k (not a diagnosis)"), "{text}");
+        // a sensor fault outranks an abstention, a diagnosis never replaces one
+        let fault = poor.abstaining(Status::SensorFault);
+        assert_eq!(fault.status.label(), "SENSOR_FAULT");
+        assert_eq!(fault.abstaining(Status::Inconclusive(Abstain::RateMismatch)).status, Status::SensorFault);
+        assert_eq!(poor.abstaining(Status::Healthy).status, poor.status);
+        let summary = AcquisitionSummary { frames: 8500, refused: 200, longest_refused_run: 200 };
+        let r2 = r.with_acquisition(&summary);
+        assert_eq!((r2.status, r2.refused_frames), (Status::SensorFault, 200));
+        let one = AcquisitionSummary { frames: 8500, refused: 1, longest_refused_run: 1 };
+        assert_eq!(r.with_acquisition(&one).status, Status::Degraded);
+    }
+
+    #[test]
+    fn the_fit_test_is_a_chi_square_normal_score() {
+        // E equal to the expected variance: T = n, z = 0
+        let c = FitCheck::new(0.02, 2000.0, 0.02);
+        assert!(c.z.abs() < 1e-4 && c.passes());
+        // 20 % above with 2000 effective samples: z = 400/√4000 = 6.3, rejected
+        let c = FitCheck::new(0.024, 2000.0, 0.02);
+        assert!((c.z - 6.325).abs() < 0.01 && !c.passes(), "{c:?}");
+        // the same excess with 200 effective samples is within the noise: z = 2.0
+        assert!(FitCheck::new(0.024, 200.0, 0.02).passes());
+        assert!(!FitCheck::new(f32::INFINITY, 2000.0, 0.02).passes());
+        assert!(!FitCheck::new(f32::NAN, 2000.0, 0.02).passes());
+    }
+
+    #[test]
+    fn sensor_fault_coverage_and_rate_rules() {
+        use crate::monitor::{covers, rate_matches, MAX_REFUSED_RUN};
+        let p = EmaParams::NOMINAL;
+        assert!(covers(2125, 0.85, &p) && covers(2124, 0.85, &p) && !covers(2125 / 6, 0.85, &p));
+        assert!(rate_matches(10_000.0, &p) && !rate_matches(1_000.0, &p) && !rate_matches(f32::NAN, &p));
+        let run = AcquisitionSummary {
+            frames: 100_000,
+            refused: MAX_REFUSED_RUN + 1,
+            longest_refused_run: MAX_REFUSED_RUN + 1,
+        };
+        assert!(run.is_sensor_fault());
+        let scattered = AcquisitionSummary { frames: 8500, refused: 86, longest_refused_run: 1 };
+        assert!(scattered.is_sensor_fault());
+        let few = AcquisitionSummary { frames: 8500, refused: 85, longest_refused_run: 1 };
+        assert!(!few.is_sensor_fault());
     }
 }

@@ -5,7 +5,9 @@
 //! 2. open the built-in phase-current trace (`traces/standard.ematrace`, or `EMA_TRACE` at build
 //!    time: a recording of the standard manoeuvre, packed 12-bit, in flash) and put a
 //!    [`ReplayAdc`] behind the embedded-hal 0.2 `OneShot` reader;
-//! 3. acquire and condition every frame ([`monitor::acquire`]); a sensor fault stops here;
+//! 3. acquire and condition every frame ([`monitor::acquire`]): a refused frame is held at the
+//!    last good one and counted; too many make the report `SENSOR_FAULT`, a declared sample rate
+//!    other than the control rate makes it `INCONCLUSIVE (rate mismatch)`;
 //! 4. identify the faults with the on-board PSO and the model effects of `EMA_MODEL_CONFIG` (none
 //!    by default; logged first), between the instruction-count markers
 //!    [`ema_identification_start`] and [`ema_identification_end`] (`scripts/qemu-run` counts the
@@ -24,7 +26,7 @@ use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::debug;
 use ema_monitor::acquisition::{AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
 use ema_monitor::conditioning::MeasuredTrace;
-use ema_monitor::health::{FaultMode, HealthReport};
+use ema_monitor::health::{Abstain, FaultMode, HealthReport, Status};
 use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::trace::PackedTrace;
 use ema_monitor::{EmaParams, ModelEffects, Profile};
@@ -51,6 +53,7 @@ fn main() -> ! {
         }
     };
     defmt::info!("trace: {=usize} frames at {=u32} Hz", trace.frames(), trace.sample_rate_hz());
+    let rate_ok = monitor::rate_matches(trace.sample_rate_hz() as f32, &EmaParams::NOMINAL);
     let adc = ReplayAdc::new(trace);
     let pins = (PhaseA, PhaseB, PhaseC);
     let mut reader = match PhaseCurrentReader::new(adc, pins, Calibration::NOMINAL, AcquisitionConfig::DEFAULT) {
@@ -63,11 +66,19 @@ fn main() -> ! {
 
     // 3. Acquisition and conditioning.
     let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
-    if let Err(e) = monitor::acquire(&mut reader, &mut trace) {
-        defmt::error!("acquisition stopped: {}", e);
-        exit(false)
-    }
+    let acquired = match monitor::acquire(&mut reader, &mut trace) {
+        Ok(summary) => summary,
+        Err(e) => {
+            defmt::error!("acquisition stopped: {}", e);
+            exit(false)
+        }
+    };
     defmt::info!("frames read: {=u32}, window samples: {=usize}", reader.frames_read(), trace.len());
+    defmt::info!(
+        "refused frames: {=u32} (longest run {=u32}), held at the last good frame",
+        acquired.refused,
+        acquired.longest_refused_run
+    );
 
     // 4. Identification (instruction-counted region).
     ema_identification_start();
@@ -77,6 +88,8 @@ fn main() -> ! {
     // 5. Report and exit.
     let ok = match report {
         Ok(r) => {
+            let r = r.with_acquisition(&acquired);
+            let r = if rate_ok { r } else { r.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
             log_report(&r);
             true
         }
@@ -132,10 +145,18 @@ fn identify(trace: &MeasuredTrace<ONBOARD_WINDOW>) -> Result<HealthReport, monit
     Ok(id.report())
 }
 
-/// Logs the health report, one line per fault mode.
+/// Logs the health report: the status (with its reason when the monitor abstains), one line per
+/// fault mode under a diagnosis, the fault vector (its bits always, for the parity check).
 fn log_report(r: &HealthReport) {
-    defmt::info!("EMA health: {=str}", r.overall().label());
-    for m in &r.modes {
+    match r.status.reason() {
+        Some(reason) => defmt::warn!("EMA health: {=str} ({=str})", r.status.label(), reason.label()),
+        None if r.status.is_diagnosis() => defmt::info!("EMA health: {=str}", r.status.label()),
+        None => defmt::warn!("EMA health: {=str}", r.status.label()),
+    }
+    if !r.status.is_diagnosis() {
+        defmt::warn!("no diagnosis: the fault vector below is not reported as one");
+    }
+    for m in r.modes.iter().filter(|_| r.status.is_diagnosis()) {
         match m.mode {
             FaultMode::ShortCircuit => defmt::info!(
                 "  {=str}: {=str}, severity {=f32}, {=f32} {=str} (phase {=char})",

@@ -380,11 +380,7 @@ pub trait PhaseCurrents {
 pub struct PhaseCurrentReader<A, PA, PB, PC, M = A> {
     adc: A,
     pins: (PA, PB, PC),
-    calibration: Calibration,
-    config: AcquisitionConfig,
-    zero_codes: [u16; 3],
-    stuck: StuckDetector,
-    sum: SumDetector,
+    check: FrameCheck,
     frames: u32,
     _marker: PhantomData<fn() -> M>,
 }
@@ -409,59 +405,17 @@ where
         calibration: Calibration,
         config: AcquisitionConfig,
     ) -> Result<Self, ConfigError> {
-        config.validate()?;
-        let zero_codes = Phase::ALL.map(|p| calibration.phase(p).zero_code());
-        Ok(Self {
-            adc,
-            pins,
-            calibration,
-            config,
-            zero_codes,
-            stuck: StuckDetector::new(),
-            sum: SumDetector::new(),
-            frames: 0,
-            _marker: PhantomData,
-        })
+        Ok(Self { adc, pins, check: FrameCheck::new(calibration, config)?, frames: 0, _marker: PhantomData })
     }
 
     /// Converts the three channels of the next frame and checks it (see the module doc).
     pub fn read_frame(&mut self) -> Result<PhaseFrame, AcquisitionError> {
-        let polls = self.config.max_polls;
+        let polls = self.check.config.max_polls;
         let a = poll(&mut self.adc, &mut self.pins.0, Phase::A, polls)?;
         let b = poll(&mut self.adc, &mut self.pins.1, Phase::B, polls)?;
         let c = poll(&mut self.adc, &mut self.pins.2, Phase::C, polls)?;
         self.frames = self.frames.saturating_add(1);
-        let codes = [a, b, c];
-
-        for phase in Phase::ALL {
-            let code = codes[phase.index()];
-            if code > ADC_MAX {
-                return Err(AcquisitionError::OutOfRange { phase, code });
-            }
-        }
-        let stuck = self.stuck.update(codes, self.zero_codes, &self.config);
-        for phase in Phase::ALL {
-            let code = codes[phase.index()];
-            if code == 0 || code == ADC_MAX {
-                return Err(AcquisitionError::Saturated { phase, code });
-            }
-        }
-        let frame = PhaseFrame {
-            ia_a: self.calibration.phase(Phase::A).to_amps(a),
-            ib_a: self.calibration.phase(Phase::B).to_amps(b),
-            ic_a: self.calibration.phase(Phase::C).to_amps(c),
-            codes,
-        };
-        let sum_a = frame.ia_a + frame.ib_a + frame.ic_a;
-        let inconsistent = self.sum.update(sum_a, &self.config);
-        if let Some((phase, code)) = stuck {
-            return Err(AcquisitionError::Stuck { phase, code });
-        }
-        if inconsistent {
-            // |sum| ≤ 3·4095 A·gain < 12 300 A: the cast cannot saturate in practice (and `as` saturates)
-            return Err(AcquisitionError::InconsistentSum { sum_ma: libm::roundf(sum_a * 1000.0) as i32 });
-        }
-        Ok(frame)
+        self.check.codes([a, b, c])
     }
 }
 
@@ -473,12 +427,12 @@ impl<A, PA, PB, PC, M> PhaseCurrentReader<A, PA, PB, PC, M> {
 
     /// The calibration in use.
     pub const fn calibration(&self) -> &Calibration {
-        &self.calibration
+        &self.check.calibration
     }
 
     /// The check settings in use.
     pub const fn config(&self) -> &AcquisitionConfig {
-        &self.config
+        &self.check.config
     }
 
     /// The driver.
@@ -488,8 +442,7 @@ impl<A, PA, PB, PC, M> PhaseCurrentReader<A, PA, PB, PC, M> {
 
     /// Forgets the stuck and sum history (e.g. after a gap in the data).
     pub fn reset_checks(&mut self) {
-        self.stuck = StuckDetector::new();
-        self.sum = SumDetector::new();
+        self.check.reset();
     }
 
     /// Gives the driver and the pins back.
@@ -510,6 +463,88 @@ where
 {
     fn read_frame(&mut self) -> Result<PhaseFrame, AcquisitionError> {
         PhaseCurrentReader::read_frame(self)
+    }
+}
+
+/// The checks of one frame (range and saturation, stuck channel, sum; module doc), with their
+/// history: the one implementation behind the ADC reader ([`FrameCheck::codes`]) and recordings
+/// given in amperes ([`FrameCheck::amps`], `ema identify`'s CSV path).
+#[derive(Clone, Copy, Debug)]
+pub struct FrameCheck {
+    calibration: Calibration,
+    config: AcquisitionConfig,
+    zero_codes: [u16; 3],
+    stuck: StuckDetector,
+    sum: SumDetector,
+}
+
+impl FrameCheck {
+    /// Checks of frames read through `calibration`, with the checked `config`.
+    pub fn new(calibration: Calibration, config: AcquisitionConfig) -> Result<Self, ConfigError> {
+        config.validate()?;
+        let zero_codes = Phase::ALL.map(|p| calibration.phase(p).zero_code());
+        Ok(Self { calibration, config, zero_codes, stuck: StuckDetector::new(), sum: SumDetector::new() })
+    }
+
+    /// Forgets the stuck and sum history.
+    pub fn reset(&mut self) {
+        self.stuck = StuckDetector::new();
+        self.sum = SumDetector::new();
+    }
+
+    /// Checks the ADC codes `[a, b, c]` of the next frame and converts them to amperes.
+    pub fn codes(&mut self, codes: [u16; 3]) -> Result<PhaseFrame, AcquisitionError> {
+        for phase in Phase::ALL {
+            let code = codes[phase.index()];
+            if code > ADC_MAX {
+                return Err(AcquisitionError::OutOfRange { phase, code });
+            }
+        }
+        let stuck = self.stuck.update(codes, self.zero_codes, &self.config);
+        for phase in Phase::ALL {
+            let code = codes[phase.index()];
+            if code == 0 || code == ADC_MAX {
+                return Err(AcquisitionError::Saturated { phase, code });
+            }
+        }
+        let [a, b, c] = codes;
+        let frame = PhaseFrame {
+            ia_a: self.calibration.phase(Phase::A).to_amps(a),
+            ib_a: self.calibration.phase(Phase::B).to_amps(b),
+            ic_a: self.calibration.phase(Phase::C).to_amps(c),
+            codes,
+        };
+        let sum_a = frame.ia_a + frame.ib_a + frame.ic_a;
+        let inconsistent = self.sum.update(sum_a, &self.config);
+        if let Some((phase, code)) = stuck {
+            return Err(AcquisitionError::Stuck { phase, code });
+        }
+        if inconsistent {
+            // |sum| ≤ 3·4095 A·gain < 12 300 A: the cast cannot saturate in practice (and `as` saturates)
+            return Err(AcquisitionError::InconsistentSum { sum_ma: libm::roundf(sum_a * 1000.0) as i32 });
+        }
+        Ok(frame)
+    }
+
+    /// Checks a frame given in amperes `[ia, ib, ic]`: each current is mapped to the code the
+    /// calibrated sensor would give (`code = round(i/gain + offset)`, clipped to `[0, ADC_MAX]`, so
+    /// a current beyond the sensor's range reads as saturated, a NaN as out of range), then
+    /// checked as [`FrameCheck::codes`] does. The returned frame keeps the given currents.
+    pub fn amps(&mut self, currents_a: [f32; 3]) -> Result<PhaseFrame, AcquisitionError> {
+        let mut codes = [0u16; 3];
+        for phase in Phase::ALL {
+            let cal = self.calibration.phase(phase);
+            let gain = cal.gain_a_per_count().to_num::<f32>();
+            let offset = cal.offset_counts().to_num::<f32>();
+            let i = currents_a[phase.index()];
+            if !i.is_finite() {
+                return Err(AcquisitionError::OutOfRange { phase, code: u16::MAX });
+            }
+            let code = libm::roundf(i / gain + offset);
+            codes[phase.index()] = code.clamp(0.0, f32::from(ADC_MAX)) as u16;
+        }
+        let frame = self.codes(codes)?;
+        Ok(PhaseFrame { ia_a: currents_a[0], ib_a: currents_a[1], ic_a: currents_a[2], codes: frame.codes })
     }
 }
 

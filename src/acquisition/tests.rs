@@ -344,3 +344,42 @@ fn errors_display_and_name_their_phase() {
     let _: &dyn core::error::Error = &ConfigError::Gain;
     let _: &dyn core::error::Error = &ReplayError::EndOfTrace;
 }
+
+#[test]
+fn frame_check_in_amperes_runs_the_reader_checks() {
+    let mut check = FrameCheck::new(Calibration::NOMINAL, AcquisitionConfig::DEFAULT).unwrap();
+    let good = check.amps([1.5, -1.5, 0.0]).unwrap();
+    assert_eq!(good.currents_a(), [1.5, -1.5, 0.0]);
+    assert_eq!(good.codes[2], ADC_MIDSCALE);
+    assert!(matches!(check.amps([25.0, -1.5, 0.0]), Err(AcquisitionError::Saturated { phase: Phase::A, .. })));
+    assert!(matches!(check.amps([f32::NAN, 0.0, 0.0]), Err(AcquisitionError::OutOfRange { phase: Phase::A, .. })));
+    // phase A shifted by −5 A: the sum rule refuses from the fifth frame on
+    let results: std::vec::Vec<_> = (0..8).map(|_| check.amps([-5.0 + 1.0, -1.0, 0.0])).collect();
+    assert!(results[..4].iter().all(Result::is_ok));
+    assert!(results[4..].iter().all(|r| matches!(r, Err(AcquisitionError::InconsistentSum { sum_ma: -5000 }))));
+}
+
+#[test]
+fn acquire_masks_and_counts_refused_frames() {
+    use crate::conditioning::MeasuredTrace;
+    let frames: std::vec::Vec<[u16; 3]> = (0..400u16)
+        .map(|i| {
+            let d = (i % 50) * 4 + 100;
+            if i == 123 {
+                [ADC_MAX, ADC_MIDSCALE - d, ADC_MIDSCALE]
+            } else {
+                [ADC_MIDSCALE + d, ADC_MIDSCALE - d, ADC_MIDSCALE]
+            }
+        })
+        .collect();
+    let bytes = packed(&frames);
+    let mut r = reader(&bytes);
+    let mut trace = MeasuredTrace::<128>::new();
+    let summary = crate::monitor::acquire(&mut r, &mut trace).unwrap();
+    assert_eq!((summary.frames, summary.refused, summary.longest_refused_run), (400, 1, 1));
+    assert!(!summary.is_sensor_fault());
+    assert_eq!(trace.len(), 100);
+    // block 30 is frames 120..=123, of 180, 184, 188 counts; frame 123 (the glitch) holds frame 122
+    let expected = AMPS_PER_COUNT * (180.0 + 184.0 + 2.0 * 188.0) / 4.0;
+    assert!((trace.current_a()[30] - expected).abs() < 1e-5, "{} vs {expected}", trace.current_a()[30]);
+}

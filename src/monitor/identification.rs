@@ -7,11 +7,12 @@
 
 use super::config::{fault_bounds, selection_polish_left, starting_guesses, Algorithm, IdentifyConfig};
 use super::selection::{group_present, without_group, Selection, FAULT_GROUPS};
+use super::MODEL_MISMATCH_A;
 use super::{params_are_valid, MonitorError};
 use crate::conditioning::{ConditioningError, MeasuredTrace, DECIMATION};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::CurrentFit;
-use crate::health::HealthReport;
+use crate::health::{Abstain, FitCheck, HealthReport, Status as HealthStatus};
 use crate::optimizer::de::{DeConfig, DifferentialEvolution};
 use crate::optimizer::ga::{GaConfig, Genetic};
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
@@ -304,7 +305,25 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             self.solver.iterations(),
             self.termination(),
         );
-        HealthReport { untested_groups: self.untested_groups, ..report }
+        let report = HealthReport { untested_groups: self.untested_groups, ..report };
+        self.judge(report, &FaultVector(best))
+    }
+
+    /// The report's status from the data: [`Abstain::PartialCoverage`] when the trace is shorter
+    /// than the profile, [`Abstain::PoorFit`] when the goodness-of-fit test ([`FitCheck`]) of `best`
+    /// rejects it (one model run for the effective sample count).
+    fn judge(&self, report: HealthReport, best: &FaultVector) -> HealthReport {
+        let expected = self.fit.mean_sample_weight()
+            * (super::window_noise_variance_a2(&self.params) + MODEL_MISMATCH_A * MODEL_MISMATCH_A);
+        let check = FitCheck::new(report.fitness, self.fit.effective_samples(best), expected);
+        let report = HealthReport { fit_check: Some(check), ..report };
+        let report =
+            if check.passes() { report } else { report.abstaining(HealthStatus::Inconclusive(Abstain::PoorFit)) };
+        if super::covers(self.fit.trace().len(), self.fit.profile().duration_s(), &self.params) {
+            report
+        } else {
+            report.abstaining(HealthStatus::Inconclusive(Abstain::PartialCoverage))
+        }
     }
 
     /// The termination reason once finished.

@@ -13,6 +13,7 @@
 mod config;
 mod identification;
 mod selection;
+mod verdict;
 
 pub use config::{
     fault_bounds, starting_guesses, Algorithm, IdentifyConfig, ONBOARD_MAX_ITERATIONS, ONBOARD_POPULATION,
@@ -22,6 +23,10 @@ pub use identification::Identification;
 pub use selection::{
     group_pays, group_present, helps_without_its_best_window, refit_replaces, without_group, FAULT_GROUPS,
     REPLACED_ABOVE, SELECTION_REFIT, WINDOW_GAIN_SHARE,
+};
+pub use verdict::{
+    covers, rate_matches, window_noise_variance_a2, AcquisitionSummary, MAX_REFUSED_RUN, MAX_REFUSED_SHARE,
+    MODEL_MISMATCH_A,
 };
 
 use crate::acquisition::{AcquisitionError, PhaseCurrents};
@@ -81,22 +86,31 @@ impl From<ConfigError> for MonitorError {
 }
 
 /// Reads every frame of `source` until it reports [`AcquisitionError::EndOfData`] into `trace`
-/// and closes the window. A refused frame stops the acquisition with [`MonitorError::Acquisition`]:
-/// an identification on data from a faulty sensor would diagnose the sensor, not the actuator.
+/// and closes the window. A frame refused by acquisition's checks (a spike, a dropout, a stuck or
+/// inconsistent channel) is masked: the last good frame is pushed in its place (zero currents
+/// before the first good frame), and it is counted in the returned [`AcquisitionSummary`]. The
+/// diagnosis goes on; too many refused frames make the report a sensor fault
+/// ([`AcquisitionSummary::is_sensor_fault`], [`crate::health::HealthReport::with_acquisition`]).
 pub fn acquire<const W: usize, S: PhaseCurrents>(
     source: &mut S,
     trace: &mut MeasuredTrace<W>,
-) -> Result<(), MonitorError> {
-    let mut frame = 0u32;
+) -> Result<AcquisitionSummary, MonitorError> {
+    let mut summary = AcquisitionSummary::default();
+    let mut run = 0u32;
+    let mut held = [0.0f32; 3];
     loop {
         match source.read_frame() {
-            Ok(f) => trace.push(f.ia_a, f.ib_a, f.ic_a)?,
+            Ok(f) => {
+                held = [f.ia_a, f.ib_a, f.ic_a];
+                summary.count(false, &mut run);
+            }
             Err(AcquisitionError::EndOfData) => break,
-            Err(error) => return Err(MonitorError::Acquisition { error, frame }),
+            Err(_) => summary.count(true, &mut run),
         }
-        frame = frame.wrapping_add(1);
+        trace.push(held[0], held[1], held[2])?;
     }
-    Ok(trace.finish()?)
+    trace.finish()?;
+    Ok(summary)
 }
 
 /// `true` when every parameter is finite and the physical ones are positive where they must be.

@@ -2,8 +2,10 @@
 //! identifies the faults behind a recording and prints the health report.
 //!
 //! Two inputs:
-//! - a recording CSV (`ema simulate`'s format, 10 kHz): phase currents in amperes go straight to
-//!   conditioning; the command column must match the command profile (`--profile`, default
+//! - a recording CSV (`ema simulate`'s format, 10 kHz): phase currents in amperes pass the same
+//!   range, stuck-channel and sum checks as on board ([`FrameCheck::amps`], the core's code with
+//!   the nominal calibration); a refused frame is held at the last good one and counted, and too
+//!   many make the report `SENSOR_FAULT`, as [`monitor::acquire`] does; the command column must match the command profile (`--profile`, default
 //!   `standard`), because the monitor model is driven by the profile, as on board;
 //! - `--firmware-trace FILE`: the firmware's packed 12-bit trace, read through the same replay ADC,
 //!   `OneShot` reader and fixed-point calibration as on the MCU, with the on-board window, swarm
@@ -19,11 +21,15 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::{Args, ValueEnum};
-use ema_monitor::acquisition::{AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
+use ema_monitor::acquisition::{
+    AcquisitionConfig, Calibration, FrameCheck, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc,
+};
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::effects::{parse_model_config, ModelEffects};
-use ema_monitor::health::HealthReport;
-use ema_monitor::monitor::{self, Algorithm, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
+use ema_monitor::health::{Abstain, HealthReport, Status};
+use ema_monitor::monitor::{
+    self, AcquisitionSummary, Algorithm, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW,
+};
 use ema_monitor::trace::PackedTrace;
 use ema_monitor::{EmaParams, Profile};
 use serde_json::json;
@@ -175,19 +181,24 @@ pub fn effects_label(effects: &ModelEffects) -> String {
     }
 }
 
-/// Identifies a recording read from `path` (used for messages), driven by `profile`.
+/// Identifies a recording read from `path` (used for messages), driven by `profile`; the report
+/// carries the count of refused frames and is `SENSOR_FAULT` when there are too many.
 pub fn identify_recording(
     recording: &Recording,
     path: &Path,
     profile: &Profile,
     config: &IdentifyConfig,
 ) -> Result<Outcome, CliError> {
-    let trace = condition_recording(recording, path, profile)?;
-    identify_trace(&trace, profile, config, path)
+    let (trace, acquired) = condition_recording_checked(recording, path, profile)?;
+    let outcome = identify_trace(&trace, profile, config, path)?;
+    Ok(Outcome { report: outcome.report.with_acquisition(&acquired), ..outcome })
 }
 
 /// Checks a recording made under `profile` (read from `path`, used for messages) and conditions it into the
-/// measured trace the core identifies (`I_3eq` block means and weights), as `ema identify` does.
+/// measured trace the core identifies (`I_3eq` block means and weights), every frame as it is:
+/// the input of `ema discover`, `ema campaign` and the investigations, which study the model on
+/// recordings whose sensor effects the frame checks would refuse (a sensor offset breaks the sum
+/// rule). `ema identify` conditions through [`condition_recording_checked`].
 pub fn condition_recording(
     recording: &Recording,
     path: &Path,
@@ -202,6 +213,37 @@ pub fn condition_recording(
     }
     trace.finish().map_err(|e| input_error(path, &e.to_string()))?;
     Ok(trace)
+}
+
+/// As [`condition_recording`], as on board: every frame passes the core's frame checks
+/// ([`FrameCheck::amps`], nominal calibration, default settings); a refused frame is held at the
+/// last good one (zero currents before the first) and counted in the returned summary.
+pub fn condition_recording_checked(
+    recording: &Recording,
+    path: &Path,
+    profile: &Profile,
+) -> Result<(Box<MeasuredTrace<HOST_WINDOW>>, AcquisitionSummary), CliError> {
+    check_recording(recording, path, profile, &EmaParams::NOMINAL)?;
+    let mut check = FrameCheck::new(Calibration::NOMINAL, AcquisitionConfig::DEFAULT)
+        .map_err(|e| input_error(path, &e.to_string()))?;
+    let mut summary = AcquisitionSummary::default();
+    let (mut run, mut held) = (0u32, [0.0f32; 3]);
+    let mut trace = Box::new(MeasuredTrace::<HOST_WINDOW>::new());
+    for k in 0..recording.len() {
+        let frame = [recording.ia_a[k] as f32, recording.ib_a[k] as f32, recording.ic_a[k] as f32];
+        match check.amps(frame) {
+            Ok(f) => {
+                held = f.currents_a();
+                summary.count(false, &mut run);
+            }
+            Err(_) => summary.count(true, &mut run),
+        }
+        trace
+            .push(held[0], held[1], held[2])
+            .map_err(|e| input_error(path, &format!("line {}: {e}", line_of(recording, k))))?;
+    }
+    trace.finish().map_err(|e| input_error(path, &e.to_string()))?;
+    Ok((trace, summary))
 }
 
 /// Identifies a conditioned trace (any window size); `path` names the input in messages.
@@ -220,7 +262,8 @@ pub fn identify_trace<const W: usize>(
     Ok(Outcome { report: id.report(), seconds: start.elapsed().as_secs_f64() })
 }
 
-/// Identifies the firmware's packed trace through the replay ADC, exactly as `src/main.rs` does.
+/// Identifies the firmware's packed trace through the replay ADC, exactly as `src/main.rs` does
+/// (refused frames held and counted; a header rate other than 10 kHz is `INCONCLUSIVE`).
 pub fn identify_firmware_trace(path: &Path, config: &IdentifyConfig) -> Result<Outcome, CliError> {
     let bytes = std::fs::read(path).map_err(|e| input_error(path, &format!("cannot read: {e}")))?;
     let packed = PackedTrace::parse(&bytes).map_err(|e| input_error(path, &e.to_string()))?;
@@ -229,8 +272,15 @@ pub fn identify_firmware_trace(path: &Path, config: &IdentifyConfig) -> Result<O
         PhaseCurrentReader::new(adc, (PhaseA, PhaseB, PhaseC), Calibration::NOMINAL, AcquisitionConfig::DEFAULT)
             .map_err(|e| input_error(path, &e.to_string()))?;
     let mut trace = Box::new(MeasuredTrace::<ONBOARD_WINDOW>::new());
-    monitor::acquire(&mut reader, &mut trace).map_err(|e| input_error(path, &e.to_string()))?;
-    identify_trace(&trace, &Profile::STANDARD, config, path)
+    let acquired = monitor::acquire(&mut reader, &mut trace).map_err(|e| input_error(path, &e.to_string()))?;
+    let outcome = identify_trace(&trace, &Profile::STANDARD, config, path)?;
+    let report = outcome.report.with_acquisition(&acquired);
+    let report = if monitor::rate_matches(packed.sample_rate_hz() as f32, &EmaParams::NOMINAL) {
+        report
+    } else {
+        report.abstaining(Status::Inconclusive(Abstain::RateMismatch))
+    };
+    Ok(Outcome { report, ..outcome })
 }
 
 /// Refuses a recording the monitor cannot use: wrong sample rate, or a command that is not `profile`.
@@ -279,7 +329,10 @@ pub fn bits_line(report: &HealthReport) -> String {
     format!("fault vector bits: {}", words.join(" "))
 }
 
-/// The report as JSON (`k`, `fitness`, `evaluations`, `seconds` and more).
+/// The report as JSON: `status` (`HEALTHY`, `DEGRADED`, `FAILING`, `INCONCLUSIVE`, `SENSOR_FAULT`),
+/// `reason` (of `INCONCLUSIVE`, else null), `refused_frames`, `fit_test`, `fitness`, `evaluations`,
+/// `seconds`, and under a diagnosis `k`, `overall` and `modes`; otherwise the fault vector only as
+/// `k_not_a_diagnosis`.
 pub fn to_json(outcome: &Outcome) -> serde_json::Value {
     let r = &outcome.report;
     let modes: Vec<serde_json::Value> = r
@@ -290,17 +343,30 @@ pub fn to_json(outcome: &Outcome) -> serde_json::Value {
                    "value": m.value, "unit": m.unit()})
         })
         .collect();
-    json!({
-        "k": r.faults.0,
+    let diagnosis = r.status.is_diagnosis();
+    let mut v = json!({
+        "status": r.status.label(),
+        "reason": r.status.reason().map(|a| a.label()),
+        "refused_frames": r.refused_frames,
+        "fit_test": r.fit_check.map(|c| json!({"z": c.z, "limit": ema_monitor::health::FIT_TEST_Z,
+            "effective_samples": c.effective_samples, "expected_a2": c.expected_a2})),
         "fitness": r.fitness,
         "evaluations": r.evaluations,
         "iterations": r.iterations,
         "termination": r.termination.map(|t| format!("{t:?}")),
         "untested_groups": r.untested_groups,
         "seconds": outcome.seconds,
-        "overall": r.overall().label(),
-        "modes": modes,
-    })
+    });
+    // Under INCONCLUSIVE or SENSOR_FAULT the fault values are no diagnosis: `k` moves to
+    // `k_not_a_diagnosis` and `overall` and `modes` are left out.
+    if diagnosis {
+        v["k"] = json!(r.faults.0);
+        v["overall"] = json!(r.overall().label());
+        v["modes"] = json!(modes);
+    } else {
+        v["k_not_a_diagnosis"] = json!(r.faults.0);
+    }
+    v
 }
 
 fn render(outcome: &Outcome, effects: &ModelEffects, args: &IdentifyArgs) -> String {

@@ -166,10 +166,19 @@ fn bad_flags_are_refused() {
     refused(&["identify", s(standard_csv()), "--firmware-trace", s(&trace)], &["--firmware-trace", "cannot be used"]);
 }
 
-/// The JSON report: `k` (8 numbers in [0, 1]), `fitness`, `evaluations`, `untested_groups`, `seconds`.
+/// The JSON report: `status`, `k` (8 numbers in [0, 1]; `k_not_a_diagnosis` when the status is
+/// INCONCLUSIVE or SENSOR_FAULT, as on these short or few-iteration runs: returned as `k`),
+/// `fitness`, `evaluations`, `untested_groups`, `seconds`.
 fn check_json(out: &str, max_iterations: u64) -> serde_json::Value {
     assert_eq!(out.trim().lines().count(), 1, "{out}");
-    let v: serde_json::Value = serde_json::from_str(out.trim()).expect("valid JSON");
+    let mut v: serde_json::Value = serde_json::from_str(out.trim()).expect("valid JSON");
+    let status = v["status"].as_str().unwrap_or_else(|| panic!("no status in {v}")).to_owned();
+    let diagnosis = ["HEALTHY", "DEGRADED", "FAILING"].contains(&status.as_str());
+    assert!(diagnosis || ["INCONCLUSIVE", "SENSOR_FAULT"].contains(&status.as_str()), "{v}");
+    assert_eq!(v.get("k").is_some(), diagnosis, "{v}");
+    if !diagnosis {
+        v["k"] = v["k_not_a_diagnosis"].clone();
+    }
     let k = v["k"].as_array().unwrap_or_else(|| panic!("no k in {v}"));
     assert_eq!(k.len(), FAULT_COUNT, "{v}");
     assert!(k.iter().all(|x| x.as_f64().is_some_and(|x| (0.0..=1.0).contains(&x))), "{v}");

@@ -1,0 +1,153 @@
+//! The monitor abstains instead of giving a confident wrong answer: each hostile input of issue
+//! #28 item 1 reads `INCONCLUSIVE` or `SENSOR_FAULT`, an isolated glitch is masked and the
+//! diagnosis goes on, and clean recordings (healthy and faulty, several seeds) are never
+//! `INCONCLUSIVE`.
+
+use std::path::Path;
+
+mod common;
+use common::{accepted, s, scratch};
+
+use ema_cli::identify::identify_recording;
+use ema_cli::output::Overwrite;
+use ema_cli::recording_io::{write_recording, Recording};
+use ema_monitor::health::{Abstain, HealthReport, Status};
+use ema_monitor::monitor::IdentifyConfig;
+use ema_monitor::{FaultVector, Profile};
+use ema_reference::{simulate, SimConfig};
+
+const HEALTHY: [f32; 8] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
+const FRICTION: [f32; 8] = [0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5];
+
+/// The standard manoeuvre recorded by the reference model with `faults` and noise seed `seed`.
+fn recording(faults: [f32; 8], seed: u64) -> Recording {
+    let rec = simulate(&SimConfig { faults: FaultVector(faults), seed, ..SimConfig::default() }).unwrap();
+    Recording::from_reference(&rec, vec![])
+}
+
+/// The on-board budget (40 iterations): enough for the status, and quick.
+fn config() -> IdentifyConfig {
+    IdentifyConfig { max_iterations: 40, ..IdentifyConfig::default() }
+}
+
+fn report(r: &Recording) -> HealthReport {
+    identify_recording(r, Path::new("in-memory.csv"), &Profile::STANDARD, &config()).unwrap().report
+}
+
+#[test]
+fn random_currents_that_sum_to_zero_are_inconclusive() {
+    let mut r = recording(HEALTHY, 1);
+    let mut x = 0x9E37_79B9_7F4A_7C15u64;
+    let mut uniform = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x >> 11) as f64 / (1u64 << 53) as f64 * 20.0 - 10.0
+    };
+    for k in 0..r.len() {
+        let (a, b) = (uniform(), uniform());
+        (r.ia_a[k], r.ib_a[k], r.ic_a[k]) = (a, b, -a - b);
+    }
+    let rep = report(&r);
+    assert_eq!(rep.status, Status::Inconclusive(Abstain::PoorFit), "{rep}");
+    assert!(!rep.fit_check.unwrap().passes());
+}
+
+#[test]
+fn the_standard_trace_played_backwards_is_inconclusive() {
+    let mut r = recording(HEALTHY, 1);
+    r.ia_a.reverse();
+    r.ib_a.reverse();
+    r.ic_a.reverse();
+    let rep = report(&r);
+    assert_eq!(rep.status, Status::Inconclusive(Abstain::PoorFit), "{rep}");
+    let text = rep.to_string();
+    assert!(text.starts_with("EMA health: INCONCLUSIVE (poor fit)"), "{text}");
+    assert!(!text.contains("backlash ") && text.contains("k (not a diagnosis)"), "{text}");
+}
+
+#[test]
+fn a_recording_cut_to_its_first_sixth_is_inconclusive() {
+    let mut r = recording(HEALTHY, 1);
+    let n = r.len() / 6;
+    for column in [&mut r.time_s, &mut r.command_rad, &mut r.position_rad, &mut r.ia_a, &mut r.ib_a, &mut r.ic_a] {
+        column.truncate(n);
+    }
+    r.row_line.truncate(n);
+    let rep = report(&r);
+    assert_eq!(rep.status, Status::Inconclusive(Abstain::PartialCoverage), "{rep}");
+}
+
+#[test]
+fn a_trace_declaring_1_khz_is_inconclusive() {
+    let dir = scratch("fail-safe", "rate");
+    let mut bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../traces/standard.ematrace")).unwrap();
+    bytes[8..12].copy_from_slice(&1000u32.to_le_bytes());
+    let path = dir.join("1khz.ematrace");
+    std::fs::write(&path, bytes).unwrap();
+    let out = accepted(&["identify", "--firmware-trace", s(&path), "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["status"], "INCONCLUSIVE", "{v}");
+    assert_eq!(v["reason"], "rate mismatch", "{v}");
+    assert!(v.get("k").is_none() && v.get("modes").is_none() && v["k_not_a_diagnosis"].is_array(), "{v}");
+}
+
+#[test]
+fn phase_a_shifted_by_minus_5_a_is_a_sensor_fault_not_friction() {
+    let dir = scratch("fail-safe", "shift");
+    let mut r = recording(HEALTHY, 2);
+    for a in &mut r.ia_a {
+        *a -= 5.0;
+    }
+    let path = dir.join("shifted.csv");
+    write_recording(&path, &r, Overwrite::Refuse).unwrap();
+    let out = accepted(&["identify", s(&path), "--json", "--max-iterations", "40"]);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["status"], "SENSOR_FAULT", "{v}");
+    assert!(v["refused_frames"].as_u64().unwrap() > 8000, "{v}");
+    assert!(v.get("k").is_none() && v.get("modes").is_none(), "{v}");
+    let text = accepted(&["identify", s(&path), "--max-iterations", "40"]);
+    assert!(text.starts_with("EMA health: SENSOR_FAULT") && !text.contains("friction"), "{text}");
+}
+
+#[test]
+fn one_isolated_glitch_is_masked_and_the_diagnosis_goes_on() {
+    let clean = recording(FRICTION, 3);
+    let mut glitch = clean.clone();
+    glitch.ia_a[3000] = 25.0; // beyond the ±20 A sensor: a saturated frame
+    let (a, b) = (report(&clean), report(&glitch));
+    assert_eq!(b.refused_frames, 1, "{b}");
+    assert!(b.status.is_diagnosis() && b.status == a.status, "{a}\n{b}");
+    let err = b.faults.paper_error_percent(&a.faults);
+    assert!(err < 1.0, "{err} Err% between\n{a}\n{b}");
+}
+
+#[test]
+fn a_burst_of_bad_frames_is_a_sensor_fault() {
+    let mut r = recording(FRICTION, 4);
+    for a in &mut r.ia_a[3000..3200] {
+        *a = 25.0;
+    }
+    let rep = report(&r);
+    assert_eq!(rep.status, Status::SensorFault, "{rep}");
+    assert_eq!(rep.refused_frames, 200);
+    assert!(!rep.to_string().contains("friction "), "{rep}");
+}
+
+#[test]
+fn clean_recordings_are_never_inconclusive() {
+    let cases: [[f32; 8]; 5] = [
+        HEALTHY,
+        FRICTION,
+        [0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.5, 0.7],
+        [0.0, 0.0, 0.0, 0.6, 0.0, 0.0, 0.5, 0.5],
+        [0.2, 0.3, 0.0, 0.0, 0.0, 0.4, 0.3, 0.4],
+    ];
+    for (i, faults) in cases.iter().enumerate() {
+        for seed in [11 + i as u64, 21 + i as u64] {
+            let rep = report(&recording(*faults, seed));
+            assert!(rep.status.is_diagnosis(), "faults {faults:?} seed {seed}:\n{rep}");
+            assert_eq!(rep.refused_frames, 0, "faults {faults:?} seed {seed}:\n{rep}");
+        }
+    }
+}
