@@ -49,13 +49,6 @@ pub enum MonitorError {
     TraceLongerThanProfile,
     /// The fast-regime weight is not in `(0, 1]`.
     FastRegimeWeight,
-    /// A frame was refused by acquisition (sensor fault): `frame` is its index.
-    Acquisition {
-        /// What acquisition found.
-        error: AcquisitionError,
-        /// Index of the refused frame.
-        frame: u32,
-    },
 }
 
 impl core::fmt::Display for MonitorError {
@@ -66,7 +59,6 @@ impl core::fmt::Display for MonitorError {
             MonitorError::Params => f.write_str("an actuator parameter is not finite or not physical"),
             MonitorError::TraceLongerThanProfile => f.write_str("the trace is longer than the command profile"),
             MonitorError::FastRegimeWeight => f.write_str("the fast-regime weight is not in (0, 1]"),
-            MonitorError::Acquisition { error, frame } => write!(f, "frame {frame} refused by acquisition: {error}"),
         }
     }
 }
