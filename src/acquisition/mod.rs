@@ -6,6 +6,8 @@
 //! `nb::WouldBlock` a bounded number of times, converts each code with a per-phase fixed-point
 //! [`Calibration`] and checks the frame. [`ReplayAdc`] is the board-agnostic driver that replays a
 //! [`PackedTrace`](crate::trace::PackedTrace) (the firmware's built-in trace, and host tests).
+//! A replay ends by itself; a live ADC does not, so a board wraps its reader in [`FrameLimit`],
+//! which ends the acquisition on the manoeuvre's frame count.
 //!
 //! ```text
 //!  OneShot ADC ──codes──► range/saturation ─► stuck rule ─► sum rule ─► calibration ─► PhaseFrame
@@ -56,6 +58,7 @@
 
 mod calibration;
 mod detect;
+mod limit;
 mod replay;
 
 use core::convert::Infallible;
@@ -65,6 +68,7 @@ use core::marker::PhantomData;
 use embedded_hal::adc::{Channel, OneShot};
 
 pub use calibration::{AmpsFixed, Calibration, GainAmpsPerCount, OffsetCounts, PhaseCalibration};
+pub use limit::{manoeuvre_frames, FrameLimit};
 pub use replay::{ReplayAdc, ReplayError};
 
 use crate::trace::ADC_MAX;

@@ -383,3 +383,44 @@ fn acquire_masks_and_counts_refused_frames() {
     let expected = AMPS_PER_COUNT * (180.0 + 184.0 + 2.0 * 188.0) / 4.0;
     assert!((trace.current_a()[30] - expected).abs() < 1e-5, "{} vs {expected}", trace.current_a()[30]);
 }
+
+#[test]
+fn frame_limit_ends_a_live_source_on_the_manoeuvre_frame_count() {
+    use crate::conditioning::MeasuredTrace;
+    use crate::{EmaParams, Profile};
+    assert_eq!(manoeuvre_frames(&Profile::STANDARD, &EmaParams::NOMINAL), 8500);
+    // a source that never ends (a live ADC), counting its reads
+    let mut reads = 0u32;
+    let live = fake_reader(
+        |p| {
+            reads += 1;
+            let d = (reads / 3 % 50) as u16 * 4 + 100;
+            Ok::<_, nb::Error<Infallible>>(match p {
+                Phase::A => ADC_MIDSCALE + d,
+                Phase::B => ADC_MIDSCALE - d,
+                Phase::C => ADC_MIDSCALE,
+            })
+        },
+        AcquisitionConfig::DEFAULT,
+    );
+    let mut limited = FrameLimit::new(live, 400);
+    let mut trace = MeasuredTrace::<128>::new();
+    let summary = crate::monitor::acquire(&mut limited, &mut trace).unwrap();
+    assert_eq!((summary.frames, summary.refused), (400, 0));
+    assert_eq!((trace.len(), limited.remaining(), limited.source().frames_read()), (100, 0, 400));
+    // past the count: end of data again, and the source is not read
+    assert_eq!(limited.read_frame(), Err(AcquisitionError::EndOfData));
+    assert_eq!(limited.release().frames_read(), 400);
+    assert_eq!(reads, 1200);
+}
+
+#[test]
+fn frame_limit_of_zero_or_a_bad_ratio_reads_nothing() {
+    use crate::{EmaParams, Profile};
+    let params = EmaParams { control_period_s: f32::NAN, ..EmaParams::NOMINAL };
+    assert_eq!(manoeuvre_frames(&Profile::STANDARD, &params), 0);
+    let bytes = packed(&[[ADC_MIDSCALE + 10, ADC_MIDSCALE - 10, ADC_MIDSCALE]; 4]);
+    let mut limited = FrameLimit::new(reader(&bytes), 0);
+    assert_eq!(limited.read_frame(), Err(AcquisitionError::EndOfData));
+    assert_eq!(limited.source().frames_read(), 0);
+}

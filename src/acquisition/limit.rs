@@ -1,0 +1,64 @@
+//! [`FrameLimit`]: ends a live acquisition on the manoeuvre's frame count.
+
+use super::{AcquisitionError, PhaseCurrents, PhaseFrame};
+use crate::params::EmaParams;
+use crate::profile::Profile;
+
+/// A [`PhaseCurrents`] source that yields at most `frames` frames, then
+/// [`AcquisitionError::EndOfData`].
+///
+/// A replayed recording ends by itself; a live ADC never does, so the acquisition of a board ends
+/// on the number of control periods the manoeuvre lasts, `N = round(T / Tc)`
+/// ([`manoeuvre_frames`]). Every call counts, a refused frame too (it still takes one
+/// control period), so the window covers exactly `N · Tc` of time. Once the count is reached, the
+/// inner source is not read again.
+#[derive(Clone, Debug)]
+pub struct FrameLimit<S> {
+    source: S,
+    remaining: u32,
+}
+
+impl<S> FrameLimit<S> {
+    /// Reads at most `frames` frames from `source`.
+    pub const fn new(source: S, frames: u32) -> Self {
+        Self { source, remaining: frames }
+    }
+
+    /// Reads the frames of one run of `profile` at the control rate of `params`
+    /// ([`manoeuvre_frames`]).
+    pub fn manoeuvre(source: S, profile: &Profile, params: &EmaParams) -> Self {
+        Self::new(source, manoeuvre_frames(profile, params))
+    }
+
+    /// Frames left before the end of data.
+    pub const fn remaining(&self) -> u32 {
+        self.remaining
+    }
+
+    /// The inner source.
+    pub const fn source(&self) -> &S {
+        &self.source
+    }
+
+    /// Gives the inner source back.
+    pub fn release(self) -> S {
+        self.source
+    }
+}
+
+impl<S: PhaseCurrents> PhaseCurrents for FrameLimit<S> {
+    fn read_frame(&mut self) -> Result<PhaseFrame, AcquisitionError> {
+        if self.remaining == 0 {
+            return Err(AcquisitionError::EndOfData);
+        }
+        self.remaining -= 1;
+        self.source.read_frame()
+    }
+}
+
+/// Frames in one run of `profile` at the control rate: `round(T / Tc)` with `T` the profile's
+/// duration and `Tc` the control period (the standard manoeuvre: 0.85 s / 100 µs = 8500).
+/// A non-finite or negative ratio gives 0 (the `as` cast saturates; nothing panics).
+pub fn manoeuvre_frames(profile: &Profile, params: &EmaParams) -> u32 {
+    libm::roundf(profile.duration_s() / params.control_period_s) as u32
+}
