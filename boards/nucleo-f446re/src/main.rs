@@ -1,0 +1,331 @@
+//! ema-monitor on a NUCLEO-F446RE (STM32F446RE, Cortex-M4F at 180 MHz): the phase currents from
+//! three ADC pins at the control rate, the on-board identification, the health report over
+//! defmt-rtt. No semihosting: the board runs without a debugger, and logs to RTT when one is
+//! attached (`cargo run --release` in this folder, through `probe-rs run`).
+//!
+//! Numbered steps (the QEMU firmware's, `src/main.rs`, with a live ADC in place of the replay):
+//! 1. start the independent watchdog ([`WATCHDOG_MS`]) first, so that every later hang resets;
+//! 2. clocks: 180 MHz from the 8 MHz HSE input, which the NUCLEO's ST-LINK drives (MCO, bypass);
+//! 3. ADC1 on PA0, PA1, PA4 (Arduino A0, A1, A2) for phases A, B, C behind the core's
+//!    [`PhaseCurrentReader`], and TIM2 ticking every [`FRAME_PERIOD_US`] µs (10 kHz, the control
+//!    rate of `EmaParams::NOMINAL`);
+//! 4. wait [`START_DELAY_FRAMES`] ticks after reset (no trigger yet: the acquisition starts at a
+//!    fixed time after reset, and the drive must start the standard manoeuvre then), then acquire
+//!    and condition exactly the manoeuvre's frame count ([`FrameLimit`]: 8500 frames = 0.85 s),
+//!    one frame per tick (a blocking wait in thread mode), feeding the watchdog each frame;
+//! 5. identify the faults with the on-board PSO, one objective evaluation per
+//!    [`Identification::step`], feeding the watchdog between steps and timing each step with the
+//!    DWT cycle counter;
+//! 6. log the health report and the fault vector's bits, then idle with the watchdog fed (a new
+//!    run needs a reset).
+//!
+//! Safe state: a panic (panic-probe logs it, then `udf`) and any fault end in [`HardFault`], which
+//! logs `FAILSAFE` and parks without feeding the watchdog, so the IWDG resets the chip within
+//! [`WATCHDOG_MS`] (docs/board.md).
+#![no_std]
+#![no_main]
+
+use defmt_rtt as _; // global defmt logger over RTT
+use panic_probe as _; // panic → defmt message → `udf` → HardFault → park → watchdog reset
+
+use cortex_m::peripheral::DWT;
+use cortex_m_rt::{entry, exception, ExceptionFrame};
+use ema_monitor::acquisition::{
+    AcquisitionConfig, AcquisitionError, Calibration, FrameLimit, PhaseCurrentReader, PhaseCurrents, PhaseFrame,
+};
+use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::health::{Abstain, FaultMode, HealthReport, Status};
+use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
+use ema_monitor::optimizer::Status as SearchStatus;
+use ema_monitor::{EmaParams, Profile};
+use stm32f4xx_hal::adc::config::{AdcConfig, Clock, SampleTime};
+use stm32f4xx_hal::adc::Adc;
+use stm32f4xx_hal::pac::{self, TIM2};
+use stm32f4xx_hal::prelude::*;
+use stm32f4xx_hal::rcc::Config;
+use stm32f4xx_hal::timer::{CounterUs, Flag};
+use stm32f4xx_hal::watchdog::IndependentWatchdog;
+
+/// Independent-watchdog timeout. The longest thing done between two feeds is one objective
+/// evaluation: 8.86e9 instructions over 1823 evaluations on the built-in trace is 4.9e6 on
+/// average; taking 1e7 instructions for a full (not early-abandoned) evaluation at 1.6 cycles per
+/// instruction, a step lasts at most about 90 ms at 180 MHz. 500 ms leaves a margin above 5, and
+/// above 3 at the LSI's fastest (47 kHz against the nominal 32 kHz, datasheet).
+const WATCHDOG_MS: u32 = 500;
+
+/// Period of one ADC frame: 100 µs, the control period of `EmaParams::NOMINAL` (10 kHz).
+const FRAME_PERIOD_US: u32 = 100;
+
+/// Ticks waited after reset before the acquisition starts (100 ms: the sensors and the ADC
+/// settle). The drive starts the standard manoeuvre at the same time after reset: there is no
+/// trigger yet.
+const START_DELAY_FRAMES: u32 = 1000;
+
+/// The core clock, for converting DWT cycles to seconds.
+const SYSCLK_HZ: u32 = 180_000_000;
+
+#[entry]
+fn main() -> ! {
+    // 1. Watchdog first: from here on, a hang resets the chip.
+    let Some(dp) = pac::Peripherals::take() else { failsafe("device peripherals already taken") };
+    let Some(mut cp) = cortex_m::Peripherals::take() else { failsafe("core peripherals already taken") };
+    let mut watchdog = IndependentWatchdog::new(dp.IWDG);
+    watchdog.stop_on_debug(&dp.DBGMCU, true); // a core halted by the probe is not reset
+    watchdog.start(WATCHDOG_MS.millis());
+    defmt::info!("ema-monitor on NUCLEO-F446RE: watchdog {=u32} ms", WATCHDOG_MS);
+
+    // 2. Clocks: 8 MHz HSE (ST-LINK MCO, bypass) → PLL → 180 MHz; APB1 45 MHz, APB2 90 MHz.
+    let mut rcc = dp
+        .RCC
+        .freeze(Config::hse(8.MHz()).bypass_hse_oscillator().sysclk(SYSCLK_HZ.Hz()).pclk1(45.MHz()).pclk2(90.MHz()));
+    defmt::info!(
+        "clocks: sysclk {=u32} Hz, pclk1 {=u32} Hz, pclk2 {=u32} Hz",
+        rcc.clocks.sysclk().raw(),
+        rcc.clocks.pclk1().raw(),
+        rcc.clocks.pclk2().raw()
+    );
+    cp.DCB.enable_trace();
+    cp.DWT.enable_cycle_counter();
+
+    // 3. ADC1 on PA0/PA1/PA4, ADC clock 90/4 = 22.5 MHz (≤ 36 MHz); 56 + 12 cycles = 3 µs per
+    //    conversion, 9 µs per frame, well inside the 100 µs period.
+    let gpioa = dp.GPIOA.split(&mut rcc);
+    let pins = (gpioa.pa0.into_analog(), gpioa.pa1.into_analog(), gpioa.pa4.into_analog());
+    let adc_config = AdcConfig::default().clock(Clock::Pclk2_div_4).default_sample_time(SampleTime::Cycles_56);
+    let adc = Adc::new(dp.ADC1, true, adc_config, &mut rcc);
+    // Nominal sensors (±20 A over the 12-bit range, zero at mid-scale): a real front end gives
+    // its measured offsets and gains to `Calibration::new`.
+    let reader = match PhaseCurrentReader::new(adc, pins, Calibration::NOMINAL, AcquisitionConfig::DEFAULT) {
+        Ok(r) => r,
+        Err(e) => {
+            defmt::error!("acquisition config refused: {}", e);
+            idle_failed(watchdog)
+        }
+    };
+    let mut timer = dp.TIM2.counter_us(&mut rcc);
+    if timer.start(FRAME_PERIOD_US.micros()).is_err() {
+        defmt::error!("TIM2 refused the {=u32} us period", FRAME_PERIOD_US);
+        idle_failed(watchdog)
+    }
+
+    // 4. Fixed start delay, then the manoeuvre's frames, paced by TIM2.
+    let mut paced = Paced { reader, timer, watchdog, late: 0 };
+    for _ in 0..START_DELAY_FRAMES {
+        paced.tick();
+    }
+    let mut source = FrameLimit::manoeuvre(paced, &Profile::STANDARD, &EmaParams::NOMINAL);
+    defmt::info!("acquiring {=u32} frames at {=u32} Hz", source.remaining(), 1_000_000 / FRAME_PERIOD_US);
+    let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
+    let acquired = monitor::acquire(&mut source, &mut trace);
+    let Paced { reader, mut timer, mut watchdog, late } = source.release();
+    let acquired = match acquired {
+        Ok(summary) => summary,
+        Err(e) => {
+            defmt::error!("acquisition stopped: {}", e);
+            idle_failed(watchdog)
+        }
+    };
+    defmt::info!("frames read: {=u32}, window samples: {=usize}", reader.frames_read(), trace.len());
+    defmt::info!(
+        "refused frames: {=u32} (longest run {=u32}), held at the last good frame; late frames: {=u32}",
+        acquired.refused,
+        acquired.longest_refused_run,
+        late
+    );
+    // The frames came at the timer's rate unless one was late (a frame's work overran the period).
+    let rate_hz = (1_000_000 / FRAME_PERIOD_US) as f32;
+    let rate_ok = late == 0 && monitor::rate_matches(rate_hz, &EmaParams::NOMINAL);
+
+    // 5. Identification, the watchdog fed between evaluations.
+    let (report, timing) = match identify(&trace, &mut watchdog) {
+        Ok(done) => done,
+        Err(e) => {
+            defmt::error!("identification refused: {}", e);
+            idle_failed(watchdog)
+        }
+    };
+    defmt::info!(
+        "identification: {=u64} cycles ({=u32} ms at {=u32} Hz), longest step {=u32} cycles (watchdog {=u32} ms)",
+        timing.total_cycles,
+        (timing.total_cycles / u64::from(SYSCLK_HZ / 1000)) as u32,
+        SYSCLK_HZ,
+        timing.longest_step_cycles,
+        WATCHDOG_MS
+    );
+
+    // 6. Report, then idle.
+    let report = report.with_acquisition(&acquired);
+    let report = if rate_ok { report } else { report.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
+    log_report(&report);
+    defmt::info!("ema-monitor: OK");
+    loop {
+        wait_tick(&mut timer);
+        watchdog.feed();
+    }
+}
+
+/// The live frame source: one frame per timer tick, the watchdog fed at each.
+struct Paced<R> {
+    reader: R,
+    timer: CounterUs<TIM2>,
+    watchdog: IndependentWatchdog,
+    /// Frames whose tick had already passed when the wait began (the previous frame overran).
+    late: u32,
+}
+
+impl<R> Paced<R> {
+    /// Waits for the next tick and feeds the watchdog.
+    fn tick(&mut self) {
+        wait_tick(&mut self.timer);
+        self.watchdog.feed();
+    }
+}
+
+impl<R: PhaseCurrents> PhaseCurrents for Paced<R> {
+    fn read_frame(&mut self) -> Result<PhaseFrame, AcquisitionError> {
+        if self.timer.flags().contains(Flag::Update) {
+            self.late = self.late.saturating_add(1);
+        }
+        self.tick();
+        self.reader.read_frame()
+    }
+}
+
+/// Blocks until TIM2's next update (a busy wait in thread mode; the counter itself keeps the
+/// period, so the wait does not drift).
+fn wait_tick(timer: &mut CounterUs<TIM2>) {
+    while timer.wait().is_err() {}
+}
+
+/// Cycle counts of the identification (DWT, 32-bit, so each step is read separately: a step
+/// lasts far less than the 23.8 s wrap at 180 MHz).
+struct StepTiming {
+    total_cycles: u64,
+    longest_step_cycles: u32,
+}
+
+/// The on-board identification (monitor model of the paper + PSO, `IdentifyConfig::onboard`), one
+/// evaluation per step, the watchdog fed before each.
+#[inline(never)]
+fn identify(
+    trace: &MeasuredTrace<ONBOARD_WINDOW>,
+    watchdog: &mut IndependentWatchdog,
+) -> Result<(HealthReport, StepTiming), monitor::MonitorError> {
+    let config = IdentifyConfig::onboard();
+    let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
+        Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &config)?;
+    let mut timing = StepTiming { total_cycles: 0, longest_step_cycles: 0 };
+    loop {
+        watchdog.feed();
+        let start = DWT::cycle_count();
+        let status = id.step();
+        let cycles = DWT::cycle_count().wrapping_sub(start);
+        timing.total_cycles += u64::from(cycles);
+        timing.longest_step_cycles = timing.longest_step_cycles.max(cycles);
+        if let SearchStatus::Done(_) = status {
+            break;
+        }
+    }
+    Ok((id.report(), timing))
+}
+
+/// Logs the health report: the status (with its reason when the monitor abstains), one line per
+/// fault mode under a diagnosis, the fault vector and its bits.
+fn log_report(r: &HealthReport) {
+    match r.status.reason() {
+        Some(reason) => defmt::warn!("EMA health: {=str} ({=str})", r.status.label(), reason.label()),
+        None if r.status.is_diagnosis() => defmt::info!("EMA health: {=str}", r.status.label()),
+        None => defmt::warn!("EMA health: {=str}", r.status.label()),
+    }
+    if !r.status.is_diagnosis() {
+        defmt::warn!("no diagnosis: the fault vector below is not reported as one");
+    }
+    for m in r.modes.iter().filter(|_| r.status.is_diagnosis()) {
+        match m.mode {
+            FaultMode::ShortCircuit => defmt::info!(
+                "  {=str}: {=str}, severity {=f32}, {=f32} {=str} (phase {=char})",
+                m.mode.name(),
+                m.condition.label(),
+                m.severity,
+                m.value,
+                m.unit(),
+                ['A', 'B', 'C'][usize::from(m.phase) % 3]
+            ),
+            _ => defmt::info!(
+                "  {=str}: {=str}, severity {=f32}, {=f32} {=str}",
+                m.mode.name(),
+                m.condition.label(),
+                m.severity,
+                m.value,
+                m.unit()
+            ),
+        }
+    }
+    let k = &r.faults.0;
+    defmt::info!("fault vector k = {}", k);
+    defmt::println!(
+        "fault vector bits: {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x}",
+        k[0].to_bits(),
+        k[1].to_bits(),
+        k[2].to_bits(),
+        k[3].to_bits(),
+        k[4].to_bits(),
+        k[5].to_bits(),
+        k[6].to_bits(),
+        k[7].to_bits()
+    );
+    defmt::info!(
+        "fitness {=f32} A^2, {=u32} evaluations, {=u32} iterations, stop: {}",
+        r.fitness,
+        r.evaluations,
+        r.iterations,
+        r.termination
+    );
+}
+
+// ---- failure and safe state --------------------------------------------------------------------
+
+/// A refused configuration or recording: no report (`ema-monitor: FAILED`), but the firmware
+/// itself is sound, so it idles with the watchdog fed every 100 ms (timed by the DWT cycle
+/// counter, so no timer is needed).
+fn idle_failed(mut watchdog: IndependentWatchdog) -> ! {
+    defmt::error!("ema-monitor: FAILED (no health report)");
+    loop {
+        watchdog.feed();
+        let start = DWT::cycle_count();
+        while DWT::cycle_count().wrapping_sub(start) < SYSCLK_HZ / 10 {}
+    }
+}
+
+/// Logs a failure that leaves the firmware's state unknown, then parks (see [`park`]).
+fn failsafe(what: &str) -> ! {
+    defmt::error!("FAILSAFE: {=str}: monitor output invalid", what);
+    park()
+}
+
+/// The safe state: interrupts off, the core asleep, the watchdog no longer fed, so the IWDG
+/// resets the chip within [`WATCHDOG_MS`]. The monitor gives no report rather than a wrong one.
+fn park() -> ! {
+    cortex_m::interrupt::disable();
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// A panic (panic-probe logs its message, then executes `udf`), a stack overflow (flip-link: the
+/// stack hits the bottom of RAM) or any other fault: log the status and park.
+#[exception]
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    defmt::error!(
+        "FAILSAFE: panic or hard fault at pc {=u32:#010x}: monitor output invalid, parked until the watchdog resets",
+        frame.pc()
+    );
+    park()
+}
+
+/// `defmt::panic!` and friends: straight to the HardFault path (panic-probe's advice, so that the
+/// message is not printed twice).
+#[defmt::panic_handler]
+fn defmt_panic() -> ! {
+    panic_probe::hard_fault()
+}
