@@ -1,5 +1,7 @@
-//! Puts this board's `memory.x` first on the linker's search path (`link.x` includes it by name;
-//! the link scripts themselves are `.cargo/config.toml`'s link arguments).
+//! Puts this board's `memory.x` on the linker's search path (`link.x` includes it by name; the link
+//! scripts themselves are `.cargo/config.toml`'s link arguments). The core's build script puts the
+//! QEMU `memory.x` on the path too; cargo lists the package's own directory first, so this one is
+//! found, and `scripts/check-board` checks the result (the vector table at 0x0800_0000).
 use std::{env, fs, path::PathBuf};
 
 fn main() {

@@ -4,7 +4,8 @@
 //! attached (`cargo run --release` in this folder, through `probe-rs run`).
 //!
 //! Numbered steps (the QEMU firmware's, `src/main.rs`, with a live ADC in place of the replay):
-//! 1. start the independent watchdog ([`WATCHDOG_MS`]) first, so that every later hang resets;
+//! 1. start the independent watchdog ([`WATCHDOG_MS`]) first, so that every later hang resets,
+//!    and log when the last reset came from it (the previous run ended in the safe state);
 //! 2. clocks: 180 MHz from the 8 MHz HSE input, which the NUCLEO's ST-LINK drives (MCO, bypass);
 //! 3. ADC1 on PA0, PA1, PA4 (Arduino A0, A1, A2) for phases A, B, C behind the core's
 //!    [`PhaseCurrentReader`], and TIM2 ticking every [`FRAME_PERIOD_US`] µs (10 kHz, the control
@@ -73,6 +74,11 @@ fn main() -> ! {
     watchdog.stop_on_debug(&dp.DBGMCU, true); // a core halted by the probe is not reset
     watchdog.start(WATCHDOG_MS.millis());
     defmt::info!("ema-monitor on NUCLEO-F446RE: watchdog {=u32} ms", WATCHDOG_MS);
+    // A reset by the watchdog means the previous run ended in the safe state (or hung): say so.
+    if dp.RCC.csr().read().wdgrstf().bit_is_set() {
+        defmt::warn!("reset by the watchdog: the previous run ended in the safe state or hung");
+    }
+    dp.RCC.csr().modify(|_, w| w.rmvf().set_bit()); // clear the reset flags for the next boot
 
     // 2. Clocks: 8 MHz HSE (ST-LINK MCO, bypass) → PLL → 180 MHz; APB1 45 MHz, APB2 90 MHz.
     let mut rcc = dp
