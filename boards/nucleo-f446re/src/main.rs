@@ -69,7 +69,6 @@ const SYSCLK_HZ: u32 = 180_000_000;
 fn main() -> ! {
     // 1. Watchdog first: from here on, a hang resets the chip.
     let Some(dp) = pac::Peripherals::take() else { failsafe("device peripherals already taken") };
-    let Some(mut cp) = cortex_m::Peripherals::take() else { failsafe("core peripherals already taken") };
     let mut watchdog = IndependentWatchdog::new(dp.IWDG);
     watchdog.stop_on_debug(&dp.DBGMCU, true); // a core halted by the probe is not reset
     watchdog.start(WATCHDOG_MS.millis());
@@ -79,6 +78,7 @@ fn main() -> ! {
         defmt::warn!("reset by the watchdog: the previous run ended in the safe state or hung");
     }
     dp.RCC.csr().modify(|_, w| w.rmvf().set_bit()); // clear the reset flags for the next boot
+    let Some(mut cp) = cortex_m::Peripherals::take() else { failsafe("core peripherals already taken") };
 
     // 2. Clocks: 8 MHz HSE (ST-LINK MCO, bypass) → PLL → 180 MHz; APB1 45 MHz, APB2 90 MHz.
     let mut rcc = dp
