@@ -71,7 +71,8 @@ pub use localisation::{
     hot_windows, order_share, orders, regimes, unexplained, Regime, Window, UNEXPLAINED_FACTOR, WINDOW_S,
 };
 pub use naming::{
-    Candidate, Round, BIC_FIT_STRONG, BIC_OWN_STRONG, BIC_STRONG, MAX_NAMED, MIN_GAP_SHARE_REPLACING, PINNED_SEVERITY,
+    same_signature, Candidate, Round, BIC_FIT_STRONG, BIC_OWN_STRONG, BIC_STRONG, MAX_NAMED, MIN_ABOVE_NOISE_SHARE,
+    MIN_GAP_SHARE_REPLACING, PINNED_SEVERITY,
 };
 pub use report::{model_config, summary, to_json, verdict, write_outputs, OUTPUT_FILES};
 pub use residual::{above_noise_a, moving_mean, series, Series, CLEAN_FLOOR_A, NOISE_FLOOR_A, SMOOTH_BLOCKS};

@@ -7,6 +7,7 @@ use std::path::Path;
 use ema_monitor::FaultVector;
 use serde_json::json;
 
+use super::naming::same_signature;
 use super::residual::{above_noise_a, moving_mean, NOISE_FLOOR_A, SMOOTH_BLOCKS};
 use super::{Discovery, Withdrawal};
 use crate::error::CliError;
@@ -34,7 +35,7 @@ fn err_percent(d: &Discovery, k: &FaultVector) -> Option<f64> {
 pub fn to_json(d: &Discovery) -> serde_json::Value {
     json!({
         "file": d.file.display().to_string(),
-        "named": d.named.iter().map(|(e, s, c)| json!({"effect": e.id(), "severity": s, "confidence": c})).collect::<Vec<_>>(),
+        "named": d.named.iter().map(|(e, s, c)| json!({"effect": e.id(), "severity": s, "confidence": c, "same_signature": same_signature(*e)})).collect::<Vec<_>>(),
         "verdict": verdict(d),
         "unexplained": d.unexplained,
         "withdrawn": d.withdrawn.iter().map(|(e, why)| match why {
@@ -52,7 +53,7 @@ pub fn to_json(d: &Discovery) -> serde_json::Value {
         "windows": d.windows.iter().map(|w| json!({"start_s": w.start_s, "end_s": w.end_s, "share": w.share, "rms_before": w.rms_before_a, "rms_after": w.rms_after_a})).collect::<Vec<_>>(),
         "regimes": d.regimes.iter().map(|r| json!({"family": r.family, "regime": r.name, "time_share": r.time_share, "energy_share": r.energy_share})).collect::<Vec<_>>(),
         "orders": d.orders.iter().map(|(n, s)| json!({"order": n, "share": s})).collect::<Vec<_>>(),
-        "rounds": d.rounds.iter().map(|r| r.candidates.iter().map(|c| json!({"effect": c.effect.id(), "severity": c.severity, "bic_fit": finite(c.bic_fit), "fit_gain": finite(c.fit_gain), "bic_held_out": finite(c.bic_held_out), "gap_share": c.gap_share, "replaces_faults": c.replaces_faults, "bic_own_held_out": finite(c.bic_own_held_out), "k": c.fit.k.0})).collect::<Vec<_>>()).collect::<Vec<_>>(),
+        "rounds": d.rounds.iter().map(|r| r.candidates.iter().map(|c| json!({"effect": c.effect.id(), "severity": c.severity, "bic_fit": finite(c.bic_fit), "fit_gain": finite(c.fit_gain), "bic_held_out": finite(c.bic_held_out), "gap_share": c.gap_share, "above_noise_share": c.above_noise_share, "replaces_faults": c.replaces_faults, "bic_own_held_out": finite(c.bic_own_held_out), "k": c.fit.k.0})).collect::<Vec<_>>()).collect::<Vec<_>>(),
         "k_before": d.before.k.0,
         "k_after": d.after.k.0,
         "fitness_before": d.before.error,
@@ -126,8 +127,19 @@ pub fn verdict(d: &Discovery) -> String {
             Some(u) => format!("no library effect explains the gap: {u}{}", pinned_note(d)),
         }
     } else {
-        let names: Vec<String> =
-            d.named.iter().map(|(e, s, c)| format!("{} (severity {s:.2}, confidence {c:.2})", e.id())).collect();
+        let names: Vec<String> = d
+            .named
+            .iter()
+            .map(|(e, s, c)| {
+                let alike = same_signature(*e);
+                let or = if alike.is_empty() {
+                    String::new()
+                } else {
+                    format!(", or what leaves the same signature on this manoeuvre: {}", alike.join(", "))
+                };
+                format!("{} (severity {s:.2}, confidence {c:.2}{or})", e.id())
+            })
+            .collect();
         match &d.unexplained {
             None => format!("missing: {}", names.join(" and ")),
             Some(u) => format!("missing: {}; {u}{}", names.join(" and "), pinned_note(d)),
@@ -186,18 +198,19 @@ pub fn summary(d: &Discovery) -> String {
     for (j, r) in d.rounds.iter().enumerate() {
         let _ = writeln!(
             s,
-            "\nround {}: candidates (held-out ΔBIC, fit ΔBIC, severity, share of the gap removed, replaces faults (own held-out ΔBIC, in-sample gain))",
+            "\nround {}: candidates (held-out ΔBIC, fit ΔBIC, severity, share of the gap removed, of the gap above the noise, replaces faults (own held-out ΔBIC, in-sample gain))",
             j + 1
         );
         for c in &r.candidates {
             let _ = writeln!(
                 s,
-                "  {:20} {:9.1} {:9.1} {:6.3} {:6.1} % {}",
+                "  {:20} {:9.1} {:9.1} {:6.3} {:6.1} % {:6.1} % {}",
                 c.effect.id(),
                 c.bic_held_out,
                 c.bic_fit,
                 c.severity,
                 100.0 * c.gap_share,
+                100.0 * c.above_noise_share,
                 if c.replaces_faults {
                     format!("yes ({:.1}, {:.1})", c.bic_own_held_out, c.fit_gain)
                 } else {
