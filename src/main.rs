@@ -12,9 +12,12 @@
 //!    by default; logged first), between the instruction-count markers
 //!    [`ema_identification_start`] and [`ema_identification_end`] (`scripts/qemu-run` counts the
 //!    instructions between them);
-//! 5. log the health report, the fault vector's bits (for the host/target parity check), static
-//!    RAM and peak stack over defmt, then exit through semihosting (status 0 on success, 1 on
-//!    failure; a panic or fault also exits with 1, see [`HardFault`]).
+//! 5. log the health report, the fault vector's bits and the one-line summary of the host/target
+//!    parity check ([`log_summary`]), static RAM and peak stack over defmt, then exit through
+//!    semihosting: status 0 when the monitor gives a report (a diagnosis, or an honest
+//!    `INCONCLUSIVE` / `SENSOR_FAULT`), 1 when it refuses the trace (a malformed packed trace, too
+//!    few frames: [`log_refusal`] logs the summary `summary: REFUSED <stage> <error>` first); a
+//!    panic or fault also exits with 1, see [`HardFault`].
 #![no_std]
 #![no_main]
 
@@ -49,6 +52,7 @@ fn main() -> ! {
         Ok(t) => t,
         Err(e) => {
             defmt::error!("built-in trace invalid: {}", e);
+            log_refusal("trace", e);
             exit(false)
         }
     };
@@ -60,6 +64,7 @@ fn main() -> ! {
         Ok(r) => r,
         Err(e) => {
             defmt::error!("acquisition config refused: {}", e);
+            log_refusal("reader", e);
             exit(false)
         }
     };
@@ -70,6 +75,7 @@ fn main() -> ! {
         Ok(summary) => summary,
         Err(e) => {
             defmt::error!("acquisition stopped: {}", e);
+            log_refusal("acquisition", e);
             exit(false)
         }
     };
@@ -95,6 +101,7 @@ fn main() -> ! {
         }
         Err(e) => {
             defmt::error!("identification refused: {}", e);
+            log_refusal("identification", e);
             false
         }
     };
@@ -146,7 +153,8 @@ fn identify(trace: &MeasuredTrace<ONBOARD_WINDOW>) -> Result<HealthReport, monit
 }
 
 /// Logs the health report: the status (with its reason when the monitor abstains), one line per
-/// fault mode under a diagnosis, the fault vector (its bits always, for the parity check).
+/// fault mode under a diagnosis, the fault vector (its bits always), the fit, and the summary line
+/// of the parity check ([`log_summary`]).
 fn log_report(r: &HealthReport) {
     match r.status.reason() {
         Some(reason) => defmt::warn!("EMA health: {=str} ({=str})", r.status.label(), reason.label()),
@@ -203,6 +211,45 @@ fn log_report(r: &HealthReport) {
             r.untested_groups
         );
     }
+    log_summary(r);
+}
+
+/// Logs the report's one-line summary, the line `scripts/parity` compares with the host's
+/// (`ema identify --firmware-trace FILE --bits`, the same format):
+/// `summary: STATUS fitness F evaluations N bits K1 … K8`, where `STATUS` is the status label with
+/// its reason in parentheses under `INCONCLUSIVE` (`INCONCLUSIVE(rate mismatch)`), `F` and `K1 … K8`
+/// the `f32` bit patterns (8 lower-case hex digits) of the fitness and of the fault vector.
+fn log_summary(r: &HealthReport) {
+    let (open, reason, close) = match r.status.reason() {
+        Some(reason) => ("(", reason.label(), ")"),
+        None => ("", "", ""),
+    };
+    let k = &r.faults.0;
+    defmt::println!(
+        "summary: {=str}{=str}{=str}{=str} fitness {=u32:08x} evaluations {=u32} bits {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x}",
+        r.status.label(),
+        open,
+        reason,
+        close,
+        r.fitness.to_bits(),
+        r.evaluations,
+        k[0].to_bits(),
+        k[1].to_bits(),
+        k[2].to_bits(),
+        k[3].to_bits(),
+        k[4].to_bits(),
+        k[5].to_bits(),
+        k[6].to_bits(),
+        k[7].to_bits()
+    );
+}
+
+/// Logs the summary of a refusal, `summary: REFUSED <stage> <error>`: the stage that refused the
+/// trace (`trace`, `reader`, `acquisition`, `identification`) and the core's error as its
+/// `defmt::Format` writes it (the variant, e.g. `Padding` or `Conditioning(TooShort)`, the same
+/// text as the host's `Debug`), for `scripts/parity`.
+fn log_refusal(stage: &str, error: impl defmt::Format) {
+    defmt::println!("summary: REFUSED {=str} {}", stage, error);
 }
 
 /// Start marker of the instruction-counted identification region (its address is read with `nm`).

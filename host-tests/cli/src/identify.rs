@@ -9,14 +9,18 @@
 //!   `standard`), because the monitor model is driven by the profile, as on board;
 //! - `--firmware-trace FILE`: the firmware's packed 12-bit trace, read through the same replay ADC,
 //!   `OneShot` reader and fixed-point calibration as on the MCU, with the on-board window, swarm
-//!   and settings — its fault vector is bit-identical to the firmware's (`--bits` prints the bits;
-//!   `scripts/parity` compares them).
+//!   and settings — its report is bit-identical to the firmware's. `--bits` prints the fault
+//!   vector's bits and the firmware's summary line ([`summary_line`]: status, fitness bits,
+//!   evaluations, fault bits; or [`Refusal::summary_line`] for a refused trace), which
+//!   `scripts/parity` compares line for line with the firmware's in QEMU.
 //!
 //! `--model-config FILE` switches the monitor model's effect terms on from a model configuration
 //! file (`effect ID SEVERITY` lines, [`ema_monitor::effects::parse_model_config`]), the same file
 //! and the same parser as the firmware build (`EMA_MODEL_CONFIG=FILE cargo run --release`), so a
 //! host run and a firmware run of one configuration can be compared.
 
+use std::fmt::{Debug, Display};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -101,7 +105,9 @@ pub struct IdentifyArgs {
     /// Print JSON instead of the readable report.
     #[arg(long)]
     pub json: bool,
-    /// Also print the fault vector's f32 bit patterns (for the host/target parity check).
+    /// Also print the fault vector's f32 bit patterns and the one-line summary the firmware logs
+    /// (for the host/target parity check, `scripts/parity`); a refused --firmware-trace prints its
+    /// summary (`summary: REFUSED <stage> <error>`) before the error.
     #[arg(long)]
     pub bits: bool,
 }
@@ -131,7 +137,17 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
     };
     let config = method_flags(config, args.paper_only, args.fast_regime_weight);
     let outcome = match (&args.firmware_trace, &args.file) {
-        (Some(path), _) => identify_firmware_trace(path, &config)?,
+        (Some(path), _) => match firmware_trace_outcome(&read_firmware_trace(path)?, &config) {
+            Ok(outcome) => outcome,
+            Err(refusal) => {
+                if args.bits {
+                    // the firmware's summary of the refusal, on stdout as an accepted report's;
+                    // a closed stdout changes nothing: the error line follows on stderr
+                    let _ = writeln!(std::io::stdout().lock(), "{}", refusal.summary_line());
+                }
+                return Err(input_error(path, &refusal.message));
+            }
+        },
         (None, Some(path)) => {
             let profile = resolve_profile(&args.profile)?;
             let recording = read_recording(path).map_err(CliError::Recording)?;
@@ -253,33 +269,77 @@ pub fn identify_trace<const W: usize>(
     config: &IdentifyConfig,
     path: &Path,
 ) -> Result<Outcome, CliError> {
+    run_identification(trace, profile, config).map_err(|e| input_error(path, &e.to_string()))
+}
+
+/// The identification of a conditioned trace to its end, as the firmware's `identify` runs it.
+fn run_identification<const W: usize>(
+    trace: &MeasuredTrace<W>,
+    profile: &Profile,
+    config: &IdentifyConfig,
+) -> Result<Outcome, monitor::MonitorError> {
     let start = Instant::now();
-    let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> = Box::new(
-        Identification::new(trace, EmaParams::NOMINAL, *profile, config)
-            .map_err(|e| input_error(path, &e.to_string()))?,
-    );
+    let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> =
+        Box::new(Identification::new(trace, EmaParams::NOMINAL, *profile, config)?);
     id.run(u32::MAX);
     Ok(Outcome { report: id.report(), seconds: start.elapsed().as_secs_f64() })
+}
+
+/// Why the firmware's path refused a packed trace, named as the firmware names it in its summary
+/// line (`src/main.rs`, `log_refusal`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Refusal {
+    /// The step that refused: `trace` (the packed format), `reader` (the acquisition settings),
+    /// `acquisition` (conditioning the frames) or `identification` (its settings or the trace).
+    pub stage: &'static str,
+    /// The core's error as `Debug` writes it (`Padding`, `Conditioning(TooShort)`): the text the
+    /// firmware's `defmt::Format` derive writes for these field-less or nested variants.
+    pub error: String,
+    /// The error's message (`Display`), for the command's error line.
+    pub message: String,
+}
+
+impl Refusal {
+    fn new<E: Debug + Display>(stage: &'static str, e: E) -> Self {
+        Self { stage, error: format!("{e:?}"), message: e.to_string() }
+    }
+
+    /// `summary: REFUSED <stage> <error>`, the firmware's summary of a refused trace.
+    pub fn summary_line(&self) -> String {
+        format!("summary: REFUSED {} {}", self.stage, self.error)
+    }
+}
+
+/// Reads a packed trace file (`--firmware-trace`).
+fn read_firmware_trace(path: &Path) -> Result<Vec<u8>, CliError> {
+    std::fs::read(path).map_err(|e| input_error(path, &format!("cannot read: {e}")))
 }
 
 /// Identifies the firmware's packed trace through the replay ADC, exactly as `src/main.rs` does
 /// (refused frames held and counted; a header rate other than 10 kHz is `INCONCLUSIVE`).
 pub fn identify_firmware_trace(path: &Path, config: &IdentifyConfig) -> Result<Outcome, CliError> {
-    let bytes = std::fs::read(path).map_err(|e| input_error(path, &format!("cannot read: {e}")))?;
-    let packed = PackedTrace::parse(&bytes).map_err(|e| input_error(path, &e.to_string()))?;
+    firmware_trace_outcome(&read_firmware_trace(path)?, config).map_err(|r| input_error(path, &r.message))
+}
+
+/// The firmware's path on the bytes of a packed trace, step for step as `src/main.rs`: parse,
+/// replay ADC and `OneShot` reader (nominal calibration, default checks), [`monitor::acquire`]
+/// into the on-board window, the identification under `config` (the firmware's is
+/// `IdentifyConfig::onboard()` with its model effects), the acquisition's verdict, then
+/// `INCONCLUSIVE (rate mismatch)` when the header's rate is not 10 kHz. A step that refuses the
+/// trace gives the [`Refusal`] the firmware logs.
+pub fn firmware_trace_outcome(bytes: &[u8], config: &IdentifyConfig) -> Result<Outcome, Refusal> {
+    let packed = PackedTrace::parse(bytes).map_err(|e| Refusal::new("trace", e))?;
+    let rate_ok = monitor::rate_matches(packed.sample_rate_hz() as f32, &EmaParams::NOMINAL);
     let adc = ReplayAdc::new(packed);
     let mut reader =
         PhaseCurrentReader::new(adc, (PhaseA, PhaseB, PhaseC), Calibration::NOMINAL, AcquisitionConfig::DEFAULT)
-            .map_err(|e| input_error(path, &e.to_string()))?;
+            .map_err(|e| Refusal::new("reader", e))?;
     let mut trace = Box::new(MeasuredTrace::<ONBOARD_WINDOW>::new());
-    let acquired = monitor::acquire(&mut reader, &mut trace).map_err(|e| input_error(path, &e.to_string()))?;
-    let outcome = identify_trace(&trace, &Profile::STANDARD, config, path)?;
+    let acquired = monitor::acquire(&mut reader, &mut trace).map_err(|e| Refusal::new("acquisition", e))?;
+    let outcome =
+        run_identification(&trace, &Profile::STANDARD, config).map_err(|e| Refusal::new("identification", e))?;
     let report = outcome.report.with_acquisition(&acquired);
-    let report = if monitor::rate_matches(packed.sample_rate_hz() as f32, &EmaParams::NOMINAL) {
-        report
-    } else {
-        report.abstaining(Status::Inconclusive(Abstain::RateMismatch))
-    };
+    let report = if rate_ok { report } else { report.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
     Ok(Outcome { report, ..outcome })
 }
 
@@ -323,10 +383,32 @@ fn input_error(path: &Path, message: &str) -> CliError {
     CliError::Input { path: path.to_path_buf(), message: message.to_string() }
 }
 
-/// `fault vector bits: xxxxxxxx …` (8 lower-case hex words), the parity line.
-pub fn bits_line(report: &HealthReport) -> String {
+/// The fault vector's `f32` bit patterns: 8 lower-case hex words.
+fn fault_bits(report: &HealthReport) -> String {
     let words: Vec<String> = report.faults.0.iter().map(|k| format!("{:08x}", k.to_bits())).collect();
-    format!("fault vector bits: {}", words.join(" "))
+    words.join(" ")
+}
+
+/// `fault vector bits: xxxxxxxx …` (8 lower-case hex words), as the firmware logs it.
+pub fn bits_line(report: &HealthReport) -> String {
+    format!("fault vector bits: {}", fault_bits(report))
+}
+
+/// The firmware's summary line of a report (`src/main.rs`, `log_summary`), which `scripts/parity`
+/// compares whole: `summary: STATUS fitness F evaluations N bits K1 … K8`, `STATUS` the status
+/// label with its reason in parentheses under `INCONCLUSIVE` (`INCONCLUSIVE(rate mismatch)`), `F`
+/// and `K1 … K8` the `f32` bit patterns of the fitness and of the fault vector.
+pub fn summary_line(report: &HealthReport) -> String {
+    let status = match report.status.reason() {
+        Some(reason) => format!("{}({})", report.status.label(), reason.label()),
+        None => report.status.label().to_owned(),
+    };
+    format!(
+        "summary: {status} fitness {:08x} evaluations {} bits {}",
+        report.fitness.to_bits(),
+        report.evaluations,
+        fault_bits(report)
+    )
 }
 
 /// The report as JSON: `status` (`HEALTHY`, `DEGRADED`, `FAILING`, `INCONCLUSIVE`, `SENSOR_FAULT`),
@@ -386,6 +468,8 @@ fn render(outcome: &Outcome, effects: &ModelEffects, args: &IdentifyArgs) -> Str
     if args.bits {
         out.push('\n');
         out.push_str(&bits_line(&outcome.report));
+        out.push('\n');
+        out.push_str(&summary_line(&outcome.report));
     }
     out
 }

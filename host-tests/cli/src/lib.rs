@@ -16,6 +16,7 @@ pub mod error;
 pub mod firmware_trace;
 pub mod identify;
 pub mod output;
+pub mod parity_traces;
 pub mod profile_file;
 pub mod recording_io;
 pub mod simulate;
