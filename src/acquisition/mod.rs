@@ -238,7 +238,7 @@ pub enum AcquisitionError {
         /// Index of the lost frame from the trigger (= frames queued before it).
         frame: u32,
     },
-    /// The start trigger did not come within the sampler's timeout (or the data ended first).
+    /// The start trigger did not come within the sampler's timeout.
     NoTrigger {
         /// Ticks waited.
         waited_frames: u32,
