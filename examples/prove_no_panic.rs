@@ -4,19 +4,24 @@
 //! panic survives, the handler is linked and the link fails on the undefined symbol.
 //!
 //! The path covered is the firmware's: a packed trace of any content (the bytes pass through
-//! `black_box`, so nothing is folded from the built-in trace) behind the replay ADC → acquisition →
-//! identification → health report. The calibration, the acquisition and identification settings,
+//! `black_box`, so nothing is folded from the built-in trace) behind the replay ADC → timer-paced
+//! sampler (the interrupt's producer, ticked here from the consumer's wait hook, with a trigger
+//! level and settings of any value) → acquisition → identification → health report. The calibration, the acquisition and identification settings,
 //! the actuator parameters and the command profile pass through `black_box` too: the proof holds
 //! for any of them (the solver, the polish, model selection and the effect terms included), not
 //! only for the on-board defaults.
 #![no_std]
 #![no_main]
 
+use core::cell::Cell;
 use core::hint::black_box;
 use core::panic::PanicInfo;
 
 use cortex_m_rt::entry;
-use ema_monitor::acquisition::{AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
+use ema_monitor::acquisition::{
+    AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc, ReplayReader, Sampler,
+    SamplerConfig, SamplerProducer, SAMPLER_QUEUE,
+};
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::trace::PackedTrace;
@@ -31,9 +36,22 @@ fn main() -> ! {
         let adc = ReplayAdc::new(trace);
         let pins = (PhaseA, PhaseB, PhaseC);
         let (calibration, acquisition) = black_box((Calibration::NOMINAL, AcquisitionConfig::DEFAULT));
-        let mut reader = PhaseCurrentReader::new(adc, pins, calibration, acquisition).ok()?;
+        let reader = PhaseCurrentReader::new(adc, pins, calibration, acquisition).ok()?;
+        let mut sampler = Sampler::<SAMPLER_QUEUE>::new();
+        let config = black_box(SamplerConfig { frames: 8500, trigger_timeout_frames: 1000 });
+        let producer: Cell<Option<SamplerProducer<'_, ReplayReader<'_>>>> = Cell::new(None);
+        let (p, mut live) = sampler.split(reader, config, || {
+            // the timer interrupt's part, one tick per wait
+            if let Some(mut p) = producer.take() {
+                let tick = p.ticks();
+                p.tick(tick >= black_box(3));
+                producer.set(Some(p));
+            }
+        });
+        producer.set(Some(p));
         let mut measured = MeasuredTrace::<ONBOARD_WINDOW>::new();
-        monitor::acquire(&mut reader, &mut measured).ok()?;
+        monitor::acquire(&mut live, &mut measured).ok()?;
+        live.outcome().ok()?;
         let config = black_box(IdentifyConfig { max_iterations: 30, ..IdentifyConfig::onboard() });
         let mut id = Identification::<ONBOARD_WINDOW, ONBOARD_POPULATION>::new(
             &measured,

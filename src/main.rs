@@ -3,11 +3,15 @@
 //! Wiring only, no math. Numbered steps:
 //! 1. paint the stack (for the peak-stack figure at the end);
 //! 2. open the built-in phase-current trace (`traces/standard.ematrace`, or `EMA_TRACE` at build
-//!    time: a recording of the standard manoeuvre, packed 12-bit, in flash) and put a
-//!    [`ReplayAdc`] behind the embedded-hal 0.2 `OneShot` reader;
-//! 3. acquire and condition every frame ([`monitor::acquire`]): a refused frame is held at the
-//!    last good one and counted; too many make the report `SENSOR_FAULT`, a declared sample rate
-//!    other than the control rate makes it `INCONCLUSIVE (rate mismatch)`;
+//!    time: a recording of the standard manoeuvre, packed 12-bit, in flash), put a `ReplayAdc`
+//!    behind the embedded-hal 0.2 `OneShot` reader and arm a [`Sampler`] over it: TIMER0
+//!    interrupts every 100 µs and its handler reads one frame into the sampler's queue
+//!    (`qemu_live`), from the trigger (the first tick: the recording starts at the command's
+//!    onset) for the manoeuvre's frame count, 8500;
+//! 3. acquire and condition those frames in thread mode ([`monitor::acquire`], sleeping with
+//!    `wfi` between frames): a refused frame is held at the last good one and counted; too many
+//!    make the report `SENSOR_FAULT`, a declared sample rate other than the control rate makes it
+//!    `INCONCLUSIVE (rate mismatch)`; a sampler overrun or a missing trigger stops the firmware;
 //! 4. identify the faults with the on-board PSO and the model effects of `EMA_MODEL_CONFIG` (none
 //!    by default; logged first), between the instruction-count markers
 //!    [`ema_identification_start`] and [`ema_identification_end`] (`scripts/qemu-run` counts the
@@ -27,7 +31,7 @@ use panic_probe as _; // panic → defmt message → `udf` → HardFault → exi
 
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::debug;
-use ema_monitor::acquisition::{AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
+use ema_monitor::acquisition::{manoeuvre_frames, Sampler, SamplerConfig, SAMPLER_QUEUE};
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::health::{Abstain, FaultMode, HealthReport, Status};
 use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
@@ -39,6 +43,12 @@ use ema_monitor::{EmaParams, ModelEffects, Profile};
 // recording of the standard manoeuvre, traces/README.md) and the monitor model's effect terms come
 // from the model configuration file `EMA_MODEL_CONFIG` (default none: the paper's model).
 include!(concat!(env!("OUT_DIR"), "/model_config.rs"));
+
+/// TIMER0 and its interrupt handler: one frame of the replay per control period.
+mod qemu_live;
+
+/// Ticks the sampler waits for its trigger (100 ms); the replay triggers on the first tick.
+const TRIGGER_TIMEOUT_FRAMES: u32 = 1000;
 
 #[entry]
 fn main() -> ! {
@@ -58,10 +68,15 @@ fn main() -> ! {
     };
     defmt::info!("trace: {=usize} frames at {=u32} Hz", trace.frames(), trace.sample_rate_hz());
     let rate_ok = monitor::rate_matches(trace.sample_rate_hz() as f32, &EmaParams::NOMINAL);
-    let adc = ReplayAdc::new(trace);
-    let pins = (PhaseA, PhaseB, PhaseC);
-    let mut reader = match PhaseCurrentReader::new(adc, pins, Calibration::NOMINAL, AcquisitionConfig::DEFAULT) {
-        Ok(r) => r,
+    let sampler = match cortex_m::singleton!(: Sampler<SAMPLER_QUEUE> = Sampler::new()) {
+        Some(s) => s,
+        None => exit(false),
+    };
+    // The replay starts at the command's onset: the trigger is high from the first tick.
+    let frames = manoeuvre_frames(&Profile::STANDARD, &EmaParams::NOMINAL);
+    let config = SamplerConfig { frames, trigger_timeout_frames: TRIGGER_TIMEOUT_FRAMES };
+    let mut live = match qemu_live::arm(sampler, trace, config, 0) {
+        Ok(c) => c,
         Err(e) => {
             defmt::error!("acquisition config refused: {}", e);
             log_refusal("reader", e);
@@ -69,9 +84,17 @@ fn main() -> ! {
         }
     };
 
-    // 3. Acquisition and conditioning.
+    // 3. Acquisition (TIMER0 interrupt) and conditioning (thread mode); the timer stops before
+    //    the identification, so no interrupt falls in the counted region.
     let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
-    let acquired = match monitor::acquire(&mut reader, &mut trace) {
+    let acquired = monitor::acquire(&mut live, &mut trace);
+    qemu_live::disarm();
+    if let Err(e) = live.outcome() {
+        defmt::error!("acquisition stopped: {}", e);
+        log_refusal("sampler", e);
+        exit(false)
+    }
+    let acquired = match acquired {
         Ok(summary) => summary,
         Err(e) => {
             defmt::error!("acquisition stopped: {}", e);
@@ -79,7 +102,7 @@ fn main() -> ! {
             exit(false)
         }
     };
-    defmt::info!("frames read: {=u32}, window samples: {=usize}", reader.frames_read(), trace.len());
+    defmt::info!("frames read: {=u32}, window samples: {=usize}", live.frames_read(), trace.len());
     defmt::info!(
         "refused frames: {=u32} (longest run {=u32}), held at the last good frame",
         acquired.refused,

@@ -19,8 +19,9 @@ use panic_probe as _; // a panicking test → HardFault → exit(1)
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::debug;
 use ema_monitor::acquisition::{
-    AcquisitionConfig, AcquisitionError, Calibration, Phase, PhaseA, PhaseB, PhaseC, PhaseCalibration,
-    PhaseCurrentReader, PhasePin, ReplayAdc,
+    manoeuvre_frames, AcquisitionConfig, AcquisitionError, Calibration, Phase, PhaseA, PhaseB, PhaseC,
+    PhaseCalibration, PhaseCurrentReader, PhaseCurrents, PhasePin, ReplayAdc, Sampler, SamplerConfig, SamplerConsumer,
+    SamplerState, SAMPLER_QUEUE,
 };
 use ema_monitor::conditioning::{ConditioningError, MeasuredTrace, DECIMATION};
 use ema_monitor::fitness::{simulate_window, CurrentFit};
@@ -46,6 +47,10 @@ const TESTS: &[(&str, Test)] = &[
     ("reader_detects_saturation_and_sum", reader_detects_saturation_and_sum),
     ("reader_times_out_on_busy_adc", reader_times_out_on_busy_adc),
     ("calibration_fixed_point", calibration_fixed_point),
+    ("live_full_manoeuvre_frame_count", live_full_manoeuvre_frame_count),
+    ("live_overrun_is_an_error", live_overrun_is_an_error),
+    ("live_late_trigger_drops_early_frames", live_late_trigger_drops_early_frames),
+    ("live_missing_trigger_times_out", live_missing_trigger_times_out),
     ("fault_vector_physical_mapping", fault_vector_physical_mapping),
     ("fault_vector_paper_error", fault_vector_paper_error),
     ("profile_standard_values", profile_standard_values),
@@ -265,6 +270,111 @@ fn calibration_fixed_point() -> Result<(), &'static str> {
     ensure(close(cal.to_amps(3000), 9.995, 2e-6), "offset/gain")?;
     ensure(PhaseCalibration::from_f32(2048.0, 0.0).is_err(), "zero gain accepted")?;
     ensure(PhaseCalibration::from_f32(f32::NAN, 0.01).is_err(), "NaN offset accepted")
+}
+
+// ---- timer-paced live acquisition (CMSDK timer interrupt → sampler → thread mode) -------------
+
+/// TIMER0 and its interrupt handler, shared with the firmware (`src/main.rs`).
+#[path = "../src/qemu_live.rs"]
+mod qemu_live;
+use qemu_live::{arm, disarm};
+
+/// Sleeps until the acquisition ends, without draining the queue (at most `max_wakes` wakes).
+fn wait_for_end(consumer: &SamplerConsumer<'static, fn()>, max_wakes: u32) -> SamplerState {
+    for _ in 0..max_wakes {
+        let state = consumer.state();
+        if !matches!(state, SamplerState::Armed | SamplerState::Recording) {
+            return state;
+        }
+        cortex_m::asm::wfi();
+    }
+    consumer.state()
+}
+
+fn live_full_manoeuvre_frame_count() -> Result<(), &'static str> {
+    let t = PackedTrace::parse(BUILT_IN).map_err(|_| "built-in trace invalid")?;
+    let frames = manoeuvre_frames(&Profile::STANDARD, &EmaParams::NOMINAL);
+    ensure(frames == 8500, "manoeuvre frame count")?;
+    let sampler = cortex_m::singleton!(: Sampler<SAMPLER_QUEUE> = Sampler::new()).ok_or("sampler taken")?;
+    let config = SamplerConfig { frames, trigger_timeout_frames: 1000 };
+    let mut consumer = arm(sampler, t, config, 0).map_err(|_| "acquisition config refused")?;
+    // the same frames, read directly in thread mode, to compare with
+    let mut direct = PhaseCurrentReader::new(
+        ReplayAdc::new(t),
+        (PhaseA, PhaseB, PhaseC),
+        Calibration::NOMINAL,
+        AcquisitionConfig::DEFAULT,
+    )
+    .map_err(|_| "config refused")?;
+    let mut n = 0u32;
+    let mut same = true;
+    loop {
+        match consumer.read_frame() {
+            Err(AcquisitionError::EndOfData) => break,
+            sample => same &= sample == direct.read_frame(),
+        }
+        n += 1;
+    }
+    let outcome = consumer.outcome();
+    disarm();
+    ensure(same, "frames differ from the direct read")?;
+    ensure(n == 8500 && outcome == Ok(8500), "not 8500 frames")?;
+    ensure(consumer.waited_frames() == 0, "frames dropped before an immediate trigger")
+}
+
+fn live_overrun_is_an_error() -> Result<(), &'static str> {
+    let t = PackedTrace::parse(BUILT_IN).map_err(|_| "built-in trace invalid")?;
+    let sampler = cortex_m::singleton!(: Sampler<8> = Sampler::new()).ok_or("sampler taken")?;
+    let config = SamplerConfig { frames: 8500, trigger_timeout_frames: 1000 };
+    // thread mode is busy elsewhere (it sleeps without draining): the 8th frame finds 7 queued
+    let mut consumer = arm(sampler, t, config, 0).map_err(|_| "acquisition config refused")?;
+    let state = wait_for_end(&consumer, 100_000);
+    let first = consumer.read_frame();
+    disarm();
+    ensure(state == SamplerState::Failed(AcquisitionError::Overrun { frame: 7 }), "no overrun at frame 7")?;
+    ensure(consumer.outcome() == Err(AcquisitionError::Overrun { frame: 7 }), "outcome")?;
+    ensure(first == Err(AcquisitionError::EndOfData), "frames after the overrun")
+}
+
+fn live_late_trigger_drops_early_frames() -> Result<(), &'static str> {
+    // 400 frames numbered by phase A's code: [1000 + i, 3096 − i, 2048] (clean, sum zero)
+    const N: usize = 400;
+    let buf = cortex_m::singleton!(: [u8; trace::packed_len(N)] = [0; trace::packed_len(N)]).ok_or("buffer taken")?;
+    let mut frames = [[0u16; 3]; N];
+    for (i, f) in frames.iter_mut().enumerate() {
+        *f = [1000 + i as u16, 3096 - i as u16, 2048];
+    }
+    let len = small_trace(buf, &frames)?;
+    let t = PackedTrace::parse(&buf[..len]).map_err(|_| "parse")?;
+    let sampler = cortex_m::singleton!(: Sampler<SAMPLER_QUEUE> = Sampler::new()).ok_or("sampler taken")?;
+    let config = SamplerConfig { frames: 200, trigger_timeout_frames: 1000 };
+    let mut consumer = arm(sampler, t, config, 123).map_err(|_| "acquisition config refused")?;
+    let mut n = 0u16;
+    let mut in_order = true;
+    loop {
+        match consumer.read_frame() {
+            Ok(f) => in_order &= f.codes[0] == 1123 + n,
+            Err(AcquisitionError::EndOfData) => break,
+            Err(_) => in_order = false,
+        }
+        n += 1;
+    }
+    disarm();
+    ensure(consumer.waited_frames() == 123, "frames dropped before the trigger")?;
+    ensure(in_order, "first frame is not the trigger's, or a frame is out of order")?;
+    ensure(n == 200 && consumer.outcome() == Ok(200), "frame count after a late trigger")
+}
+
+fn live_missing_trigger_times_out() -> Result<(), &'static str> {
+    let t = PackedTrace::parse(BUILT_IN).map_err(|_| "built-in trace invalid")?;
+    let sampler = cortex_m::singleton!(: Sampler<SAMPLER_QUEUE> = Sampler::new()).ok_or("sampler taken")?;
+    let config = SamplerConfig { frames: 8500, trigger_timeout_frames: 300 };
+    let mut consumer = arm(sampler, t, config, u32::MAX).map_err(|_| "acquisition config refused")?;
+    let first = consumer.read_frame();
+    disarm();
+    ensure(first == Err(AcquisitionError::EndOfData), "a frame without a trigger")?;
+    ensure(consumer.frames_read() == 0, "frames recorded")?;
+    ensure(consumer.outcome() == Err(AcquisitionError::NoTrigger { waited_frames: 300 }), "no timeout error")
 }
 
 // ---- shared contract ---------------------------------------------------------------------------

@@ -7,7 +7,10 @@
 //! [`Calibration`] and checks the frame. [`ReplayAdc`] is the board-agnostic driver that replays a
 //! [`PackedTrace`](crate::trace::PackedTrace) (the firmware's built-in trace, and host tests).
 //! A replay ends by itself; a live ADC does not, so a board wraps its reader in [`FrameLimit`],
-//! which ends the acquisition on the manoeuvre's frame count.
+//! which ends the acquisition on the manoeuvre's frame count, or hands it to a [`Sampler`]: a
+//! timer interrupt reads one frame per control period into a bounded queue from a start trigger
+//! on, thread mode consumes them, and a full queue ([`Overrun`](AcquisitionError::Overrun)) or a
+//! missing trigger ([`NoTrigger`](AcquisitionError::NoTrigger)) ends the acquisition.
 //!
 //! ```text
 //!  OneShot ADC ──codes──► range/saturation ─► stuck rule ─► sum rule ─► calibration ─► PhaseFrame
@@ -60,6 +63,7 @@ mod calibration;
 mod detect;
 mod limit;
 mod replay;
+mod sampler;
 
 use core::convert::Infallible;
 use core::fmt;
@@ -70,6 +74,7 @@ use embedded_hal::adc::{Channel, OneShot};
 pub use calibration::{AmpsFixed, Calibration, GainAmpsPerCount, OffsetCounts, PhaseCalibration};
 pub use limit::{manoeuvre_frames, FrameLimit};
 pub use replay::{ReplayAdc, ReplayError};
+pub use sampler::{Sample, Sampler, SamplerConfig, SamplerConsumer, SamplerProducer, SamplerState, SAMPLER_QUEUE};
 
 use crate::trace::ADC_MAX;
 use detect::{StuckDetector, SumDetector};
@@ -225,8 +230,19 @@ pub enum AcquisitionError {
         /// Phase being converted.
         phase: Phase,
     },
-    /// No more data (replay finished).
+    /// No more data (replay finished, or a live acquisition ended: [`SamplerConsumer::outcome`]).
     EndOfData,
+    /// The timer-paced sampler found its queue full: thread mode fell a whole queue behind and
+    /// frame `frame` (counted from the trigger) is lost. The acquisition ends ([`Sampler`]).
+    Overrun {
+        /// Index of the lost frame from the trigger (= frames queued before it).
+        frame: u32,
+    },
+    /// The start trigger did not come within the sampler's timeout.
+    NoTrigger {
+        /// Ticks waited.
+        waited_frames: u32,
+    },
 }
 
 impl AcquisitionError {
@@ -239,7 +255,10 @@ impl AcquisitionError {
             | AcquisitionError::Timeout { phase }
             | AcquisitionError::Missing { phase }
             | AcquisitionError::Adc { phase } => Some(phase),
-            AcquisitionError::InconsistentSum { .. } | AcquisitionError::EndOfData => None,
+            AcquisitionError::InconsistentSum { .. }
+            | AcquisitionError::EndOfData
+            | AcquisitionError::Overrun { .. }
+            | AcquisitionError::NoTrigger { .. } => None,
         }
     }
 }
@@ -261,6 +280,12 @@ impl fmt::Display for AcquisitionError {
             AcquisitionError::Missing { phase } => write!(f, "phase {phase} sample missing (ADC overrun)"),
             AcquisitionError::Adc { phase } => write!(f, "phase {phase} ADC error"),
             AcquisitionError::EndOfData => f.write_str("end of phase-current data"),
+            AcquisitionError::Overrun { frame } => {
+                write!(f, "sampler overrun: frame queue full at frame {frame} (thread mode too slow)")
+            }
+            AcquisitionError::NoTrigger { waited_frames } => {
+                write!(f, "no start trigger within {waited_frames} frames")
+            }
         }
     }
 }

@@ -8,12 +8,14 @@
 //!    and log when the last reset came from it (the previous run ended in the safe state);
 //! 2. clocks: 180 MHz from the 8 MHz HSE input, which the NUCLEO's ST-LINK drives (MCO, bypass);
 //! 3. ADC1 on PA0, PA1, PA4 (Arduino A0, A1, A2) for phases A, B, C behind the core's
-//!    [`PhaseCurrentReader`], and TIM2 ticking every [`FRAME_PERIOD_US`] µs (10 kHz, the control
-//!    rate of `EmaParams::NOMINAL`);
-//! 4. wait [`START_DELAY_FRAMES`] ticks after reset (no trigger yet: the acquisition starts at a
-//!    fixed time after reset, and the drive must start the standard manoeuvre then), then acquire
-//!    and condition exactly the manoeuvre's frame count ([`FrameLimit`]: 8500 frames = 0.85 s),
-//!    one frame per tick (a blocking wait in thread mode), feeding the watchdog each frame;
+//!    [`PhaseCurrentReader`], the start trigger on PA10 (Arduino D2, pulled down), and a
+//!    [`Sampler`] over them: TIM2 interrupts every [`FRAME_PERIOD_US`] µs (10 kHz, the control rate
+//!    of `EmaParams::NOMINAL`) and its handler ([`TIM2`]) reads one frame into the sampler's
+//!    queue;
+//! 4. thread mode conditions the queued frames ([`monitor::acquire`], sleeping with `wfi` between
+//!    frames and feeding the watchdog at each wake-up): the frames before the trigger are dropped,
+//!    then exactly the manoeuvre's frame count is recorded (8500 frames = 0.85 s); no trigger
+//!    within [`TRIGGER_TIMEOUT_FRAMES`] or a full queue (overrun) refuses the run;
 //! 5. identify the faults with the on-board PSO, one objective evaluation per
 //!    [`Identification::step`], feeding the watchdog between steps and timing each step with the
 //!    DWT cycle counter;
@@ -29,10 +31,15 @@
 use defmt_rtt as _; // global defmt logger over RTT
 use panic_probe as _; // panic → defmt message → `udf` → HardFault → park → watchdog reset
 
-use cortex_m::peripheral::DWT;
+use core::cell::RefCell;
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use cortex_m::interrupt::Mutex;
+use cortex_m::peripheral::{DWT, NVIC};
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use ema_monitor::acquisition::{
-    AcquisitionConfig, AcquisitionError, Calibration, FrameLimit, PhaseCurrentReader, PhaseCurrents, PhaseFrame,
+    manoeuvre_frames, AcquisitionConfig, Calibration, PhaseCurrentReader, Sampler, SamplerConfig, SamplerProducer,
+    SAMPLER_QUEUE,
 };
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::health::{Abstain, FaultMode, HealthReport, Status};
@@ -41,10 +48,11 @@ use ema_monitor::optimizer::Status as SearchStatus;
 use ema_monitor::{EmaParams, Profile};
 use stm32f4xx_hal::adc::config::{AdcConfig, Clock, SampleTime};
 use stm32f4xx_hal::adc::Adc;
-use stm32f4xx_hal::pac::{self, TIM2};
+use stm32f4xx_hal::gpio::{Analog, Input, PA0, PA1, PA10, PA4};
+use stm32f4xx_hal::pac::{self, interrupt, ADC1, TIM2};
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Config;
-use stm32f4xx_hal::timer::{CounterUs, Flag};
+use stm32f4xx_hal::timer::{CounterUs, Event, Flag};
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
 
 /// Independent-watchdog timeout. The longest thing done between two feeds is one objective
@@ -57,10 +65,8 @@ const WATCHDOG_MS: u32 = 500;
 /// Period of one ADC frame: 100 µs, the control period of `EmaParams::NOMINAL` (10 kHz).
 const FRAME_PERIOD_US: u32 = 100;
 
-/// Ticks waited after reset before the acquisition starts (100 ms: the sensors and the ADC
-/// settle). The drive starts the standard manoeuvre at the same time after reset: there is no
-/// trigger yet.
-const START_DELAY_FRAMES: u32 = 1000;
+/// Ticks the sampler waits for the start trigger before refusing the run (10 s).
+const TRIGGER_TIMEOUT_FRAMES: u32 = 100_000;
 
 /// The core clock, for converting DWT cycles to seconds.
 const SYSCLK_HZ: u32 = 180_000_000;
@@ -108,22 +114,46 @@ fn main() -> ! {
             idle_failed(watchdog)
         }
     };
+    let trigger = gpioa.pa10.into_pull_down_input();
     let mut timer = dp.TIM2.counter_us(&mut rcc);
     if timer.start(FRAME_PERIOD_US.micros()).is_err() {
         defmt::error!("TIM2 refused the {=u32} us period", FRAME_PERIOD_US);
         idle_failed(watchdog)
     }
 
-    // 4. Fixed start delay, then the manoeuvre's frames, paced by TIM2.
-    let mut paced = Paced { reader, timer, watchdog, late: 0 };
-    for _ in 0..START_DELAY_FRAMES {
-        paced.tick();
-    }
-    let mut source = FrameLimit::manoeuvre(paced, &Profile::STANDARD, &EmaParams::NOMINAL);
-    defmt::info!("acquiring {=u32} frames at {=u32} Hz", source.remaining(), 1_000_000 / FRAME_PERIOD_US);
+    // 4. Arm the sampler: TIM2's interrupt reads the frames, thread mode consumes them.
+    let Some(sampler) = cortex_m::singleton!(: Sampler<SAMPLER_QUEUE> = Sampler::new()) else {
+        failsafe("sampler already taken")
+    };
+    let frames = manoeuvre_frames(&Profile::STANDARD, &EmaParams::NOMINAL);
+    let config = SamplerConfig { frames, trigger_timeout_frames: TRIGGER_TIMEOUT_FRAMES };
+    let (producer, mut live) = sampler.split(reader, config, || {
+        cortex_m::asm::wfi();
+        watchdog.feed();
+    });
+    timer.listen(Event::Update);
+    cortex_m::interrupt::free(|cs| ISR.borrow(cs).replace(Some(Isr { producer, timer, trigger })));
+    // SAFETY: the handler only touches `ISR`, through a critical section.
+    unsafe { NVIC::unmask(pac::Interrupt::TIM2) };
+    defmt::info!(
+        "waiting for the trigger (PA10 high, at most {=u32} frames), then {=u32} frames at {=u32} Hz",
+        TRIGGER_TIMEOUT_FRAMES,
+        frames,
+        1_000_000 / FRAME_PERIOD_US
+    );
     let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
-    let acquired = monitor::acquire(&mut source, &mut trace);
-    let Paced { reader, mut timer, mut watchdog, late } = source.release();
+    let acquired = monitor::acquire(&mut live, &mut trace);
+    NVIC::mask(pac::Interrupt::TIM2);
+    let Some(Isr { mut timer, .. }) = cortex_m::interrupt::free(|cs| ISR.borrow(cs).take()) else {
+        failsafe("sampler interrupt state lost")
+    };
+    timer.unlisten(Event::Update);
+    // the consumer's last use: its wait hook gives the watchdog back
+    let (outcome, waited, read) = (live.outcome(), live.waited_frames(), live.frames_read());
+    if let Err(e) = outcome {
+        defmt::error!("acquisition stopped: {}", e);
+        idle_failed(watchdog)
+    }
     let acquired = match acquired {
         Ok(summary) => summary,
         Err(e) => {
@@ -131,14 +161,20 @@ fn main() -> ! {
             idle_failed(watchdog)
         }
     };
-    defmt::info!("frames read: {=u32}, window samples: {=usize}", reader.frames_read(), trace.len());
+    let late = LATE.load(Ordering::Relaxed);
+    defmt::info!(
+        "trigger after {=u32} frames; frames read: {=u32}, window samples: {=usize}",
+        waited,
+        read,
+        trace.len()
+    );
     defmt::info!(
         "refused frames: {=u32} (longest run {=u32}), held at the last good frame; late frames: {=u32}",
         acquired.refused,
         acquired.longest_refused_run,
         late
     );
-    // The frames came at the timer's rate unless one was late (a frame's work overran the period).
+    // The frames came at the timer's rate unless a tick's handler overran its period.
     let rate_hz = (1_000_000 / FRAME_PERIOD_US) as f32;
     let rate_ok = late == 0 && monitor::rate_matches(rate_hz, &EmaParams::NOMINAL);
 
@@ -170,31 +206,37 @@ fn main() -> ! {
     }
 }
 
-/// The live frame source: one frame per timer tick, the watchdog fed at each.
-struct Paced<R> {
-    reader: R,
+/// The reader of the three phase pins.
+type Reader = PhaseCurrentReader<Adc<ADC1>, PA0<Analog>, PA1<Analog>, PA4<Analog>, ADC1>;
+
+/// What TIM2's interrupt handler owns while an acquisition runs.
+struct Isr {
+    producer: SamplerProducer<'static, Reader>,
     timer: CounterUs<TIM2>,
-    watchdog: IndependentWatchdog,
-    /// Frames whose tick had already passed when the wait began (the previous frame overran).
-    late: u32,
+    /// The start trigger: PA10 (Arduino D2), pulled down, driven high by the flight-control
+    /// computer when it starts the manoeuvre's command.
+    trigger: PA10<Input>,
 }
 
-impl<R> Paced<R> {
-    /// Waits for the next tick and feeds the watchdog.
-    fn tick(&mut self) {
-        wait_tick(&mut self.timer);
-        self.watchdog.feed();
-    }
-}
+/// The handler's state, handed over by `main` (a critical section on either side).
+static ISR: Mutex<RefCell<Option<Isr>>> = Mutex::new(RefCell::new(None));
 
-impl<R: PhaseCurrents> PhaseCurrents for Paced<R> {
-    fn read_frame(&mut self) -> Result<PhaseFrame, AcquisitionError> {
-        if self.timer.flags().contains(Flag::Update) {
-            self.late = self.late.saturating_add(1);
+/// Ticks whose handler ran past the next update (the frames are then no longer evenly spaced).
+static LATE: AtomicU32 = AtomicU32::new(0);
+
+/// TIM2 update, every [`FRAME_PERIOD_US`]: one frame into the sampler, with the trigger's level.
+#[interrupt]
+fn TIM2() {
+    cortex_m::interrupt::free(|cs| {
+        if let Some(isr) = ISR.borrow(cs).borrow_mut().as_mut() {
+            isr.timer.clear_flags(Flag::Update);
+            let trigger = isr.trigger.is_high();
+            isr.producer.tick(trigger);
+            if isr.timer.flags().contains(Flag::Update) {
+                LATE.fetch_add(1, Ordering::Relaxed);
+            }
         }
-        self.tick();
-        self.reader.read_frame()
-    }
+    });
 }
 
 /// Blocks until TIM2's next update (a busy wait in thread mode; the counter itself keeps the

@@ -1,0 +1,490 @@
+//! [`Sampler`]: timer-paced live acquisition, one frame per timer interrupt, a bounded queue to
+//! thread mode, a start trigger with a timeout, and an overrun error.
+//!
+//! ```text
+//!  timer interrupt (every Tc)                       thread mode
+//!  SamplerProducer::tick(trigger) ── spsc queue ──► SamplerConsumer (PhaseCurrents) ─► monitor::acquire
+//!  reads one frame from the source    (N − 1 frames)   waits with the caller's hook (e.g. `wfi`)
+//! ```
+//!
+//! **Producer** ([`SamplerProducer::tick`], called from the timer's interrupt once per control
+//! period `Tc`): reads one frame (three conversions and the checks of [`FrameCheck`](super::FrameCheck))
+//! from its [`PhaseCurrents`] source on *every* tick, so that the sensors' history (stuck rule,
+//! sum rule) and a replay's position follow time whether or not the frame is kept.
+//! - *Armed*: the frame is dropped. The tick on which the `trigger` input is first seen high
+//!   starts the recording with that tick's frame. If it has not come after
+//!   [`SamplerConfig::trigger_timeout_frames`] ticks, the acquisition ends with
+//!   [`AcquisitionError::NoTrigger`]. A source that ends first (a replay) completes it with no
+//!   frame, which the conditioning then refuses as too short.
+//! - *Recording*: the frame (a refused one too, as its error: it still takes one period) goes into
+//!   the queue. After [`SamplerConfig::frames`] frames (the manoeuvre's frame count,
+//!   [`manoeuvre_frames`](super::manoeuvre_frames)) the acquisition is complete. A source that
+//!   reports [`AcquisitionError::EndOfData`] (a replay shorter than the manoeuvre) completes it
+//!   early.
+//! - A full queue when a frame is to be queued means thread mode has fallen `N − 1` periods
+//!   behind: the acquisition ends with [`AcquisitionError::Overrun`], naming the frame lost. A
+//!   recording with a gap would no longer be aligned with the command profile, so it is not
+//!   continued.
+//! - Once ended, `tick` does nothing: the timer may keep running until thread mode stops it (a
+//!   consumer waiting with `wfi` then always wakes up to see the end).
+//!
+//! **Consumer** ([`SamplerConsumer`], thread mode): a [`PhaseCurrents`] source for
+//! [`monitor::acquire`](crate::monitor::acquire). `read_frame` returns the next queued frame,
+//! waits with its hook while the queue is empty, and returns [`AcquisitionError::EndOfData`] once
+//! the acquisition has ended (complete, overrun or no trigger). Why it ended is
+//! [`SamplerConsumer::outcome`]: the caller checks it after `acquire`, before using the trace.
+//!
+//! **Queue.** `heapless::spsc::Queue`: lock-free for one producer and one consumer (atomic head
+//! and tail indices, no critical section in the interrupt), fixed capacity `N − 1`, no allocation.
+//! The end state is one atomic byte the producer writes after its last enqueue (release) and the
+//! consumer reads before dequeuing (acquire), so the consumer never reports the end before it has
+//! returned every frame queued before it.
+
+use core::sync::atomic::{AtomicU32, AtomicU8, Ordering};
+
+use heapless::spsc::{Consumer, Producer, Queue};
+
+use super::{AcquisitionError, PhaseCurrents, PhaseFrame};
+
+/// What the producer queues for each recorded frame: the frame, or why it was refused.
+pub type Sample = Result<PhaseFrame, AcquisitionError>;
+
+/// Queue length of the on-board sampler: 64 slots, 63 frames (6.3 ms at 10 kHz) of slack for
+/// thread mode, 1.5 KiB of RAM.
+pub const SAMPLER_QUEUE: usize = 64;
+
+/// Settings of one live acquisition.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SamplerConfig {
+    /// Frames recorded from the trigger on (the manoeuvre's frame count).
+    pub frames: u32,
+    /// Ticks waited for the trigger before [`AcquisitionError::NoTrigger`].
+    pub trigger_timeout_frames: u32,
+}
+
+const ARMED: u8 = 0;
+const RECORDING: u8 = 1;
+const COMPLETE: u8 = 2;
+const OVERRUN: u8 = 3;
+const NO_TRIGGER: u8 = 4;
+
+/// Where an acquisition stands, as the consumer sees it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SamplerState {
+    /// Waiting for the trigger.
+    Armed,
+    /// Queuing frames.
+    Recording,
+    /// Every frame is queued (or the source ended): nothing more comes.
+    Complete,
+    /// Ended with an error ([`AcquisitionError::Overrun`] or [`AcquisitionError::NoTrigger`]).
+    Failed(AcquisitionError),
+}
+
+/// The state shared by the two halves: written by the producer only.
+#[derive(Debug)]
+struct Shared {
+    state: AtomicU8,
+    /// Ticks seen before the trigger.
+    waited: AtomicU32,
+    /// Frames queued since the trigger.
+    queued: AtomicU32,
+}
+
+impl Shared {
+    const fn new() -> Self {
+        Self { state: AtomicU8::new(ARMED), waited: AtomicU32::new(0), queued: AtomicU32::new(0) }
+    }
+
+    fn state(&self) -> SamplerState {
+        match self.state.load(Ordering::Acquire) {
+            ARMED => SamplerState::Armed,
+            RECORDING => SamplerState::Recording,
+            OVERRUN => SamplerState::Failed(AcquisitionError::Overrun { frame: self.queued.load(Ordering::Relaxed) }),
+            NO_TRIGGER => {
+                SamplerState::Failed(AcquisitionError::NoTrigger { waited_frames: self.waited.load(Ordering::Relaxed) })
+            }
+            _ => SamplerState::Complete,
+        }
+    }
+}
+
+/// The storage of one live acquisition: a queue of `N − 1` frames and the shared state. Place it
+/// in a `static` (e.g. `cortex_m::singleton!`) so that its producer half can be handed to the
+/// timer's interrupt, then [`Sampler::split`] it.
+#[derive(Debug)]
+pub struct Sampler<const N: usize> {
+    queue: Queue<Sample, N>,
+    shared: Shared,
+}
+
+impl<const N: usize> Sampler<N> {
+    /// An empty sampler (`const`, so it can initialise a `static`).
+    pub const fn new() -> Self {
+        Self { queue: Queue::new(), shared: Shared::new() }
+    }
+
+    /// Frames the queue holds: `N − 1`.
+    pub const fn capacity(&self) -> usize {
+        N.saturating_sub(1)
+    }
+
+    /// Arms a new acquisition of `config` from `source`: the producer half for the timer's
+    /// interrupt (owning the source), the consumer half for thread mode, which waits with `wait`
+    /// while the queue is empty (`cortex_m::asm::wfi` on a target, `core::hint::spin_loop` on the
+    /// host).
+    pub fn split<S, W: FnMut()>(
+        &mut self,
+        source: S,
+        config: SamplerConfig,
+        wait: W,
+    ) -> (SamplerProducer<'_, S>, SamplerConsumer<'_, W>) {
+        self.queue = Queue::new();
+        self.shared = Shared::new();
+        let (producer, consumer) = self.queue.split();
+        let shared = &self.shared;
+        (
+            SamplerProducer { queue: producer, shared, source, config, ticks: 0, state: ARMED, queued: 0 },
+            SamplerConsumer { queue: consumer, shared, wait, read: 0 },
+        )
+    }
+}
+
+impl<const N: usize> Default for Sampler<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The interrupt half: one [`SamplerProducer::tick`] per timer period.
+pub struct SamplerProducer<'a, S> {
+    queue: Producer<'a, Sample>,
+    shared: &'a Shared,
+    source: S,
+    config: SamplerConfig,
+    ticks: u32,
+    state: u8,
+    queued: u32,
+}
+
+impl<S> SamplerProducer<'_, S> {
+    /// Ticks seen so far (from arming; one per call of [`SamplerProducer::tick`]).
+    pub const fn ticks(&self) -> u32 {
+        self.ticks
+    }
+
+    /// `true` once the acquisition has ended (complete, overrun or no trigger): the timer can stop.
+    pub const fn ended(&self) -> bool {
+        self.state >= COMPLETE
+    }
+
+    /// The source.
+    pub const fn source(&self) -> &S {
+        &self.source
+    }
+
+    /// Gives the source back.
+    pub fn release(self) -> S {
+        self.source
+    }
+
+    fn end(&mut self, state: u8) {
+        self.state = state;
+        if state == NO_TRIGGER {
+            self.shared.waited.store(self.ticks, Ordering::Relaxed);
+        }
+        self.shared.queued.store(self.queued, Ordering::Relaxed);
+        self.shared.state.store(state, Ordering::Release);
+    }
+}
+
+impl<S: PhaseCurrents> SamplerProducer<'_, S> {
+    /// One timer period: reads one frame from the source and drops it (armed), queues it
+    /// (recording) or does nothing (ended); `trigger` is the start input's level at this tick.
+    /// Returns [`SamplerProducer::ended`].
+    pub fn tick(&mut self, trigger: bool) -> bool {
+        if self.ended() {
+            return true;
+        }
+        self.ticks = self.ticks.saturating_add(1);
+        let sample = self.source.read_frame();
+        let source_ended = matches!(sample, Err(AcquisitionError::EndOfData));
+        if self.state == ARMED {
+            if source_ended {
+                self.end(COMPLETE);
+                return true;
+            }
+            if !trigger {
+                if self.ticks >= self.config.trigger_timeout_frames {
+                    self.end(NO_TRIGGER);
+                }
+                return self.ended();
+            }
+            self.state = RECORDING;
+            self.shared.waited.store(self.ticks.saturating_sub(1), Ordering::Relaxed);
+            self.shared.state.store(RECORDING, Ordering::Release);
+        }
+        if self.queued >= self.config.frames || source_ended {
+            self.end(COMPLETE);
+            return true;
+        }
+        if no_slot(self.queue.capacity()) || self.queue.enqueue(sample).is_err() {
+            self.end(OVERRUN);
+            return true;
+        }
+        self.queued += 1;
+        if self.queued >= self.config.frames {
+            self.end(COMPLETE);
+        }
+        self.ended()
+    }
+}
+
+/// `true` when the queue has no slot at all (`N = 0`: `capacity` = `N − 1` wraps), where every
+/// frame overruns.
+/// heapless's split halves index the ring modulo the length of a slice view, which the optimizer
+/// cannot see is `N`; testing it first tells it the length is not 0, so that no division-by-zero
+/// panic path remains (`scripts/prove-no-panic`).
+const fn no_slot(capacity: usize) -> bool {
+    capacity == usize::MAX
+}
+
+/// The thread-mode half: a [`PhaseCurrents`] source of the recorded frames.
+pub struct SamplerConsumer<'a, W> {
+    queue: Consumer<'a, Sample>,
+    shared: &'a Shared,
+    wait: W,
+    read: u32,
+}
+
+impl<W> SamplerConsumer<'_, W> {
+    /// Where the acquisition stands.
+    pub fn state(&self) -> SamplerState {
+        self.shared.state()
+    }
+
+    /// Frames returned so far.
+    pub const fn frames_read(&self) -> u32 {
+        self.read
+    }
+
+    /// Frames waiting in the queue.
+    pub fn queued(&self) -> usize {
+        self.queue.len()
+    }
+
+    /// Ticks dropped before the trigger (0 until the trigger or the timeout).
+    pub fn waited_frames(&self) -> u32 {
+        self.shared.waited.load(Ordering::Relaxed)
+    }
+
+    /// How the acquisition ended: `Ok(frames recorded)` when complete,
+    /// [`AcquisitionError::Overrun`] or [`AcquisitionError::NoTrigger`] when it failed, and
+    /// [`AcquisitionError::EndOfData`] while it is still running.
+    pub fn outcome(&self) -> Result<u32, AcquisitionError> {
+        match self.shared.state() {
+            SamplerState::Complete => Ok(self.shared.queued.load(Ordering::Relaxed)),
+            SamplerState::Failed(e) => Err(e),
+            SamplerState::Armed | SamplerState::Recording => Err(AcquisitionError::EndOfData),
+        }
+    }
+}
+
+impl<W: FnMut()> PhaseCurrents for SamplerConsumer<'_, W> {
+    /// The next recorded frame; waits (the hook) while none is queued; `EndOfData` once the
+    /// acquisition has ended and every frame queued before a complete end has been returned
+    /// (after an overrun or no trigger: at once, see [`SamplerConsumer::outcome`]).
+    fn read_frame(&mut self) -> Result<PhaseFrame, AcquisitionError> {
+        loop {
+            let state = self.shared.state.load(Ordering::Acquire);
+            if state == OVERRUN || state == NO_TRIGGER {
+                return Err(AcquisitionError::EndOfData);
+            }
+            if no_slot(self.queue.capacity()) {
+                return Err(AcquisitionError::EndOfData);
+            }
+            if let Some(sample) = self.queue.dequeue() {
+                self.read = self.read.saturating_add(1);
+                return sample;
+            }
+            if state == COMPLETE {
+                return Err(AcquisitionError::EndOfData);
+            }
+            (self.wait)();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use core::cell::RefCell;
+
+    use super::*;
+    use crate::acquisition::{
+        AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc, ReplayReader,
+    };
+    use crate::trace::{self, pack, packed_len, PackedTrace};
+
+    /// `n` clean frames whose phase-A code names the frame: `[1000 + i, 3096 − i, 2048]`.
+    fn numbered(n: usize) -> std::vec::Vec<u8> {
+        let frames: std::vec::Vec<[u16; 3]> = (0..n as u16).map(|i| [1000 + i, 3096 - i, 2048]).collect();
+        let mut buf = std::vec![0u8; packed_len(n)];
+        pack(&frames, trace::SAMPLE_RATE_HZ, &mut buf).unwrap();
+        buf
+    }
+
+    fn reader(bytes: &[u8]) -> ReplayReader<'_> {
+        let adc = ReplayAdc::new(PackedTrace::parse(bytes).unwrap());
+        PhaseCurrentReader::new(adc, (PhaseA, PhaseB, PhaseC), Calibration::NOMINAL, AcquisitionConfig::DEFAULT)
+            .unwrap()
+    }
+
+    fn config(frames: u32, trigger_timeout_frames: u32) -> SamplerConfig {
+        SamplerConfig { frames, trigger_timeout_frames }
+    }
+
+    /// Drains the consumer, the producer ticking in the wait hook (an interrupt per wait) with the
+    /// trigger high from tick `trigger_at` on. Returns the phase-A codes read and the outcome.
+    fn run<const N: usize>(
+        bytes: &[u8],
+        cfg: SamplerConfig,
+        trigger_at: u32,
+    ) -> (std::vec::Vec<u16>, Result<u32, AcquisitionError>) {
+        let mut sampler = Sampler::<N>::new();
+        let slot: RefCell<Option<SamplerProducer<'_, ReplayReader<'_>>>> = RefCell::new(None);
+        let (producer, mut consumer) = sampler.split(reader(bytes), cfg, || {
+            if let Some(p) = slot.borrow_mut().as_mut() {
+                let t = p.ticks();
+                p.tick(t >= trigger_at);
+            }
+        });
+        *slot.borrow_mut() = Some(producer);
+        let mut codes = std::vec::Vec::new();
+        loop {
+            match consumer.read_frame() {
+                Ok(f) => codes.push(f.codes[0]),
+                Err(AcquisitionError::EndOfData) => break,
+                Err(e) => panic!("frame refused: {e}"),
+            }
+        }
+        let outcome = consumer.outcome();
+        assert_eq!(consumer.frames_read() as usize, codes.len());
+        (codes, outcome)
+    }
+
+    #[test]
+    fn records_exactly_the_frame_count_from_the_first_tick() {
+        let bytes = numbered(300);
+        let (codes, outcome) = run::<8>(&bytes, config(200, 1000), 0);
+        assert_eq!(outcome, Ok(200));
+        assert_eq!(codes, (1000..1200).collect::<std::vec::Vec<u16>>());
+    }
+
+    #[test]
+    fn late_trigger_drops_the_frames_before_it() {
+        let bytes = numbered(300);
+        let (codes, outcome) = run::<8>(&bytes, config(200, 1000), 57);
+        assert_eq!(outcome, Ok(200));
+        assert_eq!(codes, (1057..1257).collect::<std::vec::Vec<u16>>());
+    }
+
+    #[test]
+    fn missing_trigger_ends_with_no_trigger_after_the_timeout() {
+        let bytes = numbered(300);
+        let (codes, outcome) = run::<8>(&bytes, config(200, 120), u32::MAX);
+        assert!(codes.is_empty());
+        assert_eq!(outcome, Err(AcquisitionError::NoTrigger { waited_frames: 120 }));
+    }
+
+    #[test]
+    fn data_ending_before_the_trigger_records_nothing() {
+        let bytes = numbered(50);
+        let (codes, outcome) = run::<8>(&bytes, config(20, 1000), 60);
+        assert!(codes.is_empty());
+        assert_eq!(outcome, Ok(0));
+    }
+
+    #[test]
+    fn short_source_completes_early() {
+        let bytes = numbered(30);
+        let (codes, outcome) = run::<8>(&bytes, config(200, 1000), 10);
+        assert_eq!(outcome, Ok(20));
+        assert_eq!(codes, (1010..1030).collect::<std::vec::Vec<u16>>());
+    }
+
+    #[test]
+    fn full_queue_is_an_overrun_and_ends_the_acquisition() {
+        let bytes = numbered(300);
+        let mut sampler = Sampler::<8>::new();
+        assert_eq!(sampler.capacity(), 7);
+        let (mut producer, mut consumer) = sampler.split(reader(&bytes), config(200, 1000), || {});
+        // thread mode does not drain: 7 frames fit, the 8th overruns
+        for _ in 0..7 {
+            assert!(!producer.tick(true));
+        }
+        assert_eq!(consumer.queued(), 7);
+        assert_eq!(consumer.state(), SamplerState::Recording);
+        assert!(producer.tick(true));
+        assert_eq!(consumer.outcome(), Err(AcquisitionError::Overrun { frame: 7 }));
+        assert_eq!(consumer.read_frame(), Err(AcquisitionError::EndOfData));
+        // ended: further ticks read nothing
+        let position = producer.source().adc().position();
+        assert!(producer.tick(true));
+        assert_eq!(producer.source().adc().position(), position);
+    }
+
+    #[test]
+    fn draining_in_time_never_overruns() {
+        let bytes = numbered(300);
+        let mut sampler = Sampler::<4>::new();
+        let (mut producer, mut consumer) = sampler.split(reader(&bytes), config(250, 1000), || {});
+        let mut codes = std::vec::Vec::new();
+        // three ticks per drain: the queue (3 frames) is never full
+        while !producer.ended() {
+            for _ in 0..3 {
+                producer.tick(true);
+            }
+            while consumer.queued() > 0 {
+                codes.push(consumer.read_frame().unwrap().codes[0]);
+            }
+        }
+        assert_eq!(consumer.read_frame(), Err(AcquisitionError::EndOfData));
+        assert_eq!(consumer.outcome(), Ok(250));
+        assert_eq!(codes.len(), 250);
+    }
+
+    #[test]
+    fn refused_frames_are_queued_as_errors() {
+        let mut frames = std::vec![[2048u16, 2048, 2048]; 20];
+        frames[3] = [2048, 4095, 2048];
+        let mut buf = std::vec![0u8; packed_len(frames.len())];
+        pack(&frames, trace::SAMPLE_RATE_HZ, &mut buf).unwrap();
+        let mut sampler = Sampler::<32>::new();
+        let (mut producer, mut consumer) = sampler.split(reader(&buf), config(10, 100), || {});
+        while !producer.tick(true) {}
+        let samples: std::vec::Vec<_> = (0..10).map(|_| consumer.read_frame()).collect();
+        assert_eq!(samples.iter().filter(|s| s.is_err()).count(), 1);
+        assert_eq!(samples[3], Err(AcquisitionError::Saturated { phase: crate::acquisition::Phase::B, code: 4095 }));
+        assert_eq!(consumer.read_frame(), Err(AcquisitionError::EndOfData));
+        assert_eq!(consumer.outcome(), Ok(10));
+    }
+
+    #[test]
+    fn a_sampler_is_reusable_after_split() {
+        let bytes = numbered(100);
+        let mut sampler = Sampler::<8>::new();
+        {
+            let (mut p, _c) = sampler.split(reader(&bytes), config(5, 100), || {});
+            for _ in 0..4 {
+                p.tick(true);
+            }
+        }
+        let (mut p, c) = sampler.split(reader(&bytes), config(5, 100), || {});
+        assert_eq!(c.state(), SamplerState::Armed);
+        assert_eq!(c.queued(), 0);
+        while !p.tick(true) {}
+        assert_eq!(c.outcome(), Ok(5));
+    }
+}
