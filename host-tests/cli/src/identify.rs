@@ -17,6 +17,8 @@
 //! and the same parser as the firmware build (`EMA_MODEL_CONFIG=FILE cargo run --release`), so a
 //! host run and a firmware run of one configuration can be compared.
 
+use std::fs::File;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -24,17 +26,18 @@ use clap::{Args, ValueEnum};
 use ema_monitor::acquisition::{
     AcquisitionConfig, Calibration, FrameCheck, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc,
 };
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
 use ema_monitor::effects::{parse_model_config, ModelEffects};
 use ema_monitor::health::{Abstain, HealthReport, Status};
 use ema_monitor::monitor::{
     self, AcquisitionSummary, Algorithm, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW,
 };
-use ema_monitor::trace::PackedTrace;
+use ema_monitor::trace::{packed_len, PackedTrace};
 use ema_monitor::{EmaParams, Profile};
 use serde_json::json;
 
 use crate::error::CliError;
+use crate::input;
 use crate::recording_io::{read_recording, Recording};
 use crate::simulate::resolve_profile;
 
@@ -164,10 +167,21 @@ pub fn check_fast_regime_weight(weight: Option<f32>) -> Result<(), CliError> {
     }
 }
 
+/// Largest model configuration file, in bytes: ten effect lines and their comments fit many
+/// times over.
+pub const MAX_MODEL_CONFIG_BYTES: usize = 64 * 1024;
+
 /// Reads a model configuration file with the core's parser (the firmware build's `EMA_MODEL_CONFIG`);
 /// errors name the file, line and field.
 pub fn read_model_config(path: &Path) -> Result<ModelEffects, CliError> {
-    let text = std::fs::read_to_string(path).map_err(|e| input_error(path, &format!("cannot read: {e}")))?;
+    let file = File::open(path).map_err(|e| input_error(path, &format!("cannot read: {e}")))?;
+    read_model_config_from(file, path)
+}
+
+/// [`read_model_config`] from any reader: at most [`MAX_MODEL_CONFIG_BYTES`] of UTF-8 text, then
+/// [`parse_model_config`]; `path` only names the source in errors.
+pub fn read_model_config_from(reader: impl Read, path: &Path) -> Result<ModelEffects, CliError> {
+    let text = input::read_text(reader, MAX_MODEL_CONFIG_BYTES).map_err(|e| input_error(path, &e.to_string()))?;
     parse_model_config(&text).map_err(|e| input_error(path, &e.to_string()))
 }
 
@@ -262,17 +276,17 @@ pub fn identify_trace<const W: usize>(
     Ok(Outcome { report: id.report(), seconds: start.elapsed().as_secs_f64() })
 }
 
+/// Largest packed trace the on-board window takes, in bytes: [`ONBOARD_WINDOW`] blocks of
+/// [`DECIMATION`] frames and a trailing partial block (which conditioning drops); a longer one
+/// would stop acquisition with a full window anyway, so a larger file is refused unread.
+pub const MAX_FIRMWARE_TRACE_BYTES: usize = packed_len(ONBOARD_WINDOW * DECIMATION + DECIMATION - 1);
+
 /// Identifies the firmware's packed trace through the replay ADC, exactly as `src/main.rs` does
 /// (refused frames held and counted; a header rate other than 10 kHz is `INCONCLUSIVE`).
 pub fn identify_firmware_trace(path: &Path, config: &IdentifyConfig) -> Result<Outcome, CliError> {
-    let bytes = std::fs::read(path).map_err(|e| input_error(path, &format!("cannot read: {e}")))?;
-    let packed = PackedTrace::parse(&bytes).map_err(|e| input_error(path, &e.to_string()))?;
-    let adc = ReplayAdc::new(packed);
-    let mut reader =
-        PhaseCurrentReader::new(adc, (PhaseA, PhaseB, PhaseC), Calibration::NOMINAL, AcquisitionConfig::DEFAULT)
-            .map_err(|e| input_error(path, &e.to_string()))?;
-    let mut trace = Box::new(MeasuredTrace::<ONBOARD_WINDOW>::new());
-    let acquired = monitor::acquire(&mut reader, &mut trace).map_err(|e| input_error(path, &e.to_string()))?;
+    let file = File::open(path).map_err(|e| input_error(path, &format!("cannot read: {e}")))?;
+    let bytes = input::read_bounded(file, MAX_FIRMWARE_TRACE_BYTES).map_err(|e| input_error(path, &e.to_string()))?;
+    let (trace, acquired, packed) = acquire_firmware_trace(&bytes, path)?;
     let outcome = identify_trace(&trace, &Profile::STANDARD, config, path)?;
     let report = outcome.report.with_acquisition(&acquired);
     let report = if monitor::rate_matches(packed.sample_rate_hz() as f32, &EmaParams::NOMINAL) {
@@ -281,6 +295,24 @@ pub fn identify_firmware_trace(path: &Path, config: &IdentifyConfig) -> Result<O
         report.abstaining(Status::Inconclusive(Abstain::RateMismatch))
     };
     Ok(Outcome { report, ..outcome })
+}
+
+/// The firmware's steps 2 and 3 (`src/main.rs`) on the bytes of a packed trace: parse, replay
+/// ADC, `OneShot` reader with the nominal calibration, [`monitor::acquire`] into the on-board
+/// window. Returns the conditioned trace, the acquisition summary and the parsed trace; every bad
+/// input is an error naming `path`, never a panic.
+pub fn acquire_firmware_trace<'a>(
+    bytes: &'a [u8],
+    path: &Path,
+) -> Result<(Box<MeasuredTrace<ONBOARD_WINDOW>>, AcquisitionSummary, PackedTrace<'a>), CliError> {
+    let packed = PackedTrace::parse(bytes).map_err(|e| input_error(path, &e.to_string()))?;
+    let adc = ReplayAdc::new(packed);
+    let mut reader =
+        PhaseCurrentReader::new(adc, (PhaseA, PhaseB, PhaseC), Calibration::NOMINAL, AcquisitionConfig::DEFAULT)
+            .map_err(|e| input_error(path, &e.to_string()))?;
+    let mut trace = Box::new(MeasuredTrace::<ONBOARD_WINDOW>::new());
+    let acquired = monitor::acquire(&mut reader, &mut trace).map_err(|e| input_error(path, &e.to_string()))?;
+    Ok((trace, acquired, packed))
 }
 
 /// Refuses a recording the monitor cannot use: wrong sample rate, or a command that is not `profile`.
