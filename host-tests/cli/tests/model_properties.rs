@@ -22,9 +22,9 @@
 //!   reading averages `σ·√(2/π)`).
 //!
 //! Cases: the corners of the box and the healthy vector (all faults 0, all 1, or healthy; every
-//! effect off or at `MAX_SEVERITY`),
-//! then seeded random vectors, each effect off or at a random severity with equal odds (so that
-//! the model's loops with and without the step's effect terms both run).
+//! effect off or at `MAX_SEVERITY`), then seeded random vectors, each effect off or at a random
+//! severity with equal odds (so that the model's loops with and without the step's effect terms
+//! both run).
 
 use ema_monitor::effects::{maxima, ModelEffects, EFFECT_COUNT, MAX_SEVERITY};
 use ema_monitor::fitness::simulate_window_with_effects;
