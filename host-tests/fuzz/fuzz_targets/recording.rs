@@ -42,7 +42,10 @@ fuzz_target!(|data: &[u8]| {
         write_csv(&mut csv, &rec).expect("writes to memory");
         let back = parse_recording(&csv[..], path).expect("a written recording reads back");
         assert_eq!((&back.comments, &back.time_s, &back.command_rad), (&rec.comments, &rec.time_s, &rec.command_rad));
-        assert_eq!((&back.position_rad, &back.ia_a, &back.ib_a, &back.ic_a), (&rec.position_rad, &rec.ia_a, &rec.ib_a, &rec.ic_a));
+        assert_eq!(
+            (&back.position_rad, &back.ia_a, &back.ib_a, &back.ic_a),
+            (&rec.position_rad, &rec.ia_a, &rec.ib_a, &rec.ic_a)
+        );
     }
     if let Ok((trace, summary)) = condition_recording_checked(&rec, path, &Profile::STANDARD) {
         assert!(trace.is_finished() && trace.current_a().iter().all(|i| i.is_finite()));
