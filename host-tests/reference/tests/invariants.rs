@@ -168,7 +168,7 @@ fn a_profile_beyond_the_duration_limit_is_refused_before_any_allocation() {
         let profile = Profile::new(&hold, duration, 0.6).expect("a valid profile");
         let cfg = SimConfig { profile, ..SimConfig::default() };
         assert!(matches!(simulate(&cfg).err(), Some(ConfigError::Duration(_))), "{duration}");
-        let msg = Simulator::new(&cfg).err().expect("refused").to_string();
+        let msg = Simulator::new(&cfg).expect_err("refused").to_string();
         assert!(msg.contains("60 s") && msg.contains("600000 samples"), "{msg}");
     }
     // the limit itself is accepted (not simulated here: about 45 s)
