@@ -19,7 +19,7 @@ use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-use ema_monitor::profile::{Segment, MAX_SEGMENTS};
+use ema_monitor::profile::{ProfileError, Segment, MAX_SEGMENTS};
 use ema_monitor::{EmaParams, Profile};
 
 use crate::input;
@@ -178,10 +178,11 @@ pub fn parse_profile(text: &str, path: &Path, end_stop_rad: f32) -> Result<Profi
             for i in 0..segs.len() {
                 let stop = segs.get(i + 1).map_or(duration, Segment::start_s);
                 if Profile::new(&segs[..=i], stop, end_stop_rad).is_err() {
-                    return Err(err(
-                        Some(segments[i].1),
-                        format!("{e} (end stops ±{end_stop_rad} rad, the value must stay strictly inside)"),
-                    ));
+                    let message = match e {
+                        ProfileError::SinePhase => format!("FREQUENCY: {e}"),
+                        _ => format!("{e} (end stops ±{end_stop_rad} rad, the value must stay strictly inside)"),
+                    };
+                    return Err(err(Some(segments[i].1), message));
                 }
             }
             Err(err(None, e.to_string()))
@@ -220,6 +221,12 @@ mod tests {
             // a duration that would size the reference model's recording beyond its limit
             ("hold 0 0\nend 1e30", 2, "DURATION '1e30' is longer than the 60 s a profile may last"),
             ("hold 0 0\n\nend 60.01", 3, "DURATION '60.01' is longer"),
+            // a sine the f32 sine cannot follow (the `profile` fuzz target's find: it commanded −∞)
+            (
+                "# t)\nhold 0  0.01\nsine 0.86888888860  0.01 0.04  10000000000000 # 4$Hz\nend  1.80\n",
+                3,
+                "FREQUENCY: a sine segment sweeps more than 1000 rad of phase",
+            ),
         ];
         for (text, line, msg) in cases {
             let e = parse(text).expect_err(text);
