@@ -75,6 +75,8 @@ pub enum ProfileError {
     TimeOrder,
     /// A value is not finite, or the command leaves the end stops.
     Value,
+    /// A sine segment sweeps more than [`MAX_SINE_PHASE_RAD`] of phase over its length.
+    SinePhase,
 }
 
 impl core::fmt::Display for ProfileError {
@@ -85,11 +87,20 @@ impl core::fmt::Display for ProfileError {
                 "segment start times must be finite, start at 0 and increase, and end before the duration"
             }
             ProfileError::Value => "a segment value is not finite or beyond the end stops",
+            ProfileError::SinePhase => {
+                "a sine segment sweeps more than 1000 rad of phase (2π × frequency × its length)"
+            }
         })
     }
 }
 
 impl core::error::Error for ProfileError {}
+
+/// Largest phase a sine segment may sweep over its length, `2π·f·(end − start)` (rad): the range
+/// over which [`crate::trig::sin`] is checked against `libm` to [`crate::trig::MAX_ERROR`]. Its
+/// single-precision range reduction is exact only for moderate arguments; far beyond, it loses
+/// the phase and then gives a non-finite command. 1000 rad is 159 periods (4 s at 40 Hz).
+pub const MAX_SINE_PHASE_RAD: f32 = 1000.0;
 
 /// A command profile: up to [`MAX_SEGMENTS`] segments and a total duration.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -145,6 +156,12 @@ impl Profile {
             };
             if !fields_ok || bound.is_nan() || end_stop_rad.is_nan() || bound >= end_stop_rad {
                 return Err(ProfileError::Value);
+            }
+            if let Segment::Sine { frequency_hz, .. } = *s {
+                let phase_rad = 2.0 * PI * frequency_hz * (end - start);
+                if phase_rad.is_nan() || phase_rad > MAX_SINE_PHASE_RAD {
+                    return Err(ProfileError::SinePhase);
+                }
             }
             out[i] = *s;
         }
@@ -248,5 +265,23 @@ mod tests {
         assert_eq!(Profile::new(&[hold(0.0, f32::INFINITY)], 1.0, 0.6), Err(ProfileError::Value));
         let ramp = Segment::Ramp { start_s: 0.0, start_rad: 0.0, rate_rad_per_s: 1.0 };
         assert_eq!(Profile::new(&[ramp], 1.0, 0.6), Err(ProfileError::Value));
+    }
+
+    /// A sine of 1e13 Hz (found by the `profile` fuzz target) once passed the checks and
+    /// commanded −∞ rad: its phase was far beyond the range of the f32 sine.
+    #[test]
+    fn a_sine_beyond_the_phase_range_is_refused() {
+        let hold = Segment::Hold { start_s: 0.0, value_rad: 0.01 };
+        let sine =
+            |frequency_hz| Segment::Sine { start_s: 0.868_888_9, offset_rad: 0.01, amplitude_rad: 0.04, frequency_hz };
+        assert_eq!(Profile::new(&[hold, sine(1e13)], 1.8, 0.6), Err(ProfileError::SinePhase));
+        assert_eq!(Profile::new(&[hold, sine(f32::MAX)], 1.8, 0.6), Err(ProfileError::SinePhase));
+        // 150 Hz over 0.93 s is 877 rad: accepted, and the command stays inside the end stops
+        let p = Profile::new(&[hold, sine(150.0)], 1.8, 0.6).unwrap();
+        for step in 0..18_000 {
+            let c = p.command_rad(step as f32 * 1e-4);
+            assert!(c.is_finite() && libm::fabsf(c) <= 0.05 + 1e-6, "step {step}: {c}");
+        }
+        assert_eq!(Profile::new(&[hold, sine(175.0)], 1.8, 0.6), Err(ProfileError::SinePhase));
     }
 }

@@ -20,7 +20,8 @@
 //! host run and a firmware run of one configuration can be compared.
 
 use std::fmt::{Debug, Display};
-use std::io::Write;
+use std::fs::File;
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -28,17 +29,18 @@ use clap::{Args, ValueEnum};
 use ema_monitor::acquisition::{
     AcquisitionConfig, Calibration, FrameCheck, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc,
 };
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
 use ema_monitor::effects::{parse_model_config, ModelEffects};
 use ema_monitor::health::{Abstain, HealthReport, Status};
 use ema_monitor::monitor::{
     self, AcquisitionSummary, Algorithm, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW,
 };
-use ema_monitor::trace::PackedTrace;
+use ema_monitor::trace::{packed_len, PackedTrace};
 use ema_monitor::{EmaParams, Profile};
 use serde_json::json;
 
 use crate::error::CliError;
+use crate::input;
 use crate::recording_io::{read_recording, Recording};
 use crate::simulate::resolve_profile;
 
@@ -180,10 +182,21 @@ pub fn check_fast_regime_weight(weight: Option<f32>) -> Result<(), CliError> {
     }
 }
 
+/// Largest model configuration file, in bytes: ten effect lines and their comments fit many
+/// times over.
+pub const MAX_MODEL_CONFIG_BYTES: usize = 64 * 1024;
+
 /// Reads a model configuration file with the core's parser (the firmware build's `EMA_MODEL_CONFIG`);
 /// errors name the file, line and field.
 pub fn read_model_config(path: &Path) -> Result<ModelEffects, CliError> {
-    let text = std::fs::read_to_string(path).map_err(|e| input_error(path, &format!("cannot read: {e}")))?;
+    let file = File::open(path).map_err(|e| input_error(path, &format!("cannot read: {e}")))?;
+    read_model_config_from(file, path)
+}
+
+/// [`read_model_config`] from any reader: at most [`MAX_MODEL_CONFIG_BYTES`] of UTF-8 text, then
+/// [`parse_model_config`]; `path` only names the source in errors.
+pub fn read_model_config_from(reader: impl Read, path: &Path) -> Result<ModelEffects, CliError> {
+    let text = input::read_text(reader, MAX_MODEL_CONFIG_BYTES).map_err(|e| input_error(path, &e.to_string()))?;
     parse_model_config(&text).map_err(|e| input_error(path, &e.to_string()))
 }
 
@@ -285,6 +298,11 @@ fn run_identification<const W: usize>(
     Ok(Outcome { report: id.report(), seconds: start.elapsed().as_secs_f64() })
 }
 
+/// Largest packed trace the on-board window takes, in bytes: [`ONBOARD_WINDOW`] blocks of
+/// [`DECIMATION`] frames and a trailing partial block (which conditioning drops); a longer one
+/// would stop acquisition with a full window anyway, so a larger file is refused unread.
+pub const MAX_FIRMWARE_TRACE_BYTES: usize = packed_len(ONBOARD_WINDOW * DECIMATION + DECIMATION - 1);
+
 /// Why the firmware's path refused a packed trace, named as the firmware names it in its summary
 /// line (`src/main.rs`, `log_refusal`).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -312,7 +330,8 @@ impl Refusal {
 
 /// Reads a packed trace file (`--firmware-trace`).
 fn read_firmware_trace(path: &Path) -> Result<Vec<u8>, CliError> {
-    std::fs::read(path).map_err(|e| input_error(path, &format!("cannot read: {e}")))
+    let file = File::open(path).map_err(|e| input_error(path, &format!("cannot read: {e}")))?;
+    input::read_bounded(file, MAX_FIRMWARE_TRACE_BYTES).map_err(|e| input_error(path, &e.to_string()))
 }
 
 /// Identifies the firmware's packed trace through the replay ADC, exactly as `src/main.rs` does

@@ -1,9 +1,11 @@
 //! # ema-cli: the host command line of ema-monitor (`ema`)
 //!
 //! One module per subcommand (`simulate`, …) plus the shared recording reader/writer
-//! ([`recording_io`]), profile files ([`profile_file`]), the hand-written SVG plots ([`svg`]) and
-//! the error type ([`error`]). Every output file goes through [`output`]: checked before the work,
-//! an existing file replaced only with `--force`, written to a temporary file and renamed into place.
+//! ([`recording_io`]), profile files ([`profile_file`]), the bounded reading of every input file
+//! ([`input`]), the hand-written SVG plots ([`svg`]) and the error type ([`error`]). Every input
+//! file is read within a stated size, so no file drives an allocation. Every output file goes
+//! through [`output`]: checked before the work, an existing file replaced only with `--force`,
+//! written to a temporary file and renamed into place.
 //! The binary (`src/main.rs`) parses the command line with clap and prints every error as a
 //! single `error: …` line on stderr with exit status 2.
 #![deny(missing_docs)]
@@ -15,6 +17,7 @@ pub mod discover;
 pub mod error;
 pub mod firmware_trace;
 pub mod identify;
+pub mod input;
 pub mod output;
 pub mod parity_traces;
 pub mod profile_file;

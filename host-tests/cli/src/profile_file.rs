@@ -10,13 +10,25 @@
 //! ```
 //! One segment per line, from its start time until the next segment's; `#` starts a comment;
 //! blank lines are ignored. The first segment starts at 0, start times increase, `end` comes last
-//! and exactly once, at most 16 segments, every commanded value stays inside the end stops.
+//! and exactly once, at most 16 segments, every commanded value stays inside the end stops, the
+//! duration is at most [`MAX_DURATION_S`] (the longest manoeuvre the reference model simulates:
+//! the duration sizes its recording) and the file holds at most [`MAX_FILE_BYTES`].
 
 use std::fmt;
+use std::fs::File;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
-use ema_monitor::profile::{Segment, MAX_SEGMENTS};
+use ema_monitor::profile::{ProfileError, Segment, MAX_SEGMENTS};
 use ema_monitor::{EmaParams, Profile};
+
+use crate::input;
+
+/// Longest profile duration (s): the reference model's limit, [`ema_reference::MAX_DURATION_S`].
+pub const MAX_DURATION_S: f32 = ema_reference::MAX_DURATION_S as f32;
+
+/// Largest profile file, in bytes: 16 segment lines and their comments fit many times over.
+pub const MAX_FILE_BYTES: usize = 64 * 1024;
 
 /// Why a profile file was refused: names the file and, where it applies, the line.
 #[derive(Clone, Debug, PartialEq)]
@@ -42,10 +54,23 @@ impl std::error::Error for ProfileFileError {}
 
 /// Reads and validates a profile file against the nominal end stops.
 pub fn read_profile(path: &Path) -> Result<Profile, ProfileFileError> {
-    let text = std::fs::read_to_string(path).map_err(|e| ProfileFileError {
+    let file = File::open(path).map_err(|e| ProfileFileError {
         path: path.to_owned(),
         line: None,
         message: format!("cannot read: {e}"),
+    })?;
+    read_profile_from(file, path)
+}
+
+/// [`read_profile`] from any reader (at most [`MAX_FILE_BYTES`] of UTF-8 text); `path` only names
+/// the source in errors.
+pub fn read_profile_from(reader: impl Read, path: &Path) -> Result<Profile, ProfileFileError> {
+    let text = input::read_text(reader, MAX_FILE_BYTES).map_err(|e| {
+        let (line, message) = match e {
+            input::ReadError::NotUtf8 { line } => (Some(line), "not UTF-8 text".to_owned()),
+            other => (None, other.to_string()),
+        };
+        ProfileFileError { path: path.to_owned(), line, message }
     })?;
     parse_profile(&text, path, EmaParams::NOMINAL.end_stop_rad)
 }
@@ -54,7 +79,7 @@ pub fn read_profile(path: &Path) -> Result<Profile, ProfileFileError> {
 pub fn parse_profile(text: &str, path: &Path, end_stop_rad: f32) -> Result<Profile, ProfileFileError> {
     let err = |line: Option<usize>, message: String| ProfileFileError { path: path.to_owned(), line, message };
     let mut segments: Vec<(Segment, usize)> = Vec::new();
-    let mut end: Option<(f32, usize)> = None;
+    let mut end: Option<(f32, usize, &str)> = None;
     for (idx, raw) in text.lines().enumerate() {
         let line = idx + 1;
         let content = raw.split('#').next().unwrap_or("").trim();
@@ -100,7 +125,7 @@ pub fn parse_profile(text: &str, path: &Path, end_stop_rad: f32) -> Result<Profi
             "ramp" => Segment::Ramp { start_s: v[0], start_rad: v[1], rate_rad_per_s: v[2] },
             "sine" => Segment::Sine { start_s: v[0], offset_rad: v[1], amplitude_rad: v[2], frequency_hz: v[3] },
             _ => {
-                end = Some((v[0], line));
+                end = Some((v[0], line, args[0]));
                 continue;
             }
         };
@@ -127,7 +152,7 @@ pub fn parse_profile(text: &str, path: &Path, end_stop_rad: f32) -> Result<Profi
         }
         segments.push((seg, line));
     }
-    let Some((duration, end_line)) = end else {
+    let Some((duration, end_line, duration_text)) = end else {
         return Err(err(None, "no 'end DURATION' line".into()));
     };
     let Some((last, _)) = segments.last() else {
@@ -139,6 +164,12 @@ pub fn parse_profile(text: &str, path: &Path, end_stop_rad: f32) -> Result<Profi
             format!("duration {duration} s does not come after the last segment's start {} s", last.start_s()),
         ));
     }
+    if duration > MAX_DURATION_S {
+        return Err(err(
+            Some(end_line),
+            format!("DURATION '{duration_text}' is longer than the {MAX_DURATION_S} s a profile may last"),
+        ));
+    }
     let segs: Vec<Segment> = segments.iter().map(|s| s.0).collect();
     match Profile::new(&segs, duration, end_stop_rad) {
         Ok(p) => Ok(p),
@@ -147,10 +178,11 @@ pub fn parse_profile(text: &str, path: &Path, end_stop_rad: f32) -> Result<Profi
             for i in 0..segs.len() {
                 let stop = segs.get(i + 1).map_or(duration, Segment::start_s);
                 if Profile::new(&segs[..=i], stop, end_stop_rad).is_err() {
-                    return Err(err(
-                        Some(segments[i].1),
-                        format!("{e} (end stops ±{end_stop_rad} rad, the value must stay strictly inside)"),
-                    ));
+                    let message = match e {
+                        ProfileError::SinePhase => format!("FREQUENCY: {e}"),
+                        _ => format!("{e} (end stops ±{end_stop_rad} rad, the value must stay strictly inside)"),
+                    };
+                    return Err(err(Some(segments[i].1), message));
                 }
             }
             Err(err(None, e.to_string()))
@@ -186,6 +218,15 @@ mod tests {
             ("hold 0 0\nramp 0.1 0 10\nend 1", 2, "beyond the end stops"),
             ("hold 0 0\nend 0", 2, "duration 0 s"),
             ("end 1", 1, "no segment"),
+            // a duration that would size the reference model's recording beyond its limit
+            ("hold 0 0\nend 1e30", 2, "DURATION '1e30' is longer than the 60 s a profile may last"),
+            ("hold 0 0\n\nend 60.01", 3, "DURATION '60.01' is longer"),
+            // a sine the f32 sine cannot follow (the `profile` fuzz target's find: it commanded −∞)
+            (
+                "# t)\nhold 0  0.01\nsine 0.86888888860  0.01 0.04  10000000000000 # 4$Hz\nend  1.80\n",
+                3,
+                "FREQUENCY: a sine segment sweeps more than 1000 rad of phase",
+            ),
         ];
         for (text, line, msg) in cases {
             let e = parse(text).expect_err(text);
@@ -193,5 +234,20 @@ mod tests {
             assert!(e.to_string().contains(msg) && e.to_string().contains("p.txt"), "{text}: {e}");
         }
         assert!(parse("hold 0 0").expect_err("no end").to_string().contains("no 'end DURATION'"));
+        assert!(parse("hold 0 0\nend 60").is_ok());
+    }
+
+    #[test]
+    fn the_file_is_bounded_text() {
+        let from = |bytes: &[u8]| read_profile_from(bytes, Path::new("p.txt"));
+        assert_eq!(from(b"hold 0 0\nend 0.5\n").map(|p| p.duration_s()), Ok(0.5));
+        let e = from(b"hold 0 0\nend 0.5\xff\n").unwrap_err();
+        assert_eq!(e.line, Some(2));
+        assert!(e.to_string().contains("line 2: not UTF-8 text"), "{e}");
+        let big = format!("hold 0 0\nend 0.5\n{}", "#\n".repeat(MAX_FILE_BYTES));
+        let e = from(big.as_bytes()).unwrap_err();
+        assert!(e.to_string().ends_with("larger than 65536 bytes, the most this file may hold"), "{e}");
+        let e = read_profile_from(std::io::repeat(b' '), Path::new("/dev/zero")).unwrap_err();
+        assert!(e.to_string().contains("larger than"), "{e}");
     }
 }

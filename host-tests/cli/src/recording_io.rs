@@ -12,6 +12,11 @@
 //! the file, line and field named: a missing or unreadable file, an empty file, a wrong header, a
 //! wrong number of fields, text, NaN or infinity in a number, a time that does not increase or a
 //! non-uniform time step, and fewer than [`MIN_ROWS`] rows.
+//!
+//! Every size is bounded, so that no file drives an allocation: a line holds at most
+//! [`MAX_LINE_BYTES`] bytes, a file at most [`MAX_COMMENT_LINES`] comment lines and [`MAX_ROWS`]
+//! rows spanning at most [`MAX_DURATION_S`] (the longest manoeuvre `ema simulate` records, at
+//! 10 kHz); beyond any of them the file is refused at the line that crosses the limit.
 
 use std::fmt;
 use std::fs::File;
@@ -19,6 +24,7 @@ use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 
 use crate::error::CliError;
+use crate::input::{BoundedLines, ReadError};
 use crate::output::{self, Overwrite};
 
 /// Column names, in order.
@@ -27,6 +33,16 @@ pub const HEADER: [&str; 6] = ["time_s", "command_rad", "position_rad", "ia_A", 
 pub const MIN_ROWS: usize = 2;
 /// Largest relative deviation of a time step from the first one.
 pub const TIME_STEP_TOLERANCE: f64 = 1e-6;
+/// Longest line, in bytes (a row in shortest round-trip form takes at most about 150).
+pub const MAX_LINE_BYTES: usize = 4096;
+/// Most comment lines.
+pub const MAX_COMMENT_LINES: usize = 1000;
+/// Longest time span of a recording, first to last row: the longest profile the reference model
+/// simulates ([`ema_reference::MAX_DURATION_S`]).
+pub const MAX_DURATION_S: f64 = ema_reference::MAX_DURATION_S;
+/// Most data rows: [`MAX_DURATION_S`] at 10 kHz, both ends included (`ema simulate` writes one
+/// row fewer, [`ema_reference::MAX_SAMPLES`], for its longest profile).
+pub const MAX_ROWS: usize = ema_reference::MAX_SAMPLES + 1;
 
 /// A recording as stored in a file: columns of equal length.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -124,6 +140,19 @@ pub enum RecordingErrorKind {
     },
     /// Fewer than [`MIN_ROWS`] data rows.
     TooFewRows(usize),
+    /// More than [`MAX_ROWS`] data rows.
+    TooManyRows,
+    /// More than [`MAX_COMMENT_LINES`] comment lines.
+    TooManyComments,
+    /// The rows span more than [`MAX_DURATION_S`] (this row's time minus the first row's).
+    TooLong {
+        /// The span so far.
+        span_s: f64,
+    },
+    /// A line longer than [`MAX_LINE_BYTES`].
+    LineTooLong,
+    /// A line that is not UTF-8 text.
+    NotText,
 }
 
 /// A recording error with its location.
@@ -166,6 +195,13 @@ impl fmt::Display for RecordingError {
                 write!(f, "time step {step} s differs from the first step {expected} s (non-uniform sampling)")
             }
             RecordingErrorKind::TooFewRows(n) => write!(f, "too few rows: {n} (need at least {MIN_ROWS})"),
+            RecordingErrorKind::TooManyRows => write!(f, "more than {MAX_ROWS} rows"),
+            RecordingErrorKind::TooManyComments => write!(f, "more than {MAX_COMMENT_LINES} comment lines"),
+            RecordingErrorKind::TooLong { span_s } => {
+                write!(f, "the rows span {span_s} s, more than the {MAX_DURATION_S} s a recording may last")
+            }
+            RecordingErrorKind::LineTooLong => write!(f, "line longer than {MAX_LINE_BYTES} bytes"),
+            RecordingErrorKind::NotText => write!(f, "not UTF-8 text"),
         }
     }
 }
@@ -175,24 +211,42 @@ impl std::error::Error for RecordingError {}
 /// Reads and validates a recording file.
 pub fn read_recording(path: impl AsRef<Path>) -> Result<Recording, RecordingError> {
     let path = path.as_ref();
+    let file = File::open(path).map_err(|e| RecordingError {
+        path: path.to_owned(),
+        line: None,
+        field: None,
+        kind: RecordingErrorKind::Io(format!("cannot open: {e}")),
+    })?;
+    parse_recording(BufReader::new(file), path)
+}
+
+/// Reads and validates a recording from any reader (what [`read_recording`] does once the file
+/// is open); `path` only names the source in errors.
+pub fn parse_recording(reader: impl BufRead, path: &Path) -> Result<Recording, RecordingError> {
     let err = |line: Option<usize>, field: Option<&'static str>, kind| RecordingError {
         path: path.to_owned(),
         line,
         field,
         kind,
     };
-    let file = File::open(path).map_err(|e| err(None, None, RecordingErrorKind::Io(format!("cannot open: {e}"))))?;
     let mut rec = Recording::default();
     let mut header_seen = false;
     let mut step0: Option<f64> = None;
-    for (idx, line) in BufReader::new(file).lines().enumerate() {
-        let n = idx + 1;
-        let line = line.map_err(|e| err(Some(n), None, RecordingErrorKind::Io(format!("cannot read: {e}"))))?;
+    let mut lines = BoundedLines::new(reader, MAX_LINE_BYTES);
+    while let Some(line) = lines.next_line() {
+        let (n, line) = line.map_err(|e| match e {
+            ReadError::LineTooLong { line, .. } => err(Some(line), None, RecordingErrorKind::LineTooLong),
+            ReadError::NotUtf8 { line } => err(Some(line), None, RecordingErrorKind::NotText),
+            other => err(None, None, RecordingErrorKind::Io(other.to_string())),
+        })?;
         let text = line.trim();
         if text.is_empty() {
             continue;
         }
         if let Some(c) = text.strip_prefix('#') {
+            if rec.comments.len() == MAX_COMMENT_LINES {
+                return Err(err(Some(n), None, RecordingErrorKind::TooManyComments));
+            }
             rec.comments.push(c.strip_prefix(' ').unwrap_or(c).to_owned());
             continue;
         }
@@ -229,6 +283,15 @@ pub fn read_recording(path: impl AsRef<Path>) -> Result<Recording, RecordingErro
                 }
                 Some(_) => {}
             }
+        }
+        if let Some(&first) = rec.time_s.first() {
+            let span_s = v[0] - first;
+            if span_s > MAX_DURATION_S {
+                return Err(err(Some(n), Some(HEADER[0]), RecordingErrorKind::TooLong { span_s }));
+            }
+        }
+        if rec.len() == MAX_ROWS {
+            return Err(err(Some(n), None, RecordingErrorKind::TooManyRows));
         }
         rec.time_s.push(v[0]);
         rec.command_rad.push(v[1]);
@@ -294,5 +357,46 @@ mod tests {
         let _ = std::fs::remove_file(&path);
         assert_eq!(back, rec);
         assert!((back.sample_period_s() - 1e-4).abs() < 1e-12);
+    }
+
+    fn parse(text: &[u8]) -> Result<Recording, RecordingError> {
+        parse_recording(text, Path::new("r.csv"))
+    }
+
+    const HEAD: &str = "time_s,command_rad,position_rad,ia_A,ib_A,ic_A\n";
+
+    /// `n` rows at `rate_hz` (times `k/rate`, as `ema simulate` writes them), all channels zero.
+    fn rows(n: usize, rate_hz: f64) -> String {
+        let mut text = String::from(HEAD);
+        for k in 0..n {
+            text.push_str(&format!("{},0,0,0,0,0\n", k as f64 / rate_hz));
+        }
+        text
+    }
+
+    #[test]
+    fn sizes_are_bounded_with_the_line_named() {
+        let e = parse(format!("#{}\n{HEAD}", "x".repeat(MAX_LINE_BYTES)).as_bytes()).unwrap_err();
+        assert_eq!((e.line, &e.kind), (Some(1), &RecordingErrorKind::LineTooLong));
+        assert!(e.to_string().contains("r.csv' line 1: line longer than 4096 bytes"), "{e}");
+        let e = parse(&[HEAD.as_bytes(), b"0,0,0,0,0,0\n1e-4,0,0,0,0,\xff\n"].concat()).unwrap_err();
+        assert_eq!((e.line, &e.kind), (Some(3), &RecordingErrorKind::NotText));
+        let e = parse("# c\n".repeat(MAX_COMMENT_LINES + 1).as_bytes()).unwrap_err();
+        assert_eq!((e.line, &e.kind), (Some(MAX_COMMENT_LINES + 1), &RecordingErrorKind::TooManyComments));
+        // a uniform 30 s step: the fourth row spans 90 s
+        let text = format!("{HEAD}0,0,0,0,0,0\n30,0,0,0,0,0\n60,0,0,0,0,0\n90,0,0,0,0,0\n");
+        let e = parse(text.as_bytes()).unwrap_err();
+        assert_eq!((e.line, e.field), (Some(5), Some("time_s")));
+        assert_eq!(e.kind, RecordingErrorKind::TooLong { span_s: 90.0 });
+        assert!(e.to_string().contains("field 'time_s' (column 1): the rows span 90 s, more than the 60 s"), "{e}");
+        // 10 kHz: exactly MAX_DURATION_S (MAX_ROWS rows) is accepted, one row more is refused
+        let longest = rows(MAX_ROWS, 1e4);
+        assert_eq!(parse(longest.as_bytes()).map(|r| r.len()), Ok(MAX_ROWS));
+        let e = parse(rows(MAX_ROWS + 1, 1e4).as_bytes()).unwrap_err();
+        assert!(matches!(e.kind, RecordingErrorKind::TooLong { .. }), "{e}");
+        // 100 kHz: the row count is the limit
+        let e = parse(rows(MAX_ROWS + 1, 1e5).as_bytes()).unwrap_err();
+        assert_eq!((e.line, &e.kind), (Some(MAX_ROWS + 2), &RecordingErrorKind::TooManyRows));
+        assert!(e.to_string().ends_with("more than 600001 rows"), "{e}");
     }
 }

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 mod common;
-use common::{accepted, s, scratch};
+use common::{accepted, refused, s, scratch};
 
 use ema_cli::identify::identify_recording;
 use ema_cli::output::Overwrite;
@@ -150,4 +150,38 @@ fn clean_recordings_are_never_inconclusive() {
             assert_eq!(rep.refused_frames, 0, "faults {faults:?} seed {seed}:\n{rep}");
         }
     }
+}
+
+/// No input file drives an allocation: a profile ending at `1e30` s (which once made the
+/// reference model panic with "capacity overflow"), an oversized packed trace, model
+/// configuration or recording line are each refused with the file, line and field named, exit
+/// status 2, and no output written.
+#[test]
+fn oversized_inputs_are_refused_with_the_file_line_and_field() {
+    let dir = scratch("fail-safe", "bounds");
+    let profile = dir.join("far.profile");
+    std::fs::write(&profile, "hold 0 0\nhold 0.01 0.05\nend 1e30\n").unwrap();
+    let out = dir.join("out.csv");
+    let needles = ["far.profile' line 3", "DURATION '1e30' is longer than the 60 s"];
+    refused(&["simulate", "--profile", s(&profile), "--out", s(&out)], &needles);
+    assert!(!out.exists());
+    // the same file for identify, before the recording is read
+    refused(&["identify", s(&dir.join("unread.csv")), "--profile", s(&profile)], &needles);
+
+    let trace = dir.join("huge.ematrace");
+    std::fs::write(&trace, vec![0u8; ema_cli::identify::MAX_FIRMWARE_TRACE_BYTES + 1]).unwrap();
+    refused(&["identify", "--firmware-trace", s(&trace)], &["huge.ematrace", "larger than"]);
+
+    let config = dir.join("huge.config");
+    std::fs::write(&config, "#\n".repeat(ema_cli::identify::MAX_MODEL_CONFIG_BYTES)).unwrap();
+    let trace = concat!(env!("CARGO_MANIFEST_DIR"), "/../../traces/standard.ematrace");
+    refused(&["identify", "--firmware-trace", trace, "--model-config", s(&config)], &["huge.config", "larger than"]);
+
+    let csv = dir.join("long-line.csv");
+    std::fs::write(
+        &csv,
+        format!("# ok\ntime_s,command_rad,position_rad,ia_A,ib_A,ic_A\n0,0,0,0,0,{}\n", "1".repeat(5000)),
+    )
+    .unwrap();
+    refused(&["identify", s(&csv)], &["long-line.csv' line 3", "longer than 4096 bytes"]);
 }

@@ -74,4 +74,7 @@ pub mod sim;
 
 pub use effects::{Effect, Effects, UnknownEffect, EFFECT_COUNT};
 pub use params::{BacklashModel, Plant};
-pub use sim::{simulate, ConfigError, EnergyLedger, Recording, Sample, SimConfig, Simulator, Truth, DEFAULT_STEP_S};
+pub use sim::{
+    simulate, ConfigError, EnergyLedger, Recording, Sample, SimConfig, Simulator, Truth, DEFAULT_STEP_S,
+    MAX_DURATION_S, MAX_SAMPLES,
+};

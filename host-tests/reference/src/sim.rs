@@ -21,6 +21,16 @@ use crate::sensors::{self, Lag};
 /// Default integration step, chosen by the convergence study kept in `tests/convergence.rs`.
 pub const DEFAULT_STEP_S: f64 = 2.5e-7;
 
+/// Longest profile the reference model simulates: 60 s (about 45 s of computation).
+/// [`Simulator::new`] refuses a longer one with [`ConfigError::Duration`] before anything is
+/// allocated, so a profile's duration never sizes an allocation beyond [`MAX_SAMPLES`].
+pub const MAX_DURATION_S: f64 = 60.0;
+
+/// Most samples of one simulation: [`MAX_DURATION_S`] at the nominal 10 kHz (about 80 MB of
+/// samples and truth). Also refused with [`ConfigError::Duration`]: a profile within
+/// [`MAX_DURATION_S`] under a control period shorter than the nominal one.
+pub const MAX_SAMPLES: usize = 600_000;
+
 /// What to simulate.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SimConfig {
@@ -73,6 +83,9 @@ pub enum ConfigError {
     Step(f64),
     /// A parameter that must be positive and finite is not.
     Parameter(&'static str),
+    /// The profile lasts longer than [`MAX_DURATION_S`] or needs more than [`MAX_SAMPLES`]
+    /// samples (its duration, s).
+    Duration(f64),
 }
 
 impl fmt::Display for ConfigError {
@@ -84,6 +97,10 @@ impl fmt::Display for ConfigError {
                 write!(f, "integration step {dt} s must be positive and divide the ACE period into whole steps")
             }
             ConfigError::Parameter(name) => write!(f, "parameter {name} must be positive and finite"),
+            ConfigError::Duration(d) => write!(
+                f,
+                "profile duration {d} s is beyond the reference model's limit ({MAX_DURATION_S} s, {MAX_SAMPLES} samples)"
+            ),
         }
     }
 }
@@ -251,6 +268,11 @@ impl Simulator {
         }
         check_params(&cfg.params)?;
         let period = crate::params::widen(cfg.params.control_period_s);
+        let duration = crate::params::widen(cfg.profile.duration_s());
+        let samples = (duration / period).round();
+        if !(duration > 0.0 && duration <= MAX_DURATION_S && samples <= MAX_SAMPLES as f64) {
+            return Err(ConfigError::Duration(duration));
+        }
         if !(cfg.step_s.is_finite() && cfg.step_s > 0.0 && cfg.step_s <= period) {
             return Err(ConfigError::Step(cfg.step_s));
         }

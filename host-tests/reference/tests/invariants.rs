@@ -155,3 +155,29 @@ fn bad_configurations_are_refused() {
     );
     assert!(Simulator::new(&SimConfig { step_s: 0.5e-6, ..SimConfig::default() }).is_ok());
 }
+
+/// A profile's duration sizes the recording: one beyond [`MAX_DURATION_S`] (or needing more than
+/// [`MAX_SAMPLES`] samples) is a [`ConfigError::Duration`], not an allocation. A profile ending at
+/// `1e30` s once made `simulate` panic with "capacity overflow".
+#[test]
+fn a_profile_beyond_the_duration_limit_is_refused_before_any_allocation() {
+    use ema_monitor::profile::Segment;
+    use ema_reference::{MAX_DURATION_S, MAX_SAMPLES};
+    let hold = [Segment::Hold { start_s: 0.0, value_rad: 0.0 }];
+    for duration in [1e30f32, f32::MAX, 60.001, 3600.0] {
+        let profile = Profile::new(&hold, duration, 0.6).expect("a valid profile");
+        let cfg = SimConfig { profile, ..SimConfig::default() };
+        assert!(matches!(simulate(&cfg).err(), Some(ConfigError::Duration(_))), "{duration}");
+        let msg = Simulator::new(&cfg).expect_err("refused").to_string();
+        assert!(msg.contains("60 s") && msg.contains("600000 samples"), "{msg}");
+    }
+    // the limit itself is accepted (not simulated here: about 45 s)
+    let longest = Profile::new(&hold, MAX_DURATION_S as f32, 0.6).expect("a valid profile");
+    let sim = Simulator::new(&SimConfig { profile: longest, ..SimConfig::default() }).expect("at the limit");
+    assert_eq!(sim.sample_count(), MAX_SAMPLES);
+    // a short control period makes a standard-length profile too many samples
+    let mut fast = ema_monitor::EmaParams::NOMINAL;
+    fast.control_period_s = 1e-7;
+    let cfg = SimConfig { params: fast, step_s: 1e-8, ..SimConfig::default() };
+    assert!(matches!(Simulator::new(&cfg).err(), Some(ConfigError::Duration(_))));
+}
