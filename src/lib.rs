@@ -50,6 +50,8 @@ pub mod monitor;
 pub mod optimizer;
 pub mod params;
 pub mod profile;
+#[cfg(feature = "defmt")]
+pub mod report_log;
 mod six_step;
 pub mod trace;
 pub mod trig;

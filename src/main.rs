@@ -33,10 +33,10 @@ use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::debug;
 use ema_monitor::acquisition::{manoeuvre_frames, Sampler, SamplerConfig, SAMPLER_QUEUE};
 use ema_monitor::conditioning::MeasuredTrace;
-use ema_monitor::health::{Abstain, FaultMode, HealthReport, Status};
+use ema_monitor::health::{Abstain, HealthReport, Status};
 use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::trace::PackedTrace;
-use ema_monitor::{EmaParams, ModelEffects, Profile};
+use ema_monitor::{report_log, EmaParams, ModelEffects, Profile};
 
 // `MODEL_EFFECTS`, `MODEL_CONFIG_SOURCE`, `TRACE_SOURCE` and `TRACE`, written by `build.rs`:
 // the built-in trace is `EMA_TRACE` (default `traces/standard.ematrace`, the reference model's
@@ -119,7 +119,7 @@ fn main() -> ! {
         Ok(r) => {
             let r = r.with_acquisition(&acquired);
             let r = if rate_ok { r } else { r.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
-            log_report(&r);
+            report_log::log_report(&r);
             true
         }
         Err(e) => {
@@ -173,98 +173,6 @@ fn identify(trace: &MeasuredTrace<ONBOARD_WINDOW>) -> Result<HealthReport, monit
         Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &config)?;
     id.run(u32::MAX);
     Ok(id.report())
-}
-
-/// Logs the health report: the status (with its reason when the monitor abstains), one line per
-/// fault mode under a diagnosis, the fault vector (its bits always), the fit, and the summary line
-/// of the parity check ([`log_summary`]).
-fn log_report(r: &HealthReport) {
-    match r.status.reason() {
-        Some(reason) => defmt::warn!("EMA health: {=str} ({=str})", r.status.label(), reason.label()),
-        None if r.status.is_diagnosis() => defmt::info!("EMA health: {=str}", r.status.label()),
-        None => defmt::warn!("EMA health: {=str}", r.status.label()),
-    }
-    if !r.status.is_diagnosis() {
-        defmt::warn!("no diagnosis: the fault vector below is not reported as one");
-    }
-    for m in r.modes.iter().filter(|_| r.status.is_diagnosis()) {
-        match m.mode {
-            FaultMode::ShortCircuit => defmt::info!(
-                "  {=str}: {=str}, severity {=f32}, {=f32} {=str} (phase {=char})",
-                m.mode.name(),
-                m.condition.label(),
-                m.severity,
-                m.value,
-                m.unit(),
-                ['A', 'B', 'C'][usize::from(m.phase) % 3]
-            ),
-            _ => defmt::info!(
-                "  {=str}: {=str}, severity {=f32}, {=f32} {=str}",
-                m.mode.name(),
-                m.condition.label(),
-                m.severity,
-                m.value,
-                m.unit()
-            ),
-        }
-    }
-    let k = &r.faults.0;
-    defmt::info!("fault vector k = {}", k);
-    defmt::println!(
-        "fault vector bits: {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x}",
-        k[0].to_bits(),
-        k[1].to_bits(),
-        k[2].to_bits(),
-        k[3].to_bits(),
-        k[4].to_bits(),
-        k[5].to_bits(),
-        k[6].to_bits(),
-        k[7].to_bits()
-    );
-    defmt::info!(
-        "fitness {=f32} A^2, {=u32} evaluations, {=u32} iterations, stop: {}",
-        r.fitness,
-        r.evaluations,
-        r.iterations,
-        r.termination
-    );
-    if r.untested_groups > 0 {
-        defmt::warn!(
-            "model selection: {=u8} fault group(s) not tested (selection and polish budget spent): reported as found",
-            r.untested_groups
-        );
-    }
-    log_summary(r);
-}
-
-/// Logs the report's one-line summary, the line `scripts/parity` compares with the host's
-/// (`ema identify --firmware-trace FILE --bits`, the same format):
-/// `summary: STATUS fitness F evaluations N bits K1 … K8`, where `STATUS` is the status label with
-/// its reason in parentheses under `INCONCLUSIVE` (`INCONCLUSIVE(rate mismatch)`), `F` and `K1 … K8`
-/// the `f32` bit patterns (8 lower-case hex digits) of the fitness and of the fault vector.
-fn log_summary(r: &HealthReport) {
-    let (open, reason, close) = match r.status.reason() {
-        Some(reason) => ("(", reason.label(), ")"),
-        None => ("", "", ""),
-    };
-    let k = &r.faults.0;
-    defmt::println!(
-        "summary: {=str}{=str}{=str}{=str} fitness {=u32:08x} evaluations {=u32} bits {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x}",
-        r.status.label(),
-        open,
-        reason,
-        close,
-        r.fitness.to_bits(),
-        r.evaluations,
-        k[0].to_bits(),
-        k[1].to_bits(),
-        k[2].to_bits(),
-        k[3].to_bits(),
-        k[4].to_bits(),
-        k[5].to_bits(),
-        k[6].to_bits(),
-        k[7].to_bits()
-    );
 }
 
 /// Logs the summary of a refusal, `summary: REFUSED <stage> <error>`: the stage that refused the

@@ -42,10 +42,10 @@ use ema_monitor::acquisition::{
     SAMPLER_QUEUE,
 };
 use ema_monitor::conditioning::MeasuredTrace;
-use ema_monitor::health::{Abstain, FaultMode, HealthReport, Status};
+use ema_monitor::health::{Abstain, HealthReport, Status};
 use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::optimizer::Status as SearchStatus;
-use ema_monitor::{EmaParams, Profile};
+use ema_monitor::{report_log, EmaParams, Profile};
 use stm32f4xx_hal::adc::config::{AdcConfig, Clock, SampleTime};
 use stm32f4xx_hal::adc::Adc;
 use stm32f4xx_hal::gpio::{Analog, Input, PA0, PA1, PA10, PA4};
@@ -198,7 +198,7 @@ fn main() -> ! {
     // 6. Report, then idle.
     let report = report.with_acquisition(&acquired);
     let report = if rate_ok { report } else { report.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
-    log_report(&report);
+    report_log::log_report(&report);
     defmt::info!("ema-monitor: OK");
     loop {
         wait_tick(&mut timer);
@@ -275,60 +275,6 @@ fn identify(
         }
     }
     Ok((id.report(), timing))
-}
-
-/// Logs the health report: the status (with its reason when the monitor abstains), one line per
-/// fault mode under a diagnosis, the fault vector and its bits.
-fn log_report(r: &HealthReport) {
-    match r.status.reason() {
-        Some(reason) => defmt::warn!("EMA health: {=str} ({=str})", r.status.label(), reason.label()),
-        None if r.status.is_diagnosis() => defmt::info!("EMA health: {=str}", r.status.label()),
-        None => defmt::warn!("EMA health: {=str}", r.status.label()),
-    }
-    if !r.status.is_diagnosis() {
-        defmt::warn!("no diagnosis: the fault vector below is not reported as one");
-    }
-    for m in r.modes.iter().filter(|_| r.status.is_diagnosis()) {
-        match m.mode {
-            FaultMode::ShortCircuit => defmt::info!(
-                "  {=str}: {=str}, severity {=f32}, {=f32} {=str} (phase {=char})",
-                m.mode.name(),
-                m.condition.label(),
-                m.severity,
-                m.value,
-                m.unit(),
-                ['A', 'B', 'C'][usize::from(m.phase) % 3]
-            ),
-            _ => defmt::info!(
-                "  {=str}: {=str}, severity {=f32}, {=f32} {=str}",
-                m.mode.name(),
-                m.condition.label(),
-                m.severity,
-                m.value,
-                m.unit()
-            ),
-        }
-    }
-    let k = &r.faults.0;
-    defmt::info!("fault vector k = {}", k);
-    defmt::println!(
-        "fault vector bits: {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x}",
-        k[0].to_bits(),
-        k[1].to_bits(),
-        k[2].to_bits(),
-        k[3].to_bits(),
-        k[4].to_bits(),
-        k[5].to_bits(),
-        k[6].to_bits(),
-        k[7].to_bits()
-    );
-    defmt::info!(
-        "fitness {=f32} A^2, {=u32} evaluations, {=u32} iterations, stop: {}",
-        r.fitness,
-        r.evaluations,
-        r.iterations,
-        r.termination
-    );
 }
 
 // ---- failure and safe state --------------------------------------------------------------------

@@ -1,0 +1,98 @@
+//! The health report as the firmware builds log it over defmt (the QEMU firmware and the board
+//! crate log the same lines): status and reason, one line per fault mode under a diagnosis, the
+//! fault vector and its bits, the fit, and the one-line summary that `scripts/parity` compares
+//! with the host's `ema identify --firmware-trace FILE --bits`. Built with the `defmt` feature.
+
+use crate::health::{FaultMode, HealthReport};
+
+/// Logs the health report: the status (with its reason when the monitor abstains), one line per
+/// fault mode under a diagnosis, the fault vector (its bits always), the fit, and the summary line
+/// of the host/target parity check ([`log_summary`]).
+pub fn log_report(r: &HealthReport) {
+    match r.status.reason() {
+        Some(reason) => defmt::warn!("EMA health: {=str} ({=str})", r.status.label(), reason.label()),
+        None if r.status.is_diagnosis() => defmt::info!("EMA health: {=str}", r.status.label()),
+        None => defmt::warn!("EMA health: {=str}", r.status.label()),
+    }
+    if !r.status.is_diagnosis() {
+        defmt::warn!("no diagnosis: the fault vector below is not reported as one");
+    }
+    for m in r.modes.iter().filter(|_| r.status.is_diagnosis()) {
+        match m.mode {
+            FaultMode::ShortCircuit => defmt::info!(
+                "  {=str}: {=str}, severity {=f32}, {=f32} {=str} (phase {=char})",
+                m.mode.name(),
+                m.condition.label(),
+                m.severity,
+                m.value,
+                m.unit(),
+                ['A', 'B', 'C'][usize::from(m.phase) % 3]
+            ),
+            _ => defmt::info!(
+                "  {=str}: {=str}, severity {=f32}, {=f32} {=str}",
+                m.mode.name(),
+                m.condition.label(),
+                m.severity,
+                m.value,
+                m.unit()
+            ),
+        }
+    }
+    let k = &r.faults.0;
+    defmt::info!("fault vector k = {}", k);
+    defmt::println!(
+        "fault vector bits: {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x}",
+        k[0].to_bits(),
+        k[1].to_bits(),
+        k[2].to_bits(),
+        k[3].to_bits(),
+        k[4].to_bits(),
+        k[5].to_bits(),
+        k[6].to_bits(),
+        k[7].to_bits()
+    );
+    defmt::info!(
+        "fitness {=f32} A^2, {=u32} evaluations, {=u32} iterations, stop: {}",
+        r.fitness,
+        r.evaluations,
+        r.iterations,
+        r.termination
+    );
+    if r.untested_groups > 0 {
+        defmt::warn!(
+            "model selection: {=u8} fault group(s) not tested (selection and polish budget spent): reported as found",
+            r.untested_groups
+        );
+    }
+    log_summary(r);
+}
+
+/// Logs the report's one-line summary, the line `scripts/parity` compares with the host's
+/// (`ema identify --firmware-trace FILE --bits`, the same format):
+/// `summary: STATUS fitness F evaluations N bits K1 … K8`, where `STATUS` is the status label with
+/// its reason in parentheses under `INCONCLUSIVE` (`INCONCLUSIVE(rate mismatch)`), `F` and `K1 … K8`
+/// the `f32` bit patterns (8 lower-case hex digits) of the fitness and of the fault vector.
+pub fn log_summary(r: &HealthReport) {
+    let (open, reason, close) = match r.status.reason() {
+        Some(reason) => ("(", reason.label(), ")"),
+        None => ("", "", ""),
+    };
+    let k = &r.faults.0;
+    defmt::println!(
+        "summary: {=str}{=str}{=str}{=str} fitness {=u32:08x} evaluations {=u32} bits {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x} {=u32:08x}",
+        r.status.label(),
+        open,
+        reason,
+        close,
+        r.fitness.to_bits(),
+        r.evaluations,
+        k[0].to_bits(),
+        k[1].to_bits(),
+        k[2].to_bits(),
+        k[3].to_bits(),
+        k[4].to_bits(),
+        k[5].to_bits(),
+        k[6].to_bits(),
+        k[7].to_bits()
+    );
+}
