@@ -334,12 +334,6 @@ fn read_firmware_trace(path: &Path) -> Result<Vec<u8>, CliError> {
     input::read_bounded(file, MAX_FIRMWARE_TRACE_BYTES).map_err(|e| input_error(path, &e.to_string()))
 }
 
-/// Identifies the firmware's packed trace through the replay ADC, exactly as `src/main.rs` does
-/// (refused frames held and counted; a header rate other than 10 kHz is `INCONCLUSIVE`).
-pub fn identify_firmware_trace(path: &Path, config: &IdentifyConfig) -> Result<Outcome, CliError> {
-    firmware_trace_outcome(&read_firmware_trace(path)?, config).map_err(|r| input_error(path, &r.message))
-}
-
 /// The firmware's path on the bytes of a packed trace, step for step as `src/main.rs`: parse,
 /// replay ADC and `OneShot` reader (nominal calibration, default checks), [`monitor::acquire`]
 /// into the on-board window, the identification under `config` (the firmware's is
