@@ -22,8 +22,6 @@
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
 
 use clap::Args;
 use ema_monitor::conditioning::MeasuredTrace;
@@ -31,15 +29,17 @@ use ema_monitor::fitness::CurrentFit;
 use ema_monitor::monitor::{group_pays, group_present, without_group, Algorithm, IdentifyConfig, FAULT_GROUPS};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
-use indicatif::{ProgressBar, ProgressStyle};
-use serde_json::json;
+use rayon::prelude::*;
+use serde::Serialize;
 
 use crate::error::CliError;
 use crate::identify::{condition_recording, identify_trace, AlgorithmArg};
-use crate::output::{prepare_dir, write_files, Overwrite};
+use crate::output::{prepare_dir, write_files, OutputArgs};
+use crate::plots;
+use crate::progress::{self, ProgressArgs};
 use crate::recording_io::Recording;
+use crate::schema::Document;
 use crate::simulate::resolve_profile;
-use crate::svg;
 
 /// Order of the algorithms in the table: the paper's two, then differential evolution (not in the paper).
 const ALGORITHM_ORDER: [&str; 3] = ["pso", "ga", "de"];
@@ -48,7 +48,7 @@ const ALGORITHM_ORDER: [&str; 3] = ["pso", "ga", "de"];
 pub const MODES: [&str; 5] = ["friction", "backlash", "short-circuit", "eccentricity", "gain"];
 
 /// One row of the paper's Table II.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct PaperRow {
     /// `pso` or `ga` (the paper has no DE).
     pub algorithm: &'static str,
@@ -58,12 +58,12 @@ pub struct PaperRow {
     pub err_percent: [f64; 5],
     /// The row's total Err%.
     pub total_err_percent: f64,
-    /// Mean time per mode (s).
-    pub seconds: [f64; 5],
+    /// Mean identification time per mode (s).
+    pub identification_s: [f64; 5],
 }
 
 const fn row(algorithm: &'static str, level: &'static str, err: [f64; 5], total: f64, seconds: [f64; 5]) -> PaperRow {
-    PaperRow { algorithm, level, err_percent: err, total_err_percent: total, seconds }
+    PaperRow { algorithm, level, err_percent: err, total_err_percent: total, identification_s: seconds }
 }
 
 /// The paper's Table II. Source: Dalla Vedova, Berri, Re, ICSRS 2018, Table II (Matlab r2016a,
@@ -77,6 +77,8 @@ pub const PAPER_TABLE_II: [PaperRow; 4] = [
 
 /// Arguments of `ema campaign`.
 #[derive(Args, Debug, Clone)]
+#[command(mut_arg("out", |a| a.value_name("DIR").help("Write runs.csv, summary.csv, summary.json, \
+    error.svg and time.svg here (created if needed; checked before the first run)")))]
 pub struct CampaignArgs {
     /// Runs per fault mode, level and algorithm (the paper: 10).
     #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..))]
@@ -105,7 +107,7 @@ pub struct CampaignArgs {
     /// Master seed of every draw.
     #[arg(long, default_value_t = 2018)]
     pub seed: u64,
-    /// Worker threads (default: the available cores).
+    /// Worker threads (default: the available cores). The results do not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
     /// Only these modes (comma-separated), e.g. for a quick look.
@@ -114,14 +116,12 @@ pub struct CampaignArgs {
     /// Print the summary as JSON instead of the Markdown table.
     #[arg(long)]
     pub json: bool,
-    /// Write runs.csv, summary.csv, summary.json, error.svg and time.svg here (created if needed;
-    /// checked before the first run).
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<PathBuf>,
-    /// Replace the files of --out DIR if they exist (without it, an existing one stops the command
-    /// before the first run).
-    #[arg(long)]
-    pub force: bool,
+    /// `--out DIR` and `--force`.
+    #[command(flatten)]
+    pub output: OutputArgs,
+    /// `--quiet`.
+    #[command(flatten)]
+    pub progress: ProgressArgs,
 }
 
 /// The files `--out DIR` receives, checked before the first run and written together at the end.
@@ -326,7 +326,9 @@ fn alg_name(a: AlgorithmArg) -> &'static str {
     }
 }
 
-/// Runs every planned run under `profile` on `threads` workers; results in plan order.
+/// Runs every planned run under `profile` on `threads` workers (a rayon pool of its own);
+/// results in plan order, whatever the thread count, since every run's draws come from its plan.
+/// `progress` shows a bar of the runs on stderr ([`progress::bar`]).
 pub fn run_all(
     plans: &[Plan],
     base: &IdentifyConfig,
@@ -334,48 +336,34 @@ pub fn run_all(
     threads: usize,
     progress: bool,
 ) -> Result<Vec<RunResult>, CliError> {
-    let bar = if progress {
-        let b = ProgressBar::new(plans.len() as u64);
-        b.set_style(
-            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} runs, eta {eta}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        b
-    } else {
-        ProgressBar::hidden()
-    };
-    let next = AtomicUsize::new(0);
-    type Slot = Option<Result<RunResult, CliError>>;
-    let results: Mutex<Vec<Slot>> = Mutex::new((0..plans.len()).map(|_| None).collect());
-    std::thread::scope(|scope| {
-        for _ in 0..threads.max(1) {
-            scope.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(p) = plans.get(i) else { break };
+    let bar = progress::bar(plans.len() as u64, "runs", progress);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+        .map_err(|e| CliError::Simulation(format!("cannot start {threads} campaign workers: {e}")))?;
+    let results: Vec<Result<RunResult, CliError>> = pool.install(|| {
+        plans
+            .par_iter()
+            .map(|p| {
                 let r = execute(p, base, profile);
-                if let Ok(mut all) = results.lock() {
-                    all[i] = Some(r);
-                }
                 bar.inc(1);
-            });
-        }
+                r
+            })
+            .collect()
     });
     bar.finish_and_clear();
-    let all = results.into_inner().map_err(|_| CliError::Simulation("a campaign worker panicked".into()))?;
-    all.into_iter()
-        .map(|r| r.unwrap_or_else(|| Err(CliError::Simulation("a campaign run did not finish".into()))))
-        .collect()
+    results.into_iter().collect()
 }
 
 /// Mean error and time per (algorithm, mode, level).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, Serialize)]
 pub struct Cell {
     /// Runs in the cell.
     pub runs: usize,
     /// Mean Err%.
     pub mean_err_percent: f64,
-    /// Mean identification time.
-    pub mean_seconds: f64,
+    /// Mean identification time (s).
+    pub mean_identification_s: f64,
     /// Mean evaluations.
     pub mean_evaluations: f64,
     /// Mean Err% of the detectability floor ([`detectability_floor`]).
@@ -411,7 +399,7 @@ pub fn summarize(results: &[RunResult]) -> BTreeMap<CellKey, Cell> {
             let cell = Cell {
                 runs: n,
                 mean_err_percent: err / n_f,
-                mean_seconds: s / n_f,
+                mean_identification_s: s / n_f,
                 mean_evaluations: ev / n_f,
                 mean_floor_err_percent: floor / n_f,
             };
@@ -444,9 +432,9 @@ fn table(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> String {
             "| {alg} | {level} | {} | {} | {} | {} | {} |",
             errs.join(" | "),
             total.map_or("–".into(), |c| format!("{:.2}", c.mean_err_percent)),
-            total.map_or("–".into(), |c| format!("{:.2}", c.mean_seconds)),
+            total.map_or("–".into(), |c| format!("{:.2}", c.mean_identification_s)),
             paper.map_or("–".into(), |p| format!("{:.3}", p.total_err_percent)),
-            paper.map_or("–".into(), |p| format!("{:.0}", p.seconds.iter().sum::<f64>() / 5.0)),
+            paper.map_or("–".into(), |p| format!("{:.0}", p.identification_s.iter().sum::<f64>() / 5.0)),
         );
     }
     let _ = writeln!(
@@ -469,7 +457,7 @@ fn table(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> String {
             let _ = writeln!(
                 out,
                 "\nmulti-fault ({alg}): {} runs, mean Err% {:.2} (floor {:.2}), mean time {:.2} s",
-                c.runs, c.mean_err_percent, c.mean_floor_err_percent, c.mean_seconds
+                c.runs, c.mean_err_percent, c.mean_floor_err_percent, c.mean_identification_s
             );
         }
     }
@@ -486,26 +474,76 @@ fn table(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> String {
     out
 }
 
-fn summary_json(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> serde_json::Value {
-    let cells: Vec<serde_json::Value> = summary
-        .iter()
-        .map(|((alg, mode, level), c)| {
-            json!({"algorithm": alg, "mode": mode, "level": level, "runs": c.runs,
-                   "mean_err_percent": c.mean_err_percent, "mean_seconds": c.mean_seconds,
-                   "mean_evaluations": c.mean_evaluations, "mean_floor_err_percent": c.mean_floor_err_percent})
-        })
-        .collect();
-    let paper: Vec<serde_json::Value> = PAPER_TABLE_II
-        .iter()
-        .map(|r| {
-            json!({"algorithm": r.algorithm, "level": r.level, "err_percent": r.err_percent,
-                   "total_err_percent": r.total_err_percent, "seconds": r.seconds})
-        })
-        .collect();
-    json!({"runs_per_cell": args.runs, "profile": args.profile, "max_iterations": args.max_iterations, "seed": args.seed,
-           "model_selection_and_polish": !args.paper_only,
-           "fast_regime_weight": identify_config(args).fast_regime_weight,
-           "cells": cells, "paper_table_ii": paper})
+/// One summary cell in `summary.json`: its key and its means (the columns of `summary.csv`).
+#[derive(Clone, Debug, Serialize)]
+pub struct CellJson<'a> {
+    /// `pso`, `ga` or `de`.
+    pub algorithm: &'a str,
+    /// A fault mode ([`MODES`]), `total` (the single-fault modes pooled) or `multi`.
+    pub mode: &'a str,
+    /// `low`, `high` or `multi`.
+    pub level: &'a str,
+    /// The means.
+    #[serde(flatten)]
+    pub cell: &'a Cell,
+}
+
+/// `summary.json` and `ema campaign --json`: the settings, the cells and the paper's Table II.
+#[derive(Clone, Debug, Serialize)]
+pub struct SummaryJson<'a> {
+    /// `--runs`.
+    pub runs_per_cell: u32,
+    /// `--profile`.
+    pub profile: &'a str,
+    /// `--max-iterations`.
+    pub max_iterations: u32,
+    /// `--seed`.
+    pub seed: u64,
+    /// False with `--paper-only`.
+    pub model_selection_and_polish: bool,
+    /// The fitness's fast-regime weight.
+    pub fast_regime_weight: f32,
+    /// One entry per (algorithm, mode, level), sorted.
+    pub cells: Vec<CellJson<'a>>,
+    /// [`PAPER_TABLE_II`].
+    pub paper_table_ii: &'static [PaperRow],
+}
+
+/// The summary as a JSON document ([`SummaryJson`] in a [`Document`]).
+pub fn summary_json(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> String {
+    let cells =
+        summary.iter().map(|((algorithm, mode, level), cell)| CellJson { algorithm, mode, level, cell }).collect();
+    Document::new(
+        None,
+        SummaryJson {
+            runs_per_cell: args.runs,
+            profile: &args.profile,
+            max_iterations: args.max_iterations,
+            seed: args.seed,
+            model_selection_and_polish: !args.paper_only,
+            fast_regime_weight: identify_config(args).fast_regime_weight,
+            cells,
+            paper_table_ii: &PAPER_TABLE_II,
+        },
+    )
+    .to_json()
+}
+
+/// `summary.csv`'s header: the keys of a [`CellJson`], in its order.
+pub const SUMMARY_CSV_HEADER: &str =
+    "algorithm,mode,level,runs,mean_err_percent,mean_identification_s,mean_evaluations,mean_floor_err_percent";
+
+/// `summary.csv`: one row per (algorithm, mode, level), the columns of [`SUMMARY_CSV_HEADER`].
+pub fn summary_csv(summary: &BTreeMap<CellKey, Cell>) -> String {
+    let mut csv = format!("{SUMMARY_CSV_HEADER}\n");
+    for ((alg, mode, level), c) in summary {
+        let _ = writeln!(
+            csv,
+            "{alg},{mode},{level},{},{},{},{},{}",
+            c.runs, c.mean_err_percent, c.mean_identification_s, c.mean_evaluations, c.mean_floor_err_percent
+        );
+    }
+    csv
 }
 
 /// `runs.csv`: one row per run, units in the header.
@@ -528,10 +566,15 @@ pub fn runs_csv(results: &[RunResult]) -> String {
     out
 }
 
-/// Grouped bar chart (SVG, [`svg::grouped_bars`]): one group per fault mode, one bar per
+/// Grouped bar chart (SVG, [`plots::grouped_bars`]): one group per fault mode, one bar per
 /// (algorithm, level); the value axis reaches the largest value of any cell, totals and
 /// multi-fault cells included.
-pub fn bar_chart(title: &str, unit: &str, summary: &BTreeMap<CellKey, Cell>, value: fn(&Cell) -> f64) -> String {
+pub fn bar_chart(
+    title: &str,
+    unit: &str,
+    summary: &BTreeMap<CellKey, Cell>,
+    value: fn(&Cell) -> f64,
+) -> std::io::Result<String> {
     let series: Vec<(String, String)> = summary
         .keys()
         .filter(|(_, mode, level)| mode != "total" && level != "multi")
@@ -541,7 +584,7 @@ pub fn bar_chart(title: &str, unit: &str, summary: &BTreeMap<CellKey, Cell>, val
         .collect();
     let names: Vec<String> = series.iter().map(|(alg, level)| format!("{alg} {level}")).collect();
     let max = summary.values().map(value).fold(0.0f64, f64::max).max(1e-9);
-    svg::grouped_bars(title, unit, &MODES, &names, max, |g, s| {
+    plots::grouped_bars(title, unit, &MODES, &names, max, |g, s| {
         let (alg, level) = &series[s];
         summary.get(&(alg.clone(), MODES[g].to_string(), level.clone())).map(value)
     })
@@ -559,33 +602,28 @@ pub fn run(args: &CampaignArgs) -> Result<String, CliError> {
     if threads == 0 {
         return Err(CliError::flag("--threads", "must be at least 1"));
     }
-    let overwrite = Overwrite::from_force(args.force);
-    if let Some(dir) = &args.out {
+    let overwrite = args.output.overwrite();
+    if let Some(dir) = &args.output.out {
         prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
     }
-    let results = run_all(&plans, &identify_config(args), &profile, threads, true)?;
+    let results = run_all(&plans, &identify_config(args), &profile, threads, args.progress.visible())?;
     let summary = summarize(&results);
-    if let Some(dir) = &args.out {
-        let mut csv =
-            String::from("algorithm,mode,level,runs,mean_err_percent,mean_identification_s,mean_evaluations,mean_floor_err_percent\n");
-        for ((alg, mode, level), c) in &summary {
-            let _ = writeln!(
-                csv,
-                "{alg},{mode},{level},{},{},{},{},{}",
-                c.runs, c.mean_err_percent, c.mean_seconds, c.mean_evaluations, c.mean_floor_err_percent
-            );
-        }
+    if let Some(dir) = &args.output.out {
         let contents = [
             runs_csv(&results),
-            csv,
-            summary_json(&summary, args).to_string(),
-            bar_chart("Mean identification error per fault mode", "Err %", &summary, |c| c.mean_err_percent),
-            bar_chart("Mean identification time per fault mode", "seconds", &summary, |c| c.mean_seconds),
+            summary_csv(&summary),
+            summary_json(&summary, args),
+            bar_chart("Mean identification error per fault mode", "Err (%)", &summary, |c| c.mean_err_percent)
+                .map_err(|source| CliError::Io { path: dir.join("error.svg"), source })?,
+            bar_chart("Mean identification time per fault mode", "identification time (s)", &summary, |c| {
+                c.mean_identification_s
+            })
+            .map_err(|source| CliError::Io { path: dir.join("time.svg"), source })?,
         ];
         let paths = OUTPUT_FILES.map(|name| dir.join(name));
         let files: Vec<(&Path, &[u8])> =
             paths.iter().zip(&contents).map(|(p, c)| (p.as_path(), c.as_bytes())).collect();
         write_files(&files, overwrite)?;
     }
-    Ok(if args.json { summary_json(&summary, args).to_string() } else { table(&summary, args) })
+    Ok(if args.json { summary_json(&summary, args) } else { table(&summary, args) })
 }

@@ -20,10 +20,11 @@ use ema_monitor::model::{ModelState, MonitorModel};
 use ema_monitor::profile::ProfileCursor;
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig, Truth};
-use serde_json::json;
+use serde::Serialize;
 
 use crate::error::CliError;
 use crate::identify::HOST_WINDOW;
+use crate::schema::Document;
 
 /// Arguments of `ema compare`.
 #[derive(Args, Debug, Clone)]
@@ -40,7 +41,8 @@ pub struct CompareArgs {
 }
 
 /// The rotor angle the monitor model runs with in `ema compare`.
-#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum RotorAngle {
     /// Its own, integrated from its own speed (as on board)
     Model,
@@ -173,6 +175,51 @@ pub fn compare_case(name: &str, faults: FaultVector, seed: u64, rotor: RotorAngl
     })
 }
 
+/// One manoeuvre segment's residual in `ema compare --json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct SegmentJson {
+    /// Segment name ([`SEGMENTS`]).
+    pub segment: &'static str,
+    /// `I_3eq` residual RMS in the segment (A).
+    #[serde(rename = "rms_A")]
+    pub rms_a: f64,
+}
+
+/// One case of `ema compare --json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct CaseJson<'a> {
+    /// Case name (`healthy`, `friction low`, ...).
+    pub case: &'a str,
+    /// The true fault vector.
+    pub k: [f32; 8],
+    /// `I_3eq` residual RMS over the manoeuvre (A).
+    #[serde(rename = "current_rms_A")]
+    pub current_rms_a: f64,
+    /// The same per segment.
+    #[serde(rename = "current_rms_by_segment_A")]
+    pub current_rms_by_segment_a: Vec<SegmentJson>,
+    /// Position residual RMS (rad).
+    pub position_rms_rad: f64,
+    /// Fitness at the true vector (A²).
+    #[serde(rename = "fitness_true_A2")]
+    pub fitness_true_a2: f32,
+    /// Fitness at the healthy vector (A²).
+    #[serde(rename = "fitness_healthy_A2")]
+    pub fitness_healthy_a2: f32,
+}
+
+/// `ema compare --json`: the settings and one entry per case; `docs/output-schema.md` documents
+/// every key.
+#[derive(Clone, Debug, Serialize)]
+pub struct CompareJson<'a> {
+    /// `--seed`.
+    pub seed: u64,
+    /// `--rotor-angle`: `model` or `reference`.
+    pub rotor_angle: RotorAngle,
+    /// The cases.
+    pub cases: Vec<CaseJson<'a>>,
+}
+
 /// Runs `ema compare`.
 pub fn run(args: &CompareArgs) -> Result<String, CliError> {
     let results: Vec<CaseResult> = cases()
@@ -180,15 +227,24 @@ pub fn run(args: &CompareArgs) -> Result<String, CliError> {
         .map(|(name, k)| compare_case(&name, k, args.seed, args.rotor_angle))
         .collect::<Result<_, _>>()?;
     if args.json {
-        let rows: Vec<serde_json::Value> = results
+        let cases = results
             .iter()
-            .map(|r| {
-                json!({"case": r.name, "k": r.faults.0, "current_rms_A": r.current_rms_a,
-                       "current_rms_by_segment_A": SEGMENTS.iter().zip(r.current_rms_by_segment_a).map(|((s, _, _), v)| json!({"segment": s, "rms_A": v})).collect::<Vec<_>>(),
-                       "position_rms_rad": r.position_rms_rad, "fitness_true": r.fitness_true, "fitness_healthy": r.fitness_healthy})
+            .map(|r| CaseJson {
+                case: &r.name,
+                k: r.faults.0,
+                current_rms_a: r.current_rms_a,
+                current_rms_by_segment_a: SEGMENTS
+                    .iter()
+                    .zip(r.current_rms_by_segment_a)
+                    .map(|(&(segment, _, _), rms_a)| SegmentJson { segment, rms_a })
+                    .collect(),
+                position_rms_rad: r.position_rms_rad,
+                fitness_true_a2: r.fitness_true,
+                fitness_healthy_a2: r.fitness_healthy,
             })
             .collect();
-        return Ok(serde_json::Value::Array(rows).to_string());
+        let body = CompareJson { seed: args.seed, rotor_angle: args.rotor_angle, cases };
+        return Ok(Document::new(None, body).to_json());
     }
     let mut out = String::from(
         "| case (RM fault) | I_3eq residual RMS (A) | step | reversal | ramp | sine | position RMS (rad) | E(true k) (A²) | E(healthy k) (A²) |\n|---|---|---|---|---|---|---|---|---|\n",

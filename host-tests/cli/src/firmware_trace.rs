@@ -41,7 +41,7 @@ use ema_reference::{simulate, Effects, SimConfig};
 
 use crate::error::CliError;
 use crate::identify::check_recording;
-use crate::output::{check_file, write_files, Overwrite};
+use crate::output::{check_file, write_files, OutputArgs, Overwrite};
 use crate::recording_io::{read_recording, Recording};
 
 /// Fault vector of the built-in trace: friction `k1 = 0.25`, everything else healthy
@@ -53,19 +53,16 @@ pub const FIRMWARE_TRACE_SEED: u64 = 1;
 
 /// Arguments of `ema firmware-trace`.
 #[derive(Args, Debug, Clone)]
+#[command(mut_arg("out", |a| a.value_name("FILE").help("Output file [default: in the current directory, \
+    standard.ematrace, or with --from the recording's name with the extension .ematrace]. To regenerate \
+    the committed trace, from host-tests/: --out ../traces/standard.ematrace --force")))]
 pub struct FirmwareTraceArgs {
-    /// Output file [default: in the current directory, standard.ematrace, or with --from the
-    /// recording's name with the extension .ematrace]. To regenerate the committed trace, from
-    /// host-tests/: --out ../traces/standard.ematrace --force.
-    #[arg(long, value_name = "FILE")]
-    pub out: Option<PathBuf>,
+    /// `--out FILE` and `--force`.
+    #[command(flatten)]
+    pub output: OutputArgs,
     /// Pack this recording CSV (10 kHz, standard profile, 8500 rows) instead of the built-in run.
     #[arg(long, value_name = "RECORDING")]
     pub from: Option<PathBuf>,
-    /// Replace the output file if it exists (without it, an existing file stops the command
-    /// before it runs).
-    #[arg(long)]
-    pub force: bool,
 }
 
 /// Frames of a firmware trace: the standard profile at 10 kHz (8500, as the built-in trace).
@@ -144,8 +141,8 @@ pub fn recording_trace_bytes(recording: &Recording, path: &Path) -> Result<Vec<u
 
 /// Runs `ema firmware-trace`; returns the one-line summary printed on success.
 pub fn run(args: &FirmwareTraceArgs) -> Result<String, CliError> {
-    let out = args.out.clone().unwrap_or_else(|| default_out(args.from.as_deref()));
-    let overwrite = Overwrite::from_force(args.force);
+    let out = args.output.out.clone().unwrap_or_else(|| default_out(args.from.as_deref()));
+    let overwrite = args.output.overwrite();
     check_file(&out, overwrite)?;
     if let Some(from) = &args.from {
         return run_from(from, &out, overwrite);

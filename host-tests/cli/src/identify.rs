@@ -37,11 +37,12 @@ use ema_monitor::monitor::{
 };
 use ema_monitor::trace::{packed_len, PackedTrace};
 use ema_monitor::{EmaParams, Profile};
-use serde_json::json;
+use serde::Serialize;
 
 use crate::error::CliError;
 use crate::input;
 use crate::recording_io::{read_recording, Recording};
+use crate::schema::Document;
 use crate::simulate::resolve_profile;
 
 /// Window capacity for host identifications from CSV: 3.2 s of recording at the 2.5 kHz fitness rate.
@@ -424,53 +425,125 @@ pub fn summary_line(report: &HealthReport) -> String {
     )
 }
 
-/// The report as JSON: `status` (`HEALTHY`, `DEGRADED`, `FAILING`, `INCONCLUSIVE`, `SENSOR_FAULT`),
-/// `reason` (of `INCONCLUSIVE`, else null), `refused_frames`, `fit_test`, `fitness`, `evaluations`,
-/// `seconds`, and under a diagnosis `k`, `overall` and `modes`; otherwise the fault vector only as
-/// `k_not_a_diagnosis`.
-pub fn to_json(outcome: &Outcome) -> serde_json::Value {
+/// One fault mode of the JSON report, in physical terms.
+#[derive(Clone, Debug, Serialize)]
+pub struct ModeJson {
+    /// Mode name ([`ema_monitor::health::FaultMode::name`]).
+    pub mode: &'static str,
+    /// Severity in [0, 1].
+    pub severity: f32,
+    /// `HEALTHY`, `DEGRADED` or `FAILING`.
+    pub condition: &'static str,
+    /// The physical value, in `unit`.
+    pub value: f32,
+    /// The unit of `value`, which differs from mode to mode.
+    pub unit: &'static str,
+}
+
+/// The goodness-of-fit test of the JSON report ([`ema_monitor::health::FitCheck`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct FitTestJson {
+    /// The normal score of the chi-square statistic.
+    pub z: f32,
+    /// The score above which the fit is rejected ([`ema_monitor::health::FIT_TEST_Z`]).
+    pub z_limit: f32,
+    /// Effective sample count of the residual.
+    pub effective_samples: f32,
+    /// The variance a residual of noise and known mismatch has (A²).
+    #[serde(rename = "expected_A2")]
+    pub expected_a2: f32,
+}
+
+/// The report of `ema identify --json`; `docs/output-schema.md` documents every key. Under
+/// `INCONCLUSIVE` or `SENSOR_FAULT` the fault values are no diagnosis: `k` moves to
+/// `k_not_a_diagnosis`, and `overall` and `modes` are left out.
+#[derive(Clone, Debug, Serialize)]
+pub struct IdentifyJson {
+    /// `HEALTHY`, `DEGRADED`, `FAILING`, `INCONCLUSIVE` or `SENSOR_FAULT`.
+    pub status: &'static str,
+    /// Why `INCONCLUSIVE` (null otherwise).
+    pub reason: Option<&'static str>,
+    /// Frames the acquisition checks refused.
+    pub refused_frames: u32,
+    /// The goodness-of-fit test (null when not run).
+    pub fit_test: Option<FitTestJson>,
+    /// The fitness of the best vector (A²).
+    #[serde(rename = "fitness_A2")]
+    pub fitness_a2: f32,
+    /// Objective evaluations.
+    pub evaluations: u32,
+    /// Iterations of the global search.
+    pub iterations: u32,
+    /// Why the optimizer stopped (null: the budget).
+    pub termination: Option<String>,
+    /// Fault groups model selection had no budget left to test.
+    pub untested_groups: u8,
+    /// Wall time of the identification alone (s).
+    pub identification_s: f64,
+    /// The fault vector k1..k8, under a diagnosis.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub k: Option<[f32; 8]>,
+    /// The worst mode's condition, under a diagnosis.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub overall: Option<&'static str>,
+    /// The five fault modes, under a diagnosis.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub modes: Option<Vec<ModeJson>>,
+    /// The fault vector when the status is no diagnosis.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub k_not_a_diagnosis: Option<[f32; 8]>,
+    /// The monitor model's effect terms (`--model-config`): effect ID to severity.
+    pub model_effects: std::collections::BTreeMap<&'static str, f32>,
+}
+
+/// The JSON report's body of `outcome`, the monitor model run with `effects`.
+pub fn json_body(outcome: &Outcome, effects: &ModelEffects) -> IdentifyJson {
     let r = &outcome.report;
-    let modes: Vec<serde_json::Value> = r
+    let diagnosis = r.status.is_diagnosis();
+    let modes = r
         .modes
         .iter()
-        .map(|m| {
-            json!({"mode": m.mode.name(), "severity": m.severity, "condition": m.condition.label(),
-                   "value": m.value, "unit": m.unit()})
+        .map(|m| ModeJson {
+            mode: m.mode.name(),
+            severity: m.severity,
+            condition: m.condition.label(),
+            value: m.value,
+            unit: m.unit(),
         })
         .collect();
-    let diagnosis = r.status.is_diagnosis();
-    let mut v = json!({
-        "status": r.status.label(),
-        "reason": r.status.reason().map(|a| a.label()),
-        "refused_frames": r.refused_frames,
-        "fit_test": r.fit_check.map(|c| json!({"z": c.z, "limit": ema_monitor::health::FIT_TEST_Z,
-            "effective_samples": c.effective_samples, "expected_a2": c.expected_a2})),
-        "fitness": r.fitness,
-        "evaluations": r.evaluations,
-        "iterations": r.iterations,
-        "termination": r.termination.map(|t| format!("{t:?}")),
-        "untested_groups": r.untested_groups,
-        "seconds": outcome.seconds,
-    });
-    // Under INCONCLUSIVE or SENSOR_FAULT the fault values are no diagnosis: `k` moves to
-    // `k_not_a_diagnosis` and `overall` and `modes` are left out.
-    if diagnosis {
-        v["k"] = json!(r.faults.0);
-        v["overall"] = json!(r.overall().label());
-        v["modes"] = json!(modes);
-    } else {
-        v["k_not_a_diagnosis"] = json!(r.faults.0);
+    IdentifyJson {
+        status: r.status.label(),
+        reason: r.status.reason().map(|a| a.label()),
+        refused_frames: r.refused_frames,
+        fit_test: r.fit_check.map(|c| FitTestJson {
+            z: c.z,
+            z_limit: ema_monitor::health::FIT_TEST_Z,
+            effective_samples: c.effective_samples,
+            expected_a2: c.expected_a2,
+        }),
+        fitness_a2: r.fitness,
+        evaluations: r.evaluations,
+        iterations: r.iterations,
+        termination: r.termination.map(|t| format!("{t:?}")),
+        untested_groups: r.untested_groups,
+        identification_s: outcome.seconds,
+        k: diagnosis.then_some(r.faults.0),
+        overall: diagnosis.then(|| r.overall().label()),
+        modes: diagnosis.then_some(modes),
+        k_not_a_diagnosis: (!diagnosis).then_some(r.faults.0),
+        model_effects: effects.active().map(|(e, s)| (e.id(), s)).collect(),
     }
-    v
+}
+
+/// The report as a JSON document ([`IdentifyJson`] in a [`Document`] whose `input_file` is the
+/// recording or the firmware trace).
+pub fn to_json(outcome: &Outcome, effects: &ModelEffects, input_file: Option<&Path>) -> String {
+    Document::new(input_file, json_body(outcome, effects)).to_json()
 }
 
 fn render(outcome: &Outcome, effects: &ModelEffects, args: &IdentifyArgs) -> String {
     let mut out = if args.json {
-        let mut v = to_json(outcome);
-        let fx: serde_json::Map<String, serde_json::Value> =
-            effects.active().map(|(e, s)| (e.id().to_owned(), json!(s))).collect();
-        v["model_effects"] = serde_json::Value::Object(fx);
-        v.to_string()
+        to_json(outcome, effects, args.firmware_trace.as_deref().or(args.file.as_deref()))
     } else {
         let mut text = format!("{}\n  identification took {:.3} s", outcome.report, outcome.seconds);
         if args.model_config.is_some() {

@@ -2,7 +2,8 @@
 //!
 //! One module per subcommand (`simulate`, …) plus the shared recording reader/writer
 //! ([`recording_io`]), profile files ([`profile_file`]), the bounded reading of every input file
-//! ([`input`]), the hand-written SVG plots ([`svg`]) and the error type ([`error`]). Every input
+//! ([`input`]), the plots ([`plots`], plotters' SVG backend), the JSON envelope ([`schema`]), the
+//! progress bars ([`progress`]) and the error type ([`error`]). Every input
 //! file is read within a stated size, so no file drives an allocation. Every output file goes
 //! through [`output`]: checked before the work, an existing file replaced only with `--force`,
 //! written to a temporary file and renamed into place.
@@ -20,7 +21,9 @@ pub mod identify;
 pub mod input;
 pub mod output;
 pub mod parity_traces;
+pub mod plots;
 pub mod profile_file;
+pub mod progress;
 pub mod recording_io;
+pub mod schema;
 pub mod simulate;
-pub mod svg;

@@ -25,7 +25,30 @@ use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
 
+use clap::Args;
+
 use crate::error::CliError;
+
+/// `--out` and `--force`, shared by the commands that write files (`simulate`, `firmware-trace`,
+/// `campaign`, `discover`). A command states what `--out` names (a file or a directory) and
+/// whether it is required with `#[command(mut_arg("out", ...))]` on its own arguments.
+#[derive(Args, Debug, Clone, Default, PartialEq, Eq)]
+pub struct OutputArgs {
+    /// Where the command writes its output files (a file or a directory: see the command's help).
+    #[arg(long, value_name = "PATH")]
+    pub out: Option<PathBuf>,
+    /// Replace the output files if they exist (without it, an existing one stops the command
+    /// before it does any work).
+    #[arg(long)]
+    pub force: bool,
+}
+
+impl OutputArgs {
+    /// [`Overwrite::Replace`] with `--force`, else [`Overwrite::Refuse`].
+    pub fn overwrite(&self) -> Overwrite {
+        Overwrite::from_force(self.force)
+    }
+}
 
 /// What to do with an output file that exists already.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

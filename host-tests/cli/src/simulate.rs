@@ -7,14 +7,14 @@
 //! `--out` is checked before the simulation runs; an existing file is replaced only with
 //! `--force`, and the file is written whole or not at all ([`crate::output`]).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use clap::{Args, ValueEnum};
 use ema_monitor::{EffectId, FaultVector, ModelEffects, Profile, FAULT_COUNT};
 use ema_reference::{simulate, Effect, Effects, SimConfig};
 
 use crate::error::CliError;
-use crate::output::{check_file, Overwrite};
+use crate::output::{check_file, OutputArgs};
 use crate::profile_file::read_profile;
 use crate::recording_io::{write_recording, Recording};
 
@@ -29,6 +29,8 @@ pub enum Noise {
 
 /// Arguments of `ema simulate`.
 #[derive(Args, Debug, Clone)]
+#[command(mut_arg("out", |a| a.required(true).value_name("FILE.csv")
+    .help("Output CSV file (written to a temporary file beside it, renamed into place when complete)")))]
 pub struct SimulateArgs {
     /// Fault vector k1..k8 in [0, 1]: friction, backlash, short_a, short_b, short_c, eccentricity,
     /// ecc_phase, gain (healthy: 0,0,0,0,0,0,0.5,0.5).
@@ -49,12 +51,9 @@ pub struct SimulateArgs {
     /// Seed of the noise generator (same seed, same file).
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub seed: u64,
-    /// Output CSV file (written to a temporary file beside it, renamed into place when complete).
-    #[arg(long, value_name = "FILE.csv")]
-    pub out: PathBuf,
-    /// Replace --out if it exists (without it, an existing file stops the command before it runs).
-    #[arg(long)]
-    pub force: bool,
+    /// `--out FILE.csv` (required) and `--force`.
+    #[command(flatten)]
+    pub output: OutputArgs,
 }
 
 /// Parses `k1,…,k8`: exactly eight numbers in `[0, 1]`.
@@ -146,8 +145,9 @@ pub fn config(args: &SimulateArgs) -> Result<SimConfig, CliError> {
 /// Runs `ema simulate`; returns the one-line summary printed on success.
 pub fn run(args: &SimulateArgs) -> Result<String, CliError> {
     let cfg = config(args)?;
-    let overwrite = Overwrite::from_force(args.force);
-    check_file(&args.out, overwrite)?;
+    let overwrite = args.output.overwrite();
+    let out = args.output.out.as_deref().ok_or_else(|| CliError::flag("--out", "give the output CSV file"))?;
+    check_file(out, overwrite)?;
     let result = simulate(&cfg).map_err(|e| CliError::Simulation(e.to_string()))?;
     let k = cfg.faults.0.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(",");
     let fx: Vec<String> = cfg.effects.active().map(|(e, s)| format!("{e}={s}")).collect();
@@ -160,13 +160,13 @@ pub fn run(args: &SimulateArgs) -> Result<String, CliError> {
         format!("sample_rate_hz: {}", ema_monitor::trace::SAMPLE_RATE_HZ),
     ];
     let rec = Recording::from_reference(&result, comments);
-    write_recording(&args.out, &rec, overwrite)?;
+    write_recording(out, &rec, overwrite)?;
     Ok(format!(
         "wrote {} samples ({} s at {} Hz) to {}",
         rec.len(),
         cfg.profile.duration_s(),
         ema_monitor::trace::SAMPLE_RATE_HZ,
-        args.out.display()
+        out.display()
     ))
 }
 

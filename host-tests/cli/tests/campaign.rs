@@ -23,8 +23,8 @@ fn args(runs: u32, modes: &[&str]) -> CampaignArgs {
         threads: Some(1),
         modes: modes.iter().map(|m| m.to_string()).collect(),
         json: false,
-        out: None,
-        force: false,
+        output: Default::default(),
+        progress: Default::default(),
     }
 }
 
@@ -133,9 +133,13 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
         refined.iter().map(|r| r.evaluations).collect::<Vec<_>>()
     );
     let summary = summarize(&one);
-    let svg = bar_chart("t", "Err %", &summary, |c| c.mean_err_percent);
+    let svg = bar_chart("t", "Err (%)", &summary, |c| c.mean_err_percent).expect("draws");
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>") && svg.contains("<rect"));
     assert_eq!(svg.matches("<svg").count(), 1);
+    // the legend names every series, the axis its unit
+    for needle in ["pso low", "pso high", "Err (%)", "friction", "gain"] {
+        assert!(svg.contains(needle), "{needle} missing from the chart");
+    }
 }
 
 /// The floor drops exactly the faults too weak to pass model selection's criterion at the truth.

@@ -14,7 +14,7 @@ fn discover_writes_the_summary_json_plots_and_the_promoted_model() {
     assert_eq!(v["named"][0]["effect"], "viscous", "{v}");
     let confidence = v["named"][0]["confidence"].as_f64().unwrap();
     assert!((0.0..=1.0).contains(&confidence));
-    assert!(v["rms_after"].as_f64().unwrap() < v["rms_before"].as_f64().unwrap());
+    assert!(v["rms_after_A"].as_f64().unwrap() < v["rms_before_A"].as_f64().unwrap());
     assert!(!v["windows"].as_array().unwrap().is_empty());
     assert!(v["err_percent_after"].as_f64().unwrap() < v["err_percent_before"].as_f64().unwrap());
     for f in ["discovery.json", "residual.csv", "fit.svg", "residual.svg", "model-config.txt"] {

@@ -168,7 +168,7 @@ fn bad_flags_are_refused() {
 
 /// The JSON report: `status`, `k` (8 numbers in [0, 1]; `k_not_a_diagnosis` when the status is
 /// INCONCLUSIVE or SENSOR_FAULT, as on these short or few-iteration runs: returned as `k`),
-/// `fitness`, `evaluations`, `untested_groups`, `seconds`.
+/// `fitness_A2`, `evaluations`, `untested_groups`, `identification_s`.
 fn check_json(out: &str, max_iterations: u64) -> serde_json::Value {
     assert_eq!(out.trim().lines().count(), 1, "{out}");
     let mut v: serde_json::Value = serde_json::from_str(out.trim()).expect("valid JSON");
@@ -182,9 +182,9 @@ fn check_json(out: &str, max_iterations: u64) -> serde_json::Value {
     let k = v["k"].as_array().unwrap_or_else(|| panic!("no k in {v}"));
     assert_eq!(k.len(), FAULT_COUNT, "{v}");
     assert!(k.iter().all(|x| x.as_f64().is_some_and(|x| (0.0..=1.0).contains(&x))), "{v}");
-    let fitness = v["fitness"].as_f64().unwrap_or_else(|| panic!("no fitness in {v}"));
+    let fitness = v["fitness_A2"].as_f64().unwrap_or_else(|| panic!("no fitness_A2 in {v}"));
     assert!(fitness.is_finite() && fitness > 0.0, "{v}");
-    let seconds = v["seconds"].as_f64().unwrap_or_else(|| panic!("no seconds in {v}"));
+    let seconds = v["identification_s"].as_f64().unwrap_or_else(|| panic!("no identification_s in {v}"));
     assert!(seconds.is_finite() && seconds >= 0.0, "{v}");
     let iterations = v["iterations"].as_u64().unwrap_or_else(|| panic!("no iterations in {v}"));
     assert!((1..=max_iterations).contains(&iterations), "{v}");
@@ -209,7 +209,7 @@ fn firmware_trace_identifies_to_json() {
     let v = check_json(&accepted(&args), 5);
     // same seed, same answer (the parity check relies on it)
     let again = check_json(&accepted(&args), 5);
-    assert_eq!((&v["k"], &v["fitness"]), (&again["k"], &again["fitness"]));
+    assert_eq!((&v["k"], &v["fitness_A2"]), (&again["k"], &again["fitness_A2"]));
 }
 
 #[test]
@@ -234,7 +234,7 @@ fn differential_evolution_is_selectable_and_deterministic() {
     // count and bounds checks of check_json hold for DE too.
     let args = ["identify", s(&p), "--algorithm", "de", "--json", "--max-iterations", "20", "--paper-only"];
     let de = check_json(&accepted(&args), 20);
-    assert_eq!((&de["k"], &de["fitness"]), (&check_json(&accepted(&args), 20)["k"], &de["fitness"]));
+    assert_eq!((&de["k"], &de["fitness_A2"]), (&check_json(&accepted(&args), 20)["k"], &de["fitness_A2"]));
     // A different optimizer from the PSO: same input, same seed, another search.
     let pso = check_json(&accepted(&["identify", s(&p), "--json", "--max-iterations", "20", "--paper-only"]), 20);
     assert_ne!(de["k"], pso["k"]);

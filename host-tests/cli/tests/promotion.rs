@@ -69,7 +69,7 @@ fn model_config_switches_the_effects_on() {
     let viscous = json(&accepted(&with));
     assert_eq!(viscous["model_effects"], serde_json::json!({"viscous": 0.5}));
     // the effect term is in the model: the same search scores differently
-    assert_ne!(viscous["fitness"], none["fitness"]);
+    assert_ne!(viscous["fitness_A2"], none["fitness_A2"]);
     // readable report names the effects
     let text = accepted(&["identify", "--firmware-trace", s(&trace), "--max-iterations", "2", "--model-config", s(&p)]);
     assert!(text.contains("model effects: viscous 0.5"), "{text}");
@@ -115,7 +115,7 @@ fn packed_effect_recording_identifies_like_the_csv() {
     let packed = json(&accepted(&["identify", "--firmware-trace", s(&out), "--json"]));
     let direct = json(&accepted(&["identify", s(&csv), "--json", "--max-iterations", "30"]));
     let k1 = |v: &serde_json::Value| v["k"][0].as_f64().expect("k1");
-    let fit = |v: &serde_json::Value| v["fitness"].as_f64().expect("fitness");
+    let fit = |v: &serde_json::Value| v["fitness_A2"].as_f64().expect("fitness");
     assert!((k1(&packed) - k1(&direct)).abs() < 0.05, "friction: packed {packed}, CSV {direct}");
     assert!((fit(&packed) - fit(&direct)).abs() < 0.1 * fit(&direct), "fitness: packed {packed}, CSV {direct}");
     assert!((k1(&packed) - 0.25).abs() < 0.05, "friction 0.25 recorded: {packed}");

@@ -63,6 +63,7 @@ use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::fitness::CurrentFit;
 use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::{EffectId, EmaParams, FaultVector, ModelEffects, Profile};
+use indicatif::ProgressBar;
 
 pub use fitting::{
     fault_parameter_count, fit_model, parameter_count, ModelFit, Part, PartFit, CHUNK_BLOCKS, MIN_SEVERITY,
@@ -79,7 +80,8 @@ pub use residual::{above_noise_a, moving_mean, series, Series, CLEAN_FLOOR_A, NO
 
 use crate::error::CliError;
 use crate::identify::{condition_recording, identify_trace, HOST_WINDOW};
-use crate::output::{prepare_dir, Overwrite};
+use crate::output::{prepare_dir, OutputArgs};
+use crate::progress::{self, ProgressArgs};
 use crate::recording_io::read_recording;
 use crate::simulate::{parse_faults, resolve_profile};
 use localisation::window_rms;
@@ -88,6 +90,8 @@ use residual::{rms, structural_energy};
 
 /// Arguments of `ema discover`.
 #[derive(Args, Debug, Clone)]
+#[command(mut_arg("out", |a| a.value_name("DIR").help("Write discovery.json, residual.csv, fit.svg, \
+    residual.svg and model-config.txt here (created if needed; checked before the fits start)")))]
 pub struct DiscoverArgs {
     /// Recording CSV (time_s, command_rad, position_rad, ia_A, ib_A, ic_A at 10 kHz).
     pub file: PathBuf,
@@ -100,20 +104,18 @@ pub struct DiscoverArgs {
     /// Print JSON instead of the readable summary.
     #[arg(long)]
     pub json: bool,
-    /// Write discovery.json, residual.csv, fit.svg, residual.svg and model-config.txt here
-    /// (created if needed; checked before the fits start).
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<PathBuf>,
-    /// Replace the files of --out DIR if they exist (without it, an existing one stops the command
-    /// before the fits start).
-    #[arg(long)]
-    pub force: bool,
+    /// `--out DIR` and `--force`.
+    #[command(flatten)]
+    pub output: OutputArgs,
     /// Seed of the optimizers.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Worker threads for the candidate fits (default: all cores).
+    /// Worker threads for the candidate fits (default: all cores). The results do not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
+    /// `--quiet`.
+    #[command(flatten)]
+    pub progress: ProgressArgs,
 }
 
 /// Everything `ema discover` found.
@@ -198,12 +200,30 @@ pub fn discover<const W: usize>(
     seed: u64,
     threads: usize,
 ) -> Result<Discovery, CliError> {
+    discover_with_progress(trace, profile, file, truth, seed, threads, &ProgressBar::hidden())
+}
+
+/// [`discover`], advancing `bar` by one step per fit: the current model, the reference of the
+/// fit part, each round's candidates (added to the bar's length as a round starts), the refit
+/// and the on-board diagnoses; its message names the step.
+pub fn discover_with_progress<const W: usize>(
+    trace: &MeasuredTrace<W>,
+    profile: &Profile,
+    file: &Path,
+    truth: Option<FaultVector>,
+    seed: u64,
+    threads: usize,
+    bar: &ProgressBar,
+) -> Result<Discovery, CliError> {
     let start = Instant::now();
+    bar.set_length(4);
+    bar.set_message("fitting the current model");
     let params = EmaParams::NOMINAL;
     // 1. the current model, as on board (whole recording)
     // Every sample at full weight: the discrepancies discover looks for live in the fast regime too.
     let config = IdentifyConfig { seed, fast_regime_weight: 1.0, ..IdentifyConfig::onboard() };
     let report = identify_trace(trace, profile, &config, file)?.report;
+    bar.inc(1);
     let mut evaluations = u64::from(report.evaluations);
     let whole = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::All);
     let before = ModelFit {
@@ -223,10 +243,12 @@ pub fn discover<const W: usize>(
     let mut on: Vec<EffectId> = Vec::new();
     let mut named = Vec::new();
     let mut rounds = Vec::new();
+    bar.set_message("fitting the reference on the fit part");
     let mut base_fit = fit_model(trace, profile, &on, &before, Part::Fit, n_eff_part);
+    bar.inc(1);
     evaluations += u64::from(base_fit.evaluations);
     while named.len() < MAX_NAMED {
-        let (round, reference) = search_round(trace, profile, &on, &base_fit, n_eff_part, threads);
+        let (round, reference) = search_round(trace, profile, &on, &base_fit, n_eff_part, threads, bar);
         evaluations += round.evaluations();
         let winner = round.named;
         let winner_fit = winner.and(round.candidates.first()).map(|c| c.fit.clone());
@@ -243,7 +265,7 @@ pub fn discover<const W: usize>(
                 if let Some((p, p_fit, p_confidence)) = pinned.filter(|_| named.len() + 2 <= MAX_NAMED) {
                     let mut trial: Vec<EffectId> = on.clone();
                     trial.push(p);
-                    let (pair_round, _) = search_round(trace, profile, &trial, &p_fit, n_eff_part, threads);
+                    let (pair_round, _) = search_round(trace, profile, &trial, &p_fit, n_eff_part, threads, bar);
                     evaluations += pair_round.evaluations();
                     let pair = pair_round.named.zip(pair_round.candidates.first().map(|c| c.fit.clone()));
                     let p_severity = pair.as_ref().map_or(0.0, |(_, fit)| fit.effects.get(p));
@@ -266,13 +288,16 @@ pub fn discover<const W: usize>(
     // puts at its bound is withdrawn, as a round would have refused it; then they must shrink the
     // structural gap, or the last one named is withdrawn (its evidence came from comparing fits of
     // the fit part only); the rest are refitted
+    bar.set_message("refitting the named effects on the whole recording");
     let energy_before = structural_energy(&series_before);
     let mut withdrawn = Vec::new();
     let (after, series_after) = loop {
         if on.is_empty() {
             break (before.clone(), series_before.clone());
         }
+        bar.inc_length(1);
         let fit = fit_model(trace, profile, &on, &base_fit, Part::All, 2.0 * n_eff_part);
+        bar.inc(1);
         evaluations += u64::from(fit.evaluations);
         let (effect, why) = match on.iter().find(|e| fit.effects.get(**e) >= PINNED_SEVERITY) {
             Some(&pinned) => (pinned, Withdrawal::AtBound(fit.effects.get(pinned))),
@@ -296,8 +321,10 @@ pub fn discover<const W: usize>(
         base_fit.effects = base_fit.effects.without(effect);
     };
     // 5. the diagnosis the firmware gives, before and after promoting the named effects
+    bar.set_message("the on-board diagnosis");
     let onboard = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
     let onboard_before = identify_trace(trace, profile, &onboard, file)?.report;
+    bar.inc(1);
     evaluations += u64::from(onboard_before.evaluations);
     let onboard_after = if on.is_empty() {
         onboard_before.faults
@@ -307,6 +334,7 @@ pub fn discover<const W: usize>(
         evaluations += u64::from(promoted.evaluations);
         promoted.faults
     };
+    bar.inc(1);
     for w in &mut windows {
         w.rms_after_a = window_rms(&series_after, w.start_s, w.end_s);
     }
@@ -336,16 +364,19 @@ pub fn discover<const W: usize>(
 pub fn run(args: &DiscoverArgs) -> Result<String, CliError> {
     let profile = resolve_profile(&args.profile)?;
     let truth = args.truth.as_deref().map(parse_faults).transpose()?;
-    let overwrite = Overwrite::from_force(args.force);
-    if let Some(dir) = &args.out {
+    let overwrite = args.output.overwrite();
+    if let Some(dir) = &args.output.out {
         prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
     }
     let recording = read_recording(&args.file).map_err(CliError::Recording)?;
     let trace = condition_recording(&recording, &args.file, &profile)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let d = discover::<HOST_WINDOW>(&trace, &profile, &args.file, truth, args.seed, threads)?;
-    if let Some(dir) = &args.out {
+    let bar = progress::bar(4, "fits", args.progress.visible());
+    let d = discover_with_progress::<HOST_WINDOW>(&trace, &profile, &args.file, truth, args.seed, threads, &bar);
+    bar.finish_and_clear();
+    let d = d?;
+    if let Some(dir) = &args.output.out {
         write_outputs(dir, &d, overwrite)?;
     }
-    Ok(if args.json { to_json(&d).to_string() } else { summary(&d) })
+    Ok(if args.json { to_json(&d) } else { summary(&d) })
 }

@@ -4,6 +4,8 @@
 
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::{EffectId, EmaParams, ModelEffects, Profile};
+use indicatif::ProgressBar;
+use rayon::prelude::*;
 
 use super::fitting::{fault_parameter_count, fit_model, parameter_count, ModelFit, Part, PartFit, MIN_SEVERITY};
 use super::residual::{series, structural_energy, NOISE_FLOOR_A};
@@ -184,27 +186,30 @@ pub(super) fn search_round<const W: usize>(
     base_fit: &ModelFit,
     n_eff_part: f64,
     threads: usize,
+    bar: &ProgressBar,
 ) -> (Round, ModelFit) {
     let effects: Vec<EffectId> = EffectId::ALL.iter().copied().filter(|e| !on.contains(e)).collect();
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let results = std::sync::Mutex::new(Vec::new());
-    std::thread::scope(|scope| {
-        for _ in 0..threads.max(1) {
-            scope.spawn(|| loop {
-                let j = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                let Some(&effect) = effects.get(j) else { break };
-                let mut free: Vec<EffectId> = on.to_vec();
-                free.push(effect);
-                let fit = fit_model(trace, profile, &free, base_fit, Part::Fit, n_eff_part);
-                if let Ok(mut r) = results.lock() {
-                    r.push((effect, fit));
-                }
-            });
-        }
-    });
-    let mut fits: Vec<(EffectId, ModelFit)> = results.into_inner().unwrap_or_default();
-    // in library order, not in the order the threads finished: ties (candidates whose effect
-    // ended at 0, the reference among equal errors) then come out the same on every run
+    bar.inc_length(effects.len() as u64);
+    bar.set_message(format!(
+        "candidate effects on top of [{}]",
+        on.iter().map(|e| e.id()).collect::<Vec<_>>().join(", ")
+    ));
+    let fit_one = |effect: &EffectId| {
+        let mut free: Vec<EffectId> = on.to_vec();
+        free.push(*effect);
+        let fit = fit_model(trace, profile, &free, base_fit, Part::Fit, n_eff_part);
+        bar.inc(1);
+        (*effect, fit)
+    };
+    // A rayon pool of `threads` workers; without one (the system refuses threads) the fits run
+    // here, one after the other. Either way the fits come back in library order (`collect` keeps
+    // the input's order), so ties (candidates whose effect ended at 0, the reference among equal
+    // errors) come out the same on every run and for every thread count.
+    let mut fits: Vec<(EffectId, ModelFit)> = match rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build()
+    {
+        Ok(pool) => pool.install(|| effects.par_iter().map(fit_one).collect()),
+        Err(_) => effects.iter().map(fit_one).collect(),
+    };
     fits.sort_by_key(|(effect, _)| *effect);
     let fit_part = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::Fit);
     let held = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::HeldOut);

@@ -5,14 +5,15 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use ema_monitor::FaultVector;
-use serde_json::json;
+use serde::Serialize;
 
 use super::naming::same_signature;
 use super::residual::{above_noise_a, moving_mean, NOISE_FLOOR_A, SMOOTH_BLOCKS};
 use super::{Discovery, Withdrawal};
 use crate::error::CliError;
 use crate::output::{self, Overwrite};
-use crate::svg::line_plot;
+use crate::plots::{line_plot, Line};
+use crate::schema::Document;
 
 /// The model configuration the firmware build accepts (`EMA_MODEL_CONFIG`).
 pub fn model_config(d: &Discovery) -> String {
@@ -31,51 +32,260 @@ fn err_percent(d: &Discovery, k: &FaultVector) -> Option<f64> {
     d.truth.map(|t| f64::from(k.paper_error_percent(&t)))
 }
 
-/// The JSON report.
-pub fn to_json(d: &Discovery) -> serde_json::Value {
-    json!({
-        "file": d.file.display().to_string(),
-        "named": d.named.iter().map(|(e, s, c)| json!({"effect": e.id(), "severity": s, "confidence": c, "same_signature": same_signature(*e)})).collect::<Vec<_>>(),
-        "verdict": verdict(d),
-        "unexplained": d.unexplained,
-        "withdrawn": d.withdrawn.iter().map(|(e, why)| match why {
-            Withdrawal::GapNotShrunk => json!({"effect": e.id(), "reason": "gap_not_shrunk"}),
-            Withdrawal::AtBound(s) => json!({"effect": e.id(), "reason": "at_bound", "severity": s}),
-        }).collect::<Vec<_>>(),
-        "rms_before": d.rms_before_a(),
-        "rms_after": d.rms_after_a(),
-        "raw_rms_before": d.raw_rms_before_a(),
-        "raw_rms_after": d.raw_rms_after_a(),
-        "noise_floor": NOISE_FLOOR_A,
-        "above_noise_before": above_noise_a(d.rms_before_a()),
-        "above_noise_after": above_noise_a(d.rms_after_a()),
-        "residual": format!("I_3eq block means minus model, averaged over {SMOOTH_BLOCKS} blocks (2 ms); raw_*: not averaged; A"),
-        "windows": d.windows.iter().map(|w| json!({"start_s": w.start_s, "end_s": w.end_s, "share": w.share, "rms_before": w.rms_before_a, "rms_after": w.rms_after_a})).collect::<Vec<_>>(),
-        "regimes": d.regimes.iter().map(|r| json!({"family": r.family, "regime": r.name, "time_share": r.time_share, "energy_share": r.energy_share})).collect::<Vec<_>>(),
-        "orders": d.orders.iter().map(|(n, s)| json!({"order": n, "share": s})).collect::<Vec<_>>(),
-        "rounds": d.rounds.iter().map(|r| r.candidates.iter().map(|c| json!({"effect": c.effect.id(), "severity": c.severity, "bic_fit": finite(c.bic_fit), "fit_gain": finite(c.fit_gain), "bic_held_out": finite(c.bic_held_out), "gap_share": c.gap_share, "above_noise_share": c.above_noise_share, "replaces_faults": c.replaces_faults, "bic_own_held_out": finite(c.bic_own_held_out), "k": c.fit.k.0})).collect::<Vec<_>>()).collect::<Vec<_>>(),
-        "k_before": d.before.k.0,
-        "k_after": d.after.k.0,
-        "fitness_before": d.before.error,
-        "fitness_after": d.after.error,
-        "err_percent_before": err_percent(d, &d.before.k),
-        "err_percent_after": err_percent(d, &d.after.k),
-        "k_onboard_before": d.onboard_before.0,
-        "k_onboard_after": d.onboard_after.0,
-        "err_percent_onboard_before": err_percent(d, &d.onboard_before),
-        "err_percent_onboard_after": err_percent(d, &d.onboard_after),
-        "seconds": d.seconds,
-        "evaluations": d.evaluations,
-    })
+/// A named effect in the JSON report.
+#[derive(Clone, Debug, Serialize)]
+pub struct NamedJson {
+    /// Effect ID ([`ema_monitor::EffectId::id`]).
+    pub effect: &'static str,
+    /// Fitted severity (the effect's own scale, 0 = absent).
+    pub severity: f32,
+    /// Posterior weight among "no effect" and the round's candidates, in [0, 1].
+    pub confidence: f64,
+    /// Causes outside the library that leave the same signature on this manoeuvre.
+    pub same_signature: &'static [&'static str],
 }
 
-/// `x` as a JSON number, `null` when not finite (JSON has no infinities).
-fn finite(x: f64) -> serde_json::Value {
-    if x.is_finite() {
-        json!(x)
-    } else {
-        serde_json::Value::Null
+/// A withdrawn effect in the JSON report.
+#[derive(Clone, Debug, Serialize)]
+pub struct WithdrawnJson {
+    /// Effect ID.
+    pub effect: &'static str,
+    /// `gap_not_shrunk` or `at_bound`.
+    pub reason: &'static str,
+    /// The refit's severity, under `at_bound` (else absent).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub severity: Option<f32>,
+}
+
+/// A hot window in the JSON report.
+#[derive(Clone, Debug, Serialize)]
+pub struct WindowJson {
+    /// Start (s).
+    pub start_s: f64,
+    /// End (s).
+    pub end_s: f64,
+    /// Share of the structural residual energy, in [0, 1].
+    pub share: f64,
+    /// Structural residual RMS in the window before (A).
+    #[serde(rename = "rms_before_A")]
+    pub rms_before_a: f64,
+    /// The same after adding the named effects (A).
+    #[serde(rename = "rms_after_A")]
+    pub rms_after_a: f64,
+}
+
+/// An operating regime's shares in the JSON report.
+#[derive(Clone, Debug, Serialize)]
+pub struct RegimeJson {
+    /// Family (`direction`, `speed`, ...).
+    pub family: &'static str,
+    /// Regime name.
+    pub regime: &'static str,
+    /// Share of the time, in [0, 1].
+    pub time_share: f64,
+    /// Share of the structural residual energy, in [0, 1].
+    pub energy_share: f64,
+}
+
+/// A rotor-angle order's share in the JSON report.
+#[derive(Clone, Debug, Serialize)]
+pub struct OrderJson {
+    /// Order name.
+    pub order: &'static str,
+    /// Share of the raw residual energy, in [0, 1].
+    pub share: f64,
+}
+
+/// A round's candidate in the JSON report (the fields of [`super::Candidate`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct CandidateJson {
+    /// Effect ID.
+    pub effect: &'static str,
+    /// Fitted severity.
+    pub severity: f32,
+    /// In-sample ΔBIC (null when not finite).
+    pub bic_fit: f64,
+    /// In-sample gain without the parameter penalty.
+    pub fit_gain: f64,
+    /// Held-out ΔBIC.
+    pub bic_held_out: f64,
+    /// Share of the gap removed.
+    pub gap_share: f64,
+    /// Share of the gap above the sensor noise removed.
+    pub above_noise_share: f64,
+    /// The fit leaves fewer fault parameters than the reference.
+    pub replaces_faults: bool,
+    /// The effect's own held-out ΔBIC.
+    pub bic_own_held_out: f64,
+    /// The candidate fit's fault vector.
+    pub k: [f32; 8],
+}
+
+/// The JSON report of `ema discover` (`--json`, `discovery.json`); `docs/output-schema.md`
+/// documents every key.
+#[derive(Clone, Debug, Serialize)]
+pub struct DiscoveryJson {
+    /// The named effects.
+    pub named: Vec<NamedJson>,
+    /// [`verdict`].
+    pub verdict: String,
+    /// Where a residual no library effect explains remains (null: none).
+    pub unexplained: Option<String>,
+    /// Effects withdrawn at step 4.
+    pub withdrawn: Vec<WithdrawnJson>,
+    /// Structural residual RMS before (A).
+    #[serde(rename = "rms_before_A")]
+    pub rms_before_a: f64,
+    /// Structural residual RMS after (A).
+    #[serde(rename = "rms_after_A")]
+    pub rms_after_a: f64,
+    /// Raw residual RMS before (A).
+    #[serde(rename = "raw_rms_before_A")]
+    pub raw_rms_before_a: f64,
+    /// Raw residual RMS after (A).
+    #[serde(rename = "raw_rms_after_A")]
+    pub raw_rms_after_a: f64,
+    /// The sensor noise no model removes (A).
+    #[serde(rename = "noise_floor_A")]
+    pub noise_floor_a: f64,
+    /// Structural RMS above the noise floor before (A).
+    #[serde(rename = "above_noise_before_A")]
+    pub above_noise_before_a: f64,
+    /// The same after (A).
+    #[serde(rename = "above_noise_after_A")]
+    pub above_noise_after_a: f64,
+    /// What the residual is.
+    pub residual: String,
+    /// The hot windows.
+    pub windows: Vec<WindowJson>,
+    /// The regimes' shares.
+    pub regimes: Vec<RegimeJson>,
+    /// The rotor-angle orders' shares.
+    pub orders: Vec<OrderJson>,
+    /// Every round's candidates, best first.
+    pub rounds: Vec<Vec<CandidateJson>>,
+    /// Fault vector of the current model's fit.
+    pub k_before: [f32; 8],
+    /// Fault vector with the named effects.
+    pub k_after: [f32; 8],
+    /// Fitness before (A²).
+    #[serde(rename = "fitness_before_A2")]
+    pub fitness_before_a2: f32,
+    /// Fitness after (A²).
+    #[serde(rename = "fitness_after_A2")]
+    pub fitness_after_a2: f32,
+    /// Err% of `k_before` against `--truth` (null without it).
+    pub err_percent_before: Option<f64>,
+    /// Err% of `k_after` against `--truth`.
+    pub err_percent_after: Option<f64>,
+    /// The on-board diagnosis before.
+    pub k_onboard_before: [f32; 8],
+    /// The on-board diagnosis with the named effects promoted.
+    pub k_onboard_after: [f32; 8],
+    /// Err% of `k_onboard_before` against `--truth`.
+    pub err_percent_onboard_before: Option<f64>,
+    /// Err% of `k_onboard_after` against `--truth`.
+    pub err_percent_onboard_after: Option<f64>,
+    /// Wall time of the whole workflow (s).
+    pub elapsed_s: f64,
+    /// Objective evaluations in all.
+    pub evaluations: u64,
+}
+
+/// The JSON report's body.
+pub fn json_body(d: &Discovery) -> DiscoveryJson {
+    DiscoveryJson {
+        named: d
+            .named
+            .iter()
+            .map(|(e, s, c)| NamedJson {
+                effect: e.id(),
+                severity: *s,
+                confidence: *c,
+                same_signature: same_signature(*e),
+            })
+            .collect(),
+        verdict: verdict(d),
+        unexplained: d.unexplained.clone(),
+        withdrawn: d
+            .withdrawn
+            .iter()
+            .map(|(e, why)| match why {
+                Withdrawal::GapNotShrunk => WithdrawnJson { effect: e.id(), reason: "gap_not_shrunk", severity: None },
+                Withdrawal::AtBound(s) => WithdrawnJson { effect: e.id(), reason: "at_bound", severity: Some(*s) },
+            })
+            .collect(),
+        rms_before_a: d.rms_before_a(),
+        rms_after_a: d.rms_after_a(),
+        raw_rms_before_a: d.raw_rms_before_a(),
+        raw_rms_after_a: d.raw_rms_after_a(),
+        noise_floor_a: NOISE_FLOOR_A,
+        above_noise_before_a: above_noise_a(d.rms_before_a()),
+        above_noise_after_a: above_noise_a(d.rms_after_a()),
+        residual: format!(
+            "I_3eq block means minus model, averaged over {SMOOTH_BLOCKS} blocks (2 ms); raw_*: not averaged; A"
+        ),
+        windows: d
+            .windows
+            .iter()
+            .map(|w| WindowJson {
+                start_s: w.start_s,
+                end_s: w.end_s,
+                share: w.share,
+                rms_before_a: w.rms_before_a,
+                rms_after_a: w.rms_after_a,
+            })
+            .collect(),
+        regimes: d
+            .regimes
+            .iter()
+            .map(|r| RegimeJson {
+                family: r.family,
+                regime: r.name,
+                time_share: r.time_share,
+                energy_share: r.energy_share,
+            })
+            .collect(),
+        orders: d.orders.iter().map(|(n, s)| OrderJson { order: n, share: *s }).collect(),
+        rounds: d
+            .rounds
+            .iter()
+            .map(|r| {
+                r.candidates
+                    .iter()
+                    .map(|c| CandidateJson {
+                        effect: c.effect.id(),
+                        severity: c.severity,
+                        bic_fit: c.bic_fit,
+                        fit_gain: c.fit_gain,
+                        bic_held_out: c.bic_held_out,
+                        gap_share: c.gap_share,
+                        above_noise_share: c.above_noise_share,
+                        replaces_faults: c.replaces_faults,
+                        bic_own_held_out: c.bic_own_held_out,
+                        k: c.fit.k.0,
+                    })
+                    .collect()
+            })
+            .collect(),
+        k_before: d.before.k.0,
+        k_after: d.after.k.0,
+        fitness_before_a2: d.before.error,
+        fitness_after_a2: d.after.error,
+        err_percent_before: err_percent(d, &d.before.k),
+        err_percent_after: err_percent(d, &d.after.k),
+        k_onboard_before: d.onboard_before.0,
+        k_onboard_after: d.onboard_after.0,
+        err_percent_onboard_before: err_percent(d, &d.onboard_before),
+        err_percent_onboard_after: err_percent(d, &d.onboard_after),
+        elapsed_s: d.seconds,
+        evaluations: d.evaluations,
     }
+}
+
+/// The JSON report: [`DiscoveryJson`] in a [`Document`] whose `input_file` is the recording.
+pub fn to_json(d: &Discovery) -> String {
+    Document::new(Some(&d.file), json_body(d)).to_json()
 }
 
 /// The effects that had the evidence but fitted at their bound, for the verdict.
@@ -263,25 +473,44 @@ pub fn write_outputs(dir: &Path, d: &Discovery, overwrite: Overwrite) -> Result<
     let model_before = moving_mean(&b.model_a, SMOOTH_BLOCKS);
     let model_after = moving_mean(&a.model_a, SMOOTH_BLOCKS);
     let hot: Vec<(f64, f64)> = d.windows.iter().map(|w| (w.start_s, w.end_s)).collect();
+    let shaded = "windows holding half the residual energy";
+    let named: Vec<String> = d.named.iter().map(|(e, s, _)| format!("{} {s:.2}", e.id())).collect();
+    let after = if named.is_empty() {
+        "model after (no effect named)".to_string()
+    } else {
+        format!("model after (+ {})", named.join(", "))
+    };
+    let residual_after = if named.is_empty() {
+        "after (no effect named)".to_string()
+    } else {
+        format!("after (+ {})", named.join(", "))
+    };
     let fit = line_plot(
         "Equivalent current I_3eq (2 ms means): measured vs model",
-        "A",
+        "I_3eq (A)",
         &b.time_s,
         &[
-            ("measured", "#222222", &measured),
-            ("model before", "#d62728", &model_before),
-            ("model after", "#1f77b4", &model_after),
+            Line { name: "measured", colour: (34, 34, 34), values: &measured },
+            Line { name: "model before", colour: (214, 39, 40), values: &model_before },
+            Line { name: &after, colour: (31, 119, 180), values: &model_after },
         ],
         &hot,
-    );
+        shaded,
+    )
+    .map_err(|source| CliError::Io { path: dir.join("fit.svg"), source })?;
     let residual = line_plot(
         "Structural residual (measured - model, 2 ms means)",
-        "A",
+        "residual (A)",
         &b.time_s,
-        &[("before", "#d62728", &b.structural_a), ("after", "#1f77b4", &a.structural_a)],
+        &[
+            Line { name: "before", colour: (214, 39, 40), values: &b.structural_a },
+            Line { name: &residual_after, colour: (31, 119, 180), values: &a.structural_a },
+        ],
         &hot,
-    );
-    let contents = [to_json(d).to_string(), model_config(d), csv, fit, residual];
+        shaded,
+    )
+    .map_err(|source| CliError::Io { path: dir.join("residual.svg"), source })?;
+    let contents = [to_json(d), model_config(d), csv, fit, residual];
     let paths = OUTPUT_FILES.map(|name| dir.join(name));
     let files: Vec<(&Path, &[u8])> = paths.iter().zip(&contents).map(|(p, c)| (p.as_path(), c.as_bytes())).collect();
     output::write_files(&files, overwrite)
