@@ -1,7 +1,9 @@
 //! `ema discover` on the command line: outputs and refusals.
 
 mod common;
-use common::{accepted, refused, s, scratch};
+#[path = "common/schema.rs"]
+mod schema;
+use common::{accepted, ema, refused, s, scratch};
 
 #[test]
 fn discover_writes_the_summary_json_plots_and_the_promoted_model() {
@@ -9,8 +11,17 @@ fn discover_writes_the_summary_json_plots_and_the_promoted_model() {
     let csv = dir.join("viscous.csv");
     accepted(&["simulate", "--effect", "viscous=0.6", "--seed", "4", "--out", s(&csv)]);
     let out = dir.join("out");
-    let json = accepted(&["discover", s(&csv), "--json", "--out", s(&out), "--truth", "0,0,0,0,0,0,0.5,0.5"]);
-    let v: serde_json::Value = serde_json::from_str(&json).expect("JSON on stdout");
+    let run = ema(&["discover", s(&csv), "--json", "--out", s(&out), "--truth", "0,0,0,0,0,0,0.5,0.5"]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    // stdout is not a terminal: no progress bar
+    assert!(stderr.is_empty(), "{stderr:?}");
+    let v: serde_json::Value = serde_json::from_slice(&run.stdout).expect("JSON on stdout");
+    schema::check_json("`ema discover --json` and `discovery.json`", &[&v]);
+    let written: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("discovery.json")).unwrap()).expect("JSON");
+    assert_eq!(written["named"], v["named"]);
+    assert_eq!(v["input_file"], s(&csv));
     assert_eq!(v["named"][0]["effect"], "viscous", "{v}");
     let confidence = v["named"][0]["confidence"].as_f64().unwrap();
     assert!((0.0..=1.0).contains(&confidence));
@@ -24,7 +35,11 @@ fn discover_writes_the_summary_json_plots_and_the_promoted_model() {
     let config = std::fs::read_to_string(out.join("model-config.txt")).unwrap();
     assert!(config.lines().any(|l| l.starts_with("effect viscous 0.")), "{config}");
     let csv_head = std::fs::read_to_string(out.join("residual.csv")).unwrap();
-    assert!(csv_head.starts_with("time_s,measured_A,"));
+    schema::check_csv("`residual.csv` (`ema discover --out DIR`)", &csv_head);
+    // the plots' legends explain the shaded windows and name the effect
+    let fit = std::fs::read_to_string(out.join("fit.svg")).unwrap();
+    assert!(fit.contains("windows holding half the residual energy"), "no shaded-window legend");
+    assert!(fit.contains("model after (+ viscous 0."), "the effect is not named in the legend");
 }
 
 #[test]
