@@ -41,6 +41,7 @@ use serde::Serialize;
 
 use crate::error::CliError;
 use crate::input;
+use crate::progress::{self, ProgressArgs};
 use crate::recording_io::{read_recording, Recording};
 use crate::schema::Document;
 use crate::simulate::resolve_profile;
@@ -113,6 +114,9 @@ pub struct IdentifyArgs {
     /// summary (`summary: REFUSED <stage> <error>`) before the error.
     #[arg(long)]
     pub bits: bool,
+    /// `--quiet`.
+    #[command(flatten)]
+    pub progress: ProgressArgs,
 }
 
 /// Outcome of one identification.
@@ -154,7 +158,10 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
         (None, Some(path)) => {
             let profile = resolve_profile(&args.profile)?;
             let recording = read_recording(path).map_err(CliError::Recording)?;
-            identify_recording(&recording, path, &profile, &config)?
+            let spinner = progress::spinner(format!("identifying {}", path.display()), args.progress.visible());
+            let outcome = identify_recording(&recording, path, &profile, &config);
+            spinner.finish_and_clear();
+            outcome?
         }
         (None, None) => return Err(CliError::flag("FILE", "give a recording CSV or --firmware-trace FILE")),
     };

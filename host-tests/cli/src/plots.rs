@@ -296,7 +296,7 @@ mod tests {
             assert!(svg.contains(needle), "{needle} missing");
         }
         // round ticks on the time axis
-        assert!(svg.contains(">0.5<") || svg.contains(">0.50<"), "{svg}");
+        assert!(svg.contains("\n0.5\n") && svg.contains("\n0.9\n"), "{svg}");
         assert_eq!(
             svg,
             line_plot(

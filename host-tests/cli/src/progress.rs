@@ -1,4 +1,5 @@
-//! Progress bars of the long commands (`campaign`, `discover`), drawn with indicatif on stderr.
+//! Progress bars of the long commands (`campaign`, `discover`; a spinner for `identify` of a
+//! recording, whose core runs to its end in one call), drawn with indicatif on stderr.
 //!
 //! A bar is shown only when the user can see it: not with `--quiet`, and not when stdout is not
 //! a terminal ([`std::io::IsTerminal`]), since a command whose output goes to a file or a pipe is
@@ -36,5 +37,21 @@ pub fn bar(len: u64, unit: &str, visible: bool) -> ProgressBar {
     let b = ProgressBar::new(len);
     b.set_style(ProgressStyle::with_template(&template).unwrap_or_else(|_| ProgressStyle::default_bar()));
     b.enable_steady_tick(Duration::from_millis(500));
+    b
+}
+
+/// A spinner with the elapsed time and `message` on stderr, for work of unknown length, or a
+/// hidden one when `visible` is false.
+pub fn spinner(message: String, visible: bool) -> ProgressBar {
+    if !visible {
+        return ProgressBar::hidden();
+    }
+    let b = ProgressBar::new_spinner();
+    b.set_style(
+        ProgressStyle::with_template("{spinner} {elapsed_precise} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    b.set_message(message);
+    b.enable_steady_tick(Duration::from_millis(200));
     b
 }
