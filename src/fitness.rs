@@ -363,14 +363,14 @@ impl<const W: usize> CurrentFit<'_, W> {
     /// [`CurrentFit::effective_samples`] of `k` and, from the same model run, the residual sums of
     /// each evidence window (the windows of [`CurrentFit::window_errors`]) handed to
     /// `sink(window, sums)` at the window's end: the goodness-of-fit test's two statistics
-    /// ([`crate::health::FitCheck`]). Returns `n_eff` and the number of windows.
+    /// ([`crate::health::FitCheck`]). Returns `n_eff` and the number of windows handed to `sink`.
     pub fn residual_windows(&self, k: &FaultVector, mut sink: impl FnMut(usize, &WindowResidual)) -> (f32, usize) {
         let y = self.trace.current_a();
         let w = self.trace.weight();
         let n = y.len();
         let window_samples = EVIDENCE_WINDOW_SAMPLES.max(n.div_ceil(MAX_EVIDENCE_WINDOWS));
         let (mut sum_sq, mut sum_lag, mut previous) = (0.0f32, 0.0f32, 0.0f32);
-        let mut window = WindowResidual::default();
+        let (mut window, mut windows) = (WindowResidual::default(), 0usize);
         let mut rho = self.regime_weights();
         simulate_window_with_effects(&self.params, &self.profile, k, &self.effects, n, |i, model_a, _| {
             let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
@@ -386,15 +386,17 @@ impl<const W: usize> CurrentFit<'_, W> {
             window.samples += 1;
             window.weighted_sq += u * u;
             window.weight += v;
-            if (i + 1) % window_samples == 0 || i + 1 == n {
-                sink(i / window_samples, &window);
+            // counted, not divided: no division by the window length on the on-board path
+            if window.samples as usize >= window_samples || i + 1 == n {
+                sink(windows, &window);
+                windows += 1;
                 window = WindowResidual::default();
             }
             true
         });
         let rho = if sum_sq > 0.0 && sum_lag.is_finite() { sum_lag / sum_sq } else { 0.0 };
         let rho = clamp_unit(rho, 0.99);
-        (n as f32 * (1.0 - rho) / (1.0 + rho), n.div_ceil(window_samples))
+        (n as f32 * (1.0 - rho) / (1.0 + rho), windows)
     }
 }
 
