@@ -70,6 +70,20 @@ pub struct WindowErrors {
     pub samples: usize,
 }
 
+/// The residual sums of one evidence window ([`CurrentFit::residual_windows`]), with
+/// `u_i = √(ρ_i·w_i)·r_i` the weighted residual of sample `i`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WindowResidual {
+    /// Window samples.
+    pub samples: u32,
+    /// `S = Σ u_i²` (A²).
+    pub weighted_sq: f32,
+    /// `V = Σ ρ_i·w_i`.
+    pub weight: f32,
+    /// `L = Σ u_i·u_{i−1}` over consecutive samples of the window (A²).
+    pub lag: f32,
+}
+
 /// Runs the monitor model with faults `k` under `profile` for `samples` window samples and hands
 /// each block mean of the expected measured envelope ([`MeasuredEnvelope`] of `I_out`, with the
 /// sensors' and controller's noise), with the model state at the block's end, to
@@ -344,6 +358,45 @@ impl<const W: usize> CurrentFit<'_, W> {
         let rho = if sum_sq > 0.0 && sum_lag.is_finite() { sum_lag / sum_sq } else { 0.0 };
         let rho = clamp_unit(rho, 0.99);
         y.len() as f32 * (1.0 - rho) / (1.0 + rho)
+    }
+
+    /// [`CurrentFit::effective_samples`] of `k` and, from the same model run, the residual sums of
+    /// each evidence window (the windows of [`CurrentFit::window_errors`]) handed to
+    /// `sink(window, sums)` at the window's end: the goodness-of-fit test's two statistics
+    /// ([`crate::health::FitCheck`]). Returns `n_eff` and the number of windows handed to `sink`.
+    pub fn residual_windows(&self, k: &FaultVector, mut sink: impl FnMut(usize, &WindowResidual)) -> (f32, usize) {
+        let y = self.trace.current_a();
+        let w = self.trace.weight();
+        let n = y.len();
+        let window_samples = EVIDENCE_WINDOW_SAMPLES.max(n.div_ceil(MAX_EVIDENCE_WINDOWS));
+        let (mut sum_sq, mut sum_lag, mut previous) = (0.0f32, 0.0f32, 0.0f32);
+        let (mut window, mut windows) = (WindowResidual::default(), 0usize);
+        let mut rho = self.regime_weights();
+        simulate_window_with_effects(&self.params, &self.profile, k, &self.effects, n, |i, model_a, _| {
+            let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
+            let v = rho.at(i) * w_i;
+            let r = y_i - model_a;
+            let u = libm::sqrtf(v) * r;
+            sum_sq += u * u;
+            sum_lag += u * previous;
+            if window.samples > 0 {
+                window.lag += u * previous;
+            }
+            previous = u;
+            window.samples += 1;
+            window.weighted_sq += u * u;
+            window.weight += v;
+            // counted, not divided: no division by the window length on the on-board path
+            if window.samples as usize >= window_samples || i + 1 == n {
+                sink(windows, &window);
+                windows += 1;
+                window = WindowResidual::default();
+            }
+            true
+        });
+        let rho = if sum_sq > 0.0 && sum_lag.is_finite() { sum_lag / sum_sq } else { 0.0 };
+        let rho = clamp_unit(rho, 0.99);
+        (n as f32 * (1.0 - rho) / (1.0 + rho), windows)
     }
 }
 

@@ -178,11 +178,15 @@ impl Status {
     }
 }
 
-/// One-sided significance level of the goodness-of-fit test: `p < 10⁻⁶`, `z > 4.753` in the normal
-/// approximation of the chi-square distribution.
+/// Family-wise significance level of the goodness-of-fit test: a fit is rejected at `p < 10⁻⁶`.
+pub const FIT_TEST_P: f32 = 1e-6;
+
+/// One-sided limit of the whole-recording score: `z > 4.753` is `p <` [`FIT_TEST_P`] in the normal
+/// approximation of the chi-square distribution ([`normal_upper_quantile`] of [`FIT_TEST_P`]).
 pub const FIT_TEST_Z: f32 = 4.753;
 
-/// The goodness-of-fit test of the final residual against the noise model.
+/// The goodness-of-fit test of the final residual against the noise model, on the whole
+/// recording and window by window.
 ///
 /// Under the hypothesis "the monitor model explains the recording up to noise", the weighted
 /// residual of the best vector is noise of variance `σ² + m²` per window sample (`σ²` the sensor,
@@ -191,6 +195,19 @@ pub const FIT_TEST_Z: f32 = 4.753;
 /// [`crate::fitness::CurrentFit::effective_samples`]) `T = n_eff·E/(w̄·(σ² + m²))` follows a
 /// chi-square distribution with `n_eff` degrees of freedom, `w̄` the mean sample weight of `E`.
 /// Its normal approximation `z = (T − n_eff)/√(2·n_eff)` above [`FIT_TEST_Z`] rejects the fit.
+///
+/// **Window by window.** An effect outside the model concentrates its misfit where the
+/// manoeuvre excites it (a compliant transmission in the fast reversal), and averaged over the
+/// whole recording that misfit hides under the noise of the quiet parts. The same hypothesis
+/// holds in every evidence window `j` ([`crate::fitness::CurrentFit::residual_windows`]):
+/// `T_j = ν_j·S_j/(V_j·(σ² + m²))` is chi-square with `ν_j` degrees of freedom, `S_j = Σ ρ_i·w_i·r_i²`
+/// and `V_j = Σ ρ_i·w_i` over the window and `ν_j` its own AR(1)-corrected sample count
+/// ([`window_score`], Wilson–Hilferty). The largest of the `J` window scores is compared with the
+/// Šidák-corrected limit `z_J` = [`normal_upper_quantile`]`(1 − (1 − p)^(1/J))`, `p` =
+/// [`FIT_TEST_P`], so that the family of `J` windows keeps the level `p` (Šidák 1967); the fit is
+/// rejected when either test rejects it. The evidence behind the window test, the score on clean
+/// recordings and on effects outside the library, is in
+/// `docs/decisions/0017-windowed-fit-test.md`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FitCheck {
@@ -200,11 +217,19 @@ pub struct FitCheck {
     pub expected_a2: f32,
     /// `z`, the normal score of the chi-square statistic.
     pub z: f32,
+    /// The largest window score `max_j z_j` (`−∞` when no window was tested).
+    pub window_z: f32,
+    /// Index of the window with the largest score.
+    pub window: u16,
+    /// The limit of [`FitCheck::window_z`]: the Šidák-corrected `z_J` for the windows tested
+    /// (`+∞` when none was).
+    pub window_limit: f32,
 }
 
 impl FitCheck {
     /// The test of fitness `fitness` (A²) with `effective_samples` and expected variance
-    /// `expected_a2` (A²). A non-finite or non-positive input gives `z = +∞` (rejected).
+    /// `expected_a2` (A²), without the window test. A non-finite or non-positive input gives
+    /// `z = +∞` (rejected).
     pub fn new(fitness: f32, effective_samples: f32, expected_a2: f32) -> Self {
         let z = if fitness.is_finite() && effective_samples > 0.0 && expected_a2 > 0.0 && fitness >= 0.0 {
             let t = effective_samples * fitness / expected_a2;
@@ -212,13 +237,78 @@ impl FitCheck {
         } else {
             f32::INFINITY
         };
-        Self { effective_samples, expected_a2, z }
+        Self { effective_samples, expected_a2, z, window_z: f32::NEG_INFINITY, window: 0, window_limit: f32::INFINITY }
     }
 
-    /// `true` when the fit passes the test (`z ≤` [`FIT_TEST_Z`]; NaN fails).
-    pub fn passes(&self) -> bool {
-        self.z <= FIT_TEST_Z
+    /// The test with the window test's outcome: the largest score `window_z` of `windows`
+    /// windows, in window `window` (a NaN score is kept, and fails).
+    pub fn with_windows(self, window_z: f32, window: u16, windows: usize) -> Self {
+        let limit = if windows == 0 { f32::INFINITY } else { sidak_limit(windows) };
+        Self { window_z, window, window_limit: limit, ..self }
     }
+
+    /// `true` when the fit passes both tests (`z ≤` [`FIT_TEST_Z`] and `max_j z_j ≤ z_J`; NaN
+    /// fails).
+    pub fn passes(&self) -> bool {
+        self.z <= FIT_TEST_Z && self.window_z <= self.window_limit
+    }
+}
+
+/// The window test's limit `z_J` for `windows` windows: the upper `1 − (1 − p)^(1/J)` quantile of
+/// the normal distribution, `p` = [`FIT_TEST_P`] (Šidák 1967): 5.34 for the 22 windows of the
+/// standard manoeuvre.
+pub fn sidak_limit(windows: usize) -> f32 {
+    let j = windows.max(1) as f32;
+    // 1 − (1 − p)^(1/J) without the cancellation of the direct form
+    let per_window = -libm::expm1f(libm::log1pf(-FIT_TEST_P) / j);
+    normal_upper_quantile(per_window)
+}
+
+/// The upper quantile `z` with `P(N(0, 1) > z) = p` of the standard normal distribution, for `p`
+/// in `(0, 0.5]` (Abramowitz and Stegun 26.2.23, absolute error below 4.5·10⁻⁴): with
+/// `t = √(−2·ln p)`, `z = t − (c₀ + c₁t + c₂t²)/(1 + d₁t + d₂t² + d₃t³)`. A `p` outside `(0, 0.5]`
+/// (or NaN) gives `+∞` below 0 and 0 above.
+pub fn normal_upper_quantile(p: f32) -> f32 {
+    if p.is_nan() || p <= 0.0 {
+        return f32::INFINITY;
+    }
+    if p >= 0.5 {
+        return 0.0;
+    }
+    let t = libm::sqrtf(-2.0 * libm::logf(p));
+    let num = 2.515_517 + t * (0.802_853 + t * 0.010_328);
+    let den = 1.0 + t * (1.432_788 + t * (0.189_269 + t * 0.001_308));
+    t - num / den
+}
+
+/// The normal score of one window's chi-square statistic: the window's `samples` samples with
+/// weighted squared residual `S = Σ ρ_i·w_i·r_i²`, weight `V = Σ ρ_i·w_i` and lag-1 sum
+/// `L = Σ u_i·u_{i−1}` (`u_i = √(ρ_i·w_i)·r_i`) against the noise variance `noise_a2` (`σ² + m²`,
+/// A², unweighted). `ν = samples·(1 − ρ)/(1 + ρ)` with `ρ = L/S` clamped to `[0, 0.99]`, at least
+/// 1; `T = ν·S/(V·noise_a2)`; the score is the Wilson–Hilferty transform
+/// `z = ((T/ν)^{1/3} − (1 − 2/(9ν)))/√(2/(9ν))` (Wilson and Hilferty 1931), accurate in the upper
+/// tail down to a few degrees of freedom where the plain normal approximation is not. A window
+/// without weight or a non-positive noise gives `−∞` (no evidence); a non-finite sum gives NaN.
+pub fn window_score(samples: u32, weighted_sq: f32, weight: f32, lag: f32, noise_a2: f32) -> f32 {
+    let positive = |x: f32| x > 0.0; // NaN is not
+    if samples == 0 || !positive(weight) || !positive(noise_a2) {
+        return f32::NEG_INFINITY;
+    }
+    if !weighted_sq.is_finite() || !lag.is_finite() {
+        return f32::NAN;
+    }
+    let rho = if weighted_sq > 0.0 { lag / weighted_sq } else { 0.0 };
+    let rho = if rho > 0.99 {
+        0.99
+    } else if rho >= 0.0 {
+        rho
+    } else {
+        0.0
+    };
+    let nu = (samples as f32 * (1.0 - rho) / (1.0 + rho)).max(1.0);
+    let ratio = weighted_sq / (weight * noise_a2);
+    let a = 2.0 / (9.0 * nu);
+    (libm::cbrtf(ratio) - (1.0 - a)) / libm::sqrtf(a)
 }
 
 /// One fault mode in physical terms.
@@ -424,6 +514,9 @@ impl core::fmt::Display for HealthReport {
                 "\n  fit test: z {:.1} (limit {FIT_TEST_Z}), {:.0} effective samples, noise {:.4e} A^2",
                 c.z, c.effective_samples, c.expected_a2
             )?;
+            if c.window_z > f32::NEG_INFINITY || c.window_z.is_nan() {
+                write!(f, "; worst window {} z {:.1} (limit {:.2})", c.window, c.window_z, c.window_limit)?;
+            }
         }
         if self.untested_groups > 0 {
             write!(
@@ -508,6 +601,42 @@ mod tests {
         assert!(FitCheck::new(0.024, 200.0, 0.02).passes());
         assert!(!FitCheck::new(f32::INFINITY, 2000.0, 0.02).passes());
         assert!(!FitCheck::new(f32::NAN, 2000.0, 0.02).passes());
+    }
+
+    #[test]
+    fn the_window_test_is_sidak_corrected_wilson_hilferty() {
+        // one window is the whole-recording level; 22 windows (the standard manoeuvre) ask more
+        assert!((normal_upper_quantile(FIT_TEST_P) - FIT_TEST_Z).abs() < 1e-3);
+        assert!((sidak_limit(1) - FIT_TEST_Z).abs() < 1e-3);
+        assert!((sidak_limit(22) - 5.34).abs() < 0.01, "{}", sidak_limit(22));
+        assert!(sidak_limit(96) > sidak_limit(22));
+        // textbook quantiles: p = 0.05 → 1.645, p = 0.001 → 3.090
+        assert!((normal_upper_quantile(0.05) - 1.645).abs() < 1e-3);
+        assert!((normal_upper_quantile(0.001) - 3.090).abs() < 1e-3);
+        assert_eq!(normal_upper_quantile(0.0), f32::INFINITY);
+        assert_eq!(normal_upper_quantile(0.7), 0.0);
+        // 100 white samples at the expected variance score about 0; at twice it, 5.56
+        let at = |ratio: f32, lag: f32| window_score(100, ratio * 100.0, 100.0, lag * 100.0, 1.0);
+        assert!(at(1.0, 0.0).abs() < 0.1, "{}", at(1.0, 0.0));
+        assert!((at(2.0, 0.0) - 5.56).abs() < 0.01, "{}", at(2.0, 0.0));
+        // the same excess in a correlated window (ρ = 0.5: 33 effective samples) weighs less
+        assert!(at(2.0, 1.0) < 4.0 && at(2.0, 1.0) > 3.0, "{}", at(2.0, 1.0));
+        assert_eq!(window_score(0, 1.0, 1.0, 0.0, 1.0), f32::NEG_INFINITY);
+        assert_eq!(window_score(10, 1.0, 0.0, 0.0, 1.0), f32::NEG_INFINITY);
+        assert!(window_score(10, f32::INFINITY, 1.0, 0.0, 1.0).is_nan());
+        // a failing window fails the check; a NaN score too; no window test passes by it
+        let c = FitCheck::new(0.02, 2000.0, 0.02);
+        assert!(c.passes() && c.with_windows(5.0, 3, 22).passes());
+        assert!(!c.with_windows(5.4, 3, 22).passes());
+        assert!(!c.with_windows(f32::NAN, 3, 22).passes());
+        let text = std::format!(
+            "{}",
+            HealthReport {
+                fit_check: Some(c.with_windows(5.4, 3, 22)),
+                ..HealthReport::new(FaultVector::HEALTHY, &EmaParams::NOMINAL, 0.02, 1, 1, None)
+            }
+        );
+        assert!(text.contains("worst window 3 z 5.4 (limit 5.34)"), "{text}");
     }
 
     #[test]

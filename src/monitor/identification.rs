@@ -12,7 +12,7 @@ use super::{params_are_valid, MonitorError};
 use crate::conditioning::{ConditioningError, MeasuredTrace, DECIMATION};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::CurrentFit;
-use crate::health::{Abstain, FitCheck, HealthReport, Status as HealthStatus};
+use crate::health::{window_score, Abstain, FitCheck, HealthReport, Status as HealthStatus};
 use crate::optimizer::de::{DeConfig, DifferentialEvolution};
 use crate::optimizer::ga::{GaConfig, Genetic};
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
@@ -311,11 +311,21 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
 
     /// The report's status from the data: [`Abstain::PartialCoverage`] when the trace is shorter
     /// than the profile, [`Abstain::PoorFit`] when the goodness-of-fit test ([`FitCheck`]) of `best`
-    /// rejects it (one model run for the effective sample count).
+    /// rejects it, on the whole recording or in its worst window (one model run for the effective
+    /// sample count and the window sums).
     fn judge(&self, report: HealthReport, best: &FaultVector) -> HealthReport {
-        let expected = self.fit.mean_sample_weight()
-            * (super::window_noise_variance_a2(&self.params) + MODEL_MISMATCH_A * MODEL_MISMATCH_A);
-        let check = FitCheck::new(report.fitness, self.fit.effective_samples(best), expected);
+        let noise = super::window_noise_variance_a2(&self.params) + MODEL_MISMATCH_A * MODEL_MISMATCH_A;
+        let expected = self.fit.mean_sample_weight() * noise;
+        let (mut worst, mut at) = (f32::NEG_INFINITY, 0u16);
+        let (n_eff, windows) = self.fit.residual_windows(best, |j, w| {
+            let z = window_score(w.samples, w.weighted_sq, w.weight, w.lag, noise);
+            // a NaN score (non-finite residual) replaces any other, is kept, and fails the test
+            if !worst.is_nan() && (z.is_nan() || z > worst) {
+                worst = z;
+                at = j as u16;
+            }
+        });
+        let check = FitCheck::new(report.fitness, n_eff, expected).with_windows(worst, at, windows);
         let report = HealthReport { fit_check: Some(check), ..report };
         let report =
             if check.passes() { report } else { report.abstaining(HealthStatus::Inconclusive(Abstain::PoorFit)) };
@@ -469,6 +479,44 @@ mod tests {
             assert_eq!(r.faults, FaultVector::HEALTHY, "seed {seed}: noise read as a fault");
             assert_eq!(r.fitness, id.fitness().error(&r.faults), "seed {seed}");
         }
+    }
+
+    #[test]
+    fn a_misfit_confined_to_one_window_fails_the_window_test_only() {
+        // The model's own noisy trace of a friction, judged at the truth: both tests pass. The
+        // same trace with 0.5 A added over one 40 ms window (samples 500..600) still passes the
+        // whole-recording test, whose noise the quiet windows dilute, and fails the window test
+        // in that window.
+        let truth = FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+        let judged = |bump: f32, from: usize| {
+            let mut t = MeasuredTrace::<ONBOARD_WINDOW>::new();
+            let n = (Profile::STANDARD.duration_s() / EmaParams::NOMINAL.control_period_s) as usize / DECIMATION;
+            let mut rng = crate::optimizer::rng::Rng::new(3);
+            simulate_window(&EmaParams::NOMINAL, &Profile::STANDARD, &truth, n, |j, i, _| {
+                let i = if (from..from + 100).contains(&j) { i + bump } else { i };
+                for _ in 0..DECIMATION {
+                    let pair = i + 0.29 * rng.normal();
+                    t.push(pair, -pair, 0.0).unwrap();
+                }
+                true
+            });
+            t.finish().unwrap();
+            let config = IdentifyConfig::onboard();
+            let id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
+                Identification::new(&t, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap();
+            let fitness = id.fitness().error(&truth);
+            let report = HealthReport::new(truth, &EmaParams::NOMINAL, fitness, 1, 1, None);
+            id.judge(report, &truth)
+        };
+        let clean = judged(0.0, 500);
+        let c = clean.fit_check.unwrap();
+        assert!(c.passes() && clean.status == HealthStatus::Degraded, "{c:?}");
+        assert!((c.window_limit - 5.34).abs() < 0.01, "22 windows: {c:?}");
+        let bumped = judged(0.5, 500);
+        let c = bumped.fit_check.unwrap();
+        assert!(c.z <= crate::health::FIT_TEST_Z, "the whole-recording test alone passes it: {c:?}");
+        assert!(c.window == 5 && c.window_z > c.window_limit, "{c:?}");
+        assert_eq!(bumped.status, HealthStatus::Inconclusive(Abstain::PoorFit));
     }
 
     #[test]

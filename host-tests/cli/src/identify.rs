@@ -459,6 +459,12 @@ pub struct FitTestJson {
     /// The variance a residual of noise and known mismatch has (A²).
     #[serde(rename = "expected_A2")]
     pub expected_a2: f32,
+    /// Index of the evidence window with the largest window score.
+    pub window: u16,
+    /// The largest window score `max_j z_j`.
+    pub window_z: f32,
+    /// The Šidák-corrected limit of `window_z` for the windows tested.
+    pub window_z_limit: f32,
 }
 
 /// The report of `ema identify --json`; `docs/output-schema.md` documents every key. Under
@@ -527,6 +533,9 @@ pub fn json_body(outcome: &Outcome, effects: &ModelEffects) -> IdentifyJson {
             z_limit: ema_monitor::health::FIT_TEST_Z,
             effective_samples: c.effective_samples,
             expected_a2: c.expected_a2,
+            window: c.window,
+            window_z: c.window_z,
+            window_z_limit: c.window_limit,
         }),
         fitness_a2: r.fitness,
         evaluations: r.evaluations,

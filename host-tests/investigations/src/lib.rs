@@ -20,5 +20,6 @@
 //! | `freewheel` | the actuator's hysteresis loop with disagreeing current sensors, against the model's term | `docs/model.md` |
 //! | `loop_side_by_side` | both control loops (actuator and monitor model) period by period | `docs/model.md` |
 //! | `effect_signature` | an effect's signature in the measured current, the actuator's against the model term's | `docs/model.md` |
+//! | `fit_power` | the goodness-of-fit test's scores (whole recording, worst window, noise from the recording) on library faults and on effects outside the library | `docs/decisions/0017-windowed-fit-test.md` |
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
