@@ -18,7 +18,7 @@ use core::fmt;
 
 /// Physical parameters of a healthy actuator, units in the field names.
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub struct EmaParams {
     /// DC-link voltage (HVDC aircraft bus).
     pub supply_voltage_v: f32,
@@ -223,8 +223,8 @@ pub const FIELDS: [ParamField; 28] = [
         true,
         "motor pole pairs p (a whole number): electrical angle = p * mechanical angle"
     ),
-    field!(phase_resistance_ohm, "ohm", 1.0e-3, 100.0, false, "per-phase winding resistance R_0 at 20 degC"),
-    field!(phase_inductance_h, "H", 1.0e-6, 1.0, false, "per-phase inductance L_0 = L - M (self minus mutual)"),
+    field!(phase_resistance_ohm, "ohm", 1.0e-3, 100.0, false, "Per-phase winding resistance R_0 at 20 degC"),
+    field!(phase_inductance_h, "H", 1.0e-6, 1.0, false, "Per-phase inductance L_0 = L - M (self minus mutual)"),
     field!(
         phase_emf_constant_v_s_per_rad,
         "V s/rad",
@@ -233,7 +233,7 @@ pub const FIELDS: [ParamField; 28] = [
         false,
         "per-phase back-EMF constant k_0 (flat-top value; torque constant of a conducting pair = 2 k_0)"
     ),
-    field!(current_limit_a, "A", 0.1, 1000.0, false, "controller current saturation I_max"),
+    field!(current_limit_a, "A", 0.1, 1000.0, false, "Controller current saturation I_max"),
     field!(
         hysteresis_half_band_a,
         "A",
@@ -242,11 +242,11 @@ pub const FIELDS: [ParamField; 28] = [
         false,
         "hysteresis current-control half band h (below current_limit_a)"
     ),
-    field!(motor_inertia_kg_m2, "kg m^2", 1.0e-7, 1.0, false, "rotor plus first gear stage inertia J_m"),
-    field!(gear_ratio, "1", 1.0, 10000.0, false, "overall reduction N (motor rad per surface rad)"),
-    field!(surface_inertia_kg_m2, "kg m^2", 0.0, 1000.0, false, "control surface inertia J_u"),
-    field!(viscous_friction_n_m_s_per_rad, "N m s/rad", 0.0, 1.0, false, "motor-side viscous friction C_m"),
-    field!(static_friction_n_m, "N m", 0.0, 100.0, false, "motor-side static (breakaway) dry friction FSJ_0"),
+    field!(motor_inertia_kg_m2, "kg m^2", 1.0e-7, 1.0, false, "Rotor plus first gear stage inertia J_m"),
+    field!(gear_ratio, "1", 1.0, 10000.0, false, "Overall reduction N (motor rad per surface rad)"),
+    field!(surface_inertia_kg_m2, "kg m^2", 0.0, 1000.0, false, "Control surface inertia J_u"),
+    field!(viscous_friction_n_m_s_per_rad, "N m s/rad", 0.0, 1.0, false, "Motor-side viscous friction C_m"),
+    field!(static_friction_n_m, "N m", 0.0, 100.0, false, "Motor-side static (breakaway) dry friction FSJ_0"),
     field!(
         dynamic_friction_n_m,
         "N m",
@@ -279,7 +279,7 @@ pub const FIELDS: [ParamField; 28] = [
         false,
         "healthy total free play at the surface BL_0 (the backlash fault reaches 100 times it)"
     ),
-    field!(end_stop_rad, "rad", 0.01, 1.6, false, "end-stop position +-theta_max of the surface"),
+    field!(end_stop_rad, "rad", 0.01, 1.6, false, "End-stop position +-theta_max of the surface"),
     field!(
         hinge_stiffness_n_m_per_rad,
         "N m/rad",
@@ -296,8 +296,8 @@ pub const FIELDS: [ParamField; 28] = [
         false,
         "proportional gain of the position loop Kp_0 (current per surface angle error)"
     ),
-    field!(ki_a_per_rad_s, "A/(rad s)", 0.0, 1.0e6, false, "integral gain Ki"),
-    field!(kd_a_s_per_rad, "A s/rad", 0.0, 1.0e4, false, "derivative gain Kd (derivative on measurement)"),
+    field!(ki_a_per_rad_s, "A/(rad s)", 0.0, 1.0e6, false, "Integral gain Ki"),
+    field!(kd_a_s_per_rad, "A s/rad", 0.0, 1.0e4, false, "Derivative gain Kd (derivative on measurement)"),
     field!(
         control_period_s,
         "s",
@@ -324,7 +324,7 @@ pub const FIELDS: [ParamField; 28] = [
     ),
     field!(current_noise_a, "A", 0.0, 10.0, false, "RMS white noise of each phase-current sensor"),
     field!(position_noise_rad, "rad", 0.0, 1.0e-2, false, "RMS white noise of the surface position transducer"),
-    field!(position_lag_s, "s", 1.0e-6, 0.1, false, "first-order lag tau_theta of the surface position transducer"),
+    field!(position_lag_s, "s", 1.0e-6, 0.1, false, "First-order lag tau_theta of the surface position transducer"),
     field!(
         position_resolution_rad,
         "rad",
