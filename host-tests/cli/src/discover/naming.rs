@@ -179,6 +179,7 @@ fn delta_bic(n_eff: f64, before: f32, after: f32, extra_parameters: f64) -> f64 
 #[allow(clippy::too_many_arguments)]
 pub(super) fn search_round<const W: usize>(
     trace: &MeasuredTrace<W>,
+    params: &EmaParams,
     profile: &Profile,
     on: &[EffectId],
     base_fit: &ModelFit,
@@ -195,7 +196,7 @@ pub(super) fn search_round<const W: usize>(
                 let Some(&effect) = effects.get(j) else { break };
                 let mut free: Vec<EffectId> = on.to_vec();
                 free.push(effect);
-                let fit = fit_model(trace, profile, &free, base_fit, Part::Fit, n_eff_part);
+                let fit = fit_model(trace, params, profile, &free, base_fit, Part::Fit, n_eff_part);
                 if let Ok(mut r) = results.lock() {
                     r.push((effect, fit));
                 }
@@ -206,8 +207,8 @@ pub(super) fn search_round<const W: usize>(
     // in library order, not in the order the threads finished: ties (candidates whose effect
     // ended at 0, the reference among equal errors) then come out the same on every run
     fits.sort_by_key(|(effect, _)| *effect);
-    let fit_part = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::Fit);
-    let held = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::HeldOut);
+    let fit_part = PartFit::new(trace, *params, *profile, ModelEffects::NONE, vec![], Part::Fit);
+    let held = PartFit::new(trace, *params, *profile, ModelEffects::NONE, vec![], Part::HeldOut);
     // the reference: the best fit without a new effect
     let mut reference = base_fit.clone();
     for (effect, fit) in &fits {
@@ -221,7 +222,7 @@ pub(super) fn search_round<const W: usize>(
     }
     let reference_held_out = held.error(&reference.k, &reference.effects, f32::INFINITY);
     let reference_energy =
-        structural_energy(&series(trace, &EmaParams::NOMINAL, profile, &reference.k, &reference.effects)).max(1e-30);
+        structural_energy(&series(trace, params, profile, &reference.k, &reference.effects)).max(1e-30);
     let reference_parameters = parameter_count(&reference);
     let above_noise_share = |after_energy: f64, samples: usize| {
         let above = reference_energy - samples as f64 * NOISE_FLOOR_A * NOISE_FLOOR_A;
@@ -237,7 +238,7 @@ pub(super) fn search_round<const W: usize>(
             let extra = parameter_count(&fit) as f64 - reference_parameters as f64;
             let e_held = held.error(&fit.k, &fit.effects, f32::INFINITY);
             let e_held_without = held.error(&fit.k, &fit.effects.without(effect), f32::INFINITY);
-            let after = series(trace, &EmaParams::NOMINAL, profile, &fit.k, &fit.effects);
+            let after = series(trace, params, profile, &fit.k, &fit.effects);
             Candidate {
                 effect,
                 severity: fit.effects.get(effect),
