@@ -215,14 +215,7 @@ macro_rules! field {
 /// where the physics allows them (no friction, no hinge load, no sensor noise).
 pub const FIELDS: [ParamField; 28] = [
     field!(supply_voltage_v, "V", 10.0, 1000.0, false, "DC-link voltage V_dc"),
-    field!(
-        pole_pairs,
-        "1",
-        1.0,
-        32.0,
-        true,
-        "motor pole pairs p (a whole number): electrical angle = p * mechanical angle"
-    ),
+    field!(pole_pairs, "1", 1.0, 32.0, true, "Motor pole pairs p: electrical angle = p * mechanical angle"),
     field!(phase_resistance_ohm, "ohm", 1.0e-3, 100.0, false, "Per-phase winding resistance R_0 at 20 degC"),
     field!(phase_inductance_h, "H", 1.0e-6, 1.0, false, "Per-phase inductance L_0 = L - M (self minus mutual)"),
     field!(
@@ -231,7 +224,7 @@ pub const FIELDS: [ParamField; 28] = [
         1.0e-3,
         10.0,
         false,
-        "per-phase back-EMF constant k_0 (flat-top value; torque constant of a conducting pair = 2 k_0)"
+        "Per-phase back-EMF constant k_0 (flat-top value; torque constant of a conducting pair = 2 k_0)"
     ),
     field!(current_limit_a, "A", 0.1, 1000.0, false, "Controller current saturation I_max"),
     field!(
@@ -240,7 +233,7 @@ pub const FIELDS: [ParamField; 28] = [
         0.0,
         100.0,
         false,
-        "hysteresis current-control half band h (below current_limit_a)"
+        "Hysteresis current-control half band h (below current_limit_a)"
     ),
     field!(motor_inertia_kg_m2, "kg m^2", 1.0e-7, 1.0, false, "Rotor plus first gear stage inertia J_m"),
     field!(gear_ratio, "1", 1.0, 10000.0, false, "Overall reduction N (motor rad per surface rad)"),
@@ -253,7 +246,7 @@ pub const FIELDS: [ParamField; 28] = [
         0.0,
         100.0,
         false,
-        "motor-side dynamic (sliding) dry friction FDJ_0 (at most static_friction_n_m)"
+        "Motor-side dynamic (sliding) dry friction FDJ_0 (at most static_friction_n_m)"
     ),
     field!(
         efficiency_opposing,
@@ -261,7 +254,7 @@ pub const FIELDS: [ParamField; 28] = [
         0.05,
         1.0,
         false,
-        "transmission efficiency with the load opposing the motion eta_O"
+        "Transmission efficiency with the load opposing the motion eta_O"
     ),
     field!(
         efficiency_aiding,
@@ -269,7 +262,7 @@ pub const FIELDS: [ParamField; 28] = [
         -1.0,
         1.0,
         false,
-        "transmission efficiency with the load aiding the motion eta_A (<= 0: irreversible)"
+        "Transmission efficiency with the load aiding the motion eta_A (<= 0: irreversible)"
     ),
     field!(
         nominal_backlash_rad,
@@ -277,7 +270,7 @@ pub const FIELDS: [ParamField; 28] = [
         0.0,
         1.0e-3,
         false,
-        "healthy total free play at the surface BL_0 (the backlash fault reaches 100 times it)"
+        "Healthy total free play at the surface BL_0 (the backlash fault reaches 100 times it)"
     ),
     field!(end_stop_rad, "rad", 0.01, 1.6, false, "End-stop position +-theta_max of the surface"),
     field!(
@@ -286,7 +279,7 @@ pub const FIELDS: [ParamField; 28] = [
         0.0,
         1.0e6,
         false,
-        "aerodynamic hinge-moment stiffness K_h at the surface"
+        "Aerodynamic hinge-moment stiffness K_h at the surface"
     ),
     field!(
         kp_a_per_rad,
@@ -294,7 +287,7 @@ pub const FIELDS: [ParamField; 28] = [
         1.0,
         1.0e5,
         false,
-        "proportional gain of the position loop Kp_0 (current per surface angle error)"
+        "Proportional gain of the position loop Kp_0 (current per surface angle error)"
     ),
     field!(ki_a_per_rad_s, "A/(rad s)", 0.0, 1.0e6, false, "Integral gain Ki"),
     field!(kd_a_s_per_rad, "A s/rad", 0.0, 1.0e4, false, "Derivative gain Kd (derivative on measurement)"),
@@ -304,7 +297,7 @@ pub const FIELDS: [ParamField; 28] = [
         1.0e-5,
         1.0e-3,
         false,
-        "control (ACE) sample period T: also the ADC period and the monitor model's step"
+        "Control (ACE) sample period T: also the ADC period and the monitor model's step"
     ),
     field!(
         derivative_filter_s,
@@ -312,7 +305,7 @@ pub const FIELDS: [ParamField; 28] = [
         1.0e-5,
         1.0,
         false,
-        "first-order derivative filter time constant tau_D (longer than control_period_s)"
+        "First-order derivative filter time constant tau_D (longer than control_period_s)"
     ),
     field!(
         current_loop_lag_s,
@@ -320,7 +313,7 @@ pub const FIELDS: [ParamField; 28] = [
         1.0e-7,
         1.0e-2,
         false,
-        "equivalent closed current-loop lag tau_c of the monitor model (current sensor bandwidth: 1/(2 pi f))"
+        "Equivalent closed current-loop lag tau_c of the monitor model (current sensor bandwidth: 1/(2 pi f))"
     ),
     field!(current_noise_a, "A", 0.0, 10.0, false, "RMS white noise of each phase-current sensor"),
     field!(position_noise_rad, "rad", 0.0, 1.0e-2, false, "RMS white noise of the surface position transducer"),
@@ -331,7 +324,7 @@ pub const FIELDS: [ParamField; 28] = [
         1.0e-9,
         1.0e-2,
         false,
-        "resolution (one code) of the surface position transducer"
+        "Resolution (one code) of the surface position transducer"
     ),
 ];
 
