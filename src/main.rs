@@ -38,10 +38,12 @@ use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULAT
 use ema_monitor::trace::PackedTrace;
 use ema_monitor::{report_log, EmaParams, ModelEffects, Profile};
 
-// `MODEL_EFFECTS`, `MODEL_CONFIG_SOURCE`, `TRACE_SOURCE` and `TRACE`, written by `build.rs`:
-// the built-in trace is `EMA_TRACE` (default `traces/standard.ematrace`, the reference model's
-// recording of the standard manoeuvre, traces/README.md) and the monitor model's effect terms come
-// from the model configuration file `EMA_MODEL_CONFIG` (default none: the paper's model).
+// `MODEL_EFFECTS`, `MODEL_CONFIG_SOURCE`, `PARAMS`, `PARAMS_SOURCE`, `TRACE_SOURCE` and `TRACE`,
+// written by `build.rs`: the built-in trace is `EMA_TRACE` (default `traces/standard.ematrace`,
+// the reference model's recording of the standard manoeuvre, traces/README.md), the monitor
+// model's effect terms come from the model configuration file `EMA_MODEL_CONFIG` (default none:
+// the paper's model) and the actuator's parameters from the parameter file `EMA_PARAMS` (default
+// `EmaParams::NOMINAL`).
 include!(concat!(env!("OUT_DIR"), "/model_config.rs"));
 
 /// TIMER0 and its interrupt handler: one frame of the replay per control period.
@@ -67,13 +69,13 @@ fn main() -> ! {
         }
     };
     defmt::info!("trace: {=usize} frames at {=u32} Hz", trace.frames(), trace.sample_rate_hz());
-    let rate_ok = monitor::rate_matches(trace.sample_rate_hz() as f32, &EmaParams::NOMINAL);
+    let rate_ok = monitor::rate_matches(trace.sample_rate_hz() as f32, &PARAMS);
     let sampler = match cortex_m::singleton!(: Sampler<SAMPLER_QUEUE> = Sampler::new()) {
         Some(s) => s,
         None => exit(false),
     };
     // The replay starts at the command's onset: the trigger is high from the first tick.
-    let frames = manoeuvre_frames(&Profile::STANDARD, &EmaParams::NOMINAL);
+    let frames = manoeuvre_frames(&Profile::STANDARD, &PARAMS);
     let config = SamplerConfig { frames, trigger_timeout_frames: TRIGGER_TIMEOUT_FRAMES };
     let mut live = match qemu_live::arm(sampler, trace, config, 0) {
         Ok(c) => c,
@@ -156,6 +158,9 @@ fn log_model_effects() {
     if !MODEL_CONFIG_SOURCE.is_empty() {
         defmt::info!("model config: {=str}", MODEL_CONFIG_SOURCE);
     }
+    if !PARAMS_SOURCE.is_empty() {
+        defmt::info!("actuator parameters: {=str}", PARAMS_SOURCE);
+    }
     if MODEL_EFFECTS.is_none() {
         defmt::info!("model effects: none");
     }
@@ -170,7 +175,7 @@ fn log_model_effects() {
 fn identify(trace: &MeasuredTrace<ONBOARD_WINDOW>) -> Result<HealthReport, monitor::MonitorError> {
     let config = IdentifyConfig { effects: MODEL_EFFECTS, ..IdentifyConfig::onboard() };
     let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
-        Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &config)?;
+        Identification::new(trace, PARAMS, Profile::STANDARD, &config)?;
     id.run(u32::MAX);
     Ok(id.report())
 }

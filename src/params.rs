@@ -8,10 +8,17 @@
 //! Derived values: electrical time constant L/R = 4 ms; torque constant of the conducting pair
 //! `Kt = 2·k_0 = 0.26 N·m/A`; no-load motor speed `V_dc/(2 k_0) ≈ 1038 rad/s`; closed position
 //! loop `ω_n = sqrt(Kp·Kt·N / J_s) ≈ 49 rad/s`, `ζ ≈ 0.87` with `J_s = J_eq·N²`.
+//!
+//! Another actuator is described by a parameter file: [`FIELDS`] lists every field with its
+//! meaning, unit and allowed range (the `ema params` template, the host's TOML reader and the
+//! firmware's `EMA_PARAMS` build step all read this one table), and [`EmaParams::check`] refuses
+//! a set outside those ranges or one the monitor model cannot integrate at its control period.
+
+use core::fmt;
 
 /// Physical parameters of a healthy actuator, units in the field names.
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
 pub struct EmaParams {
     /// DC-link voltage (HVDC aircraft bus).
     pub supply_voltage_v: f32,
@@ -133,8 +140,426 @@ impl EmaParams {
     }
 }
 
+/// One field of [`EmaParams`]: its name (the struct's, which carries the unit), meaning, unit and
+/// the closed range `[min, max]` [`EmaParams::check`] accepts.
+#[derive(Clone, Copy, Debug)]
+pub struct ParamField {
+    /// Field name, as in the struct and as the key of a parameter file.
+    pub name: &'static str,
+    /// One-line meaning.
+    pub doc: &'static str,
+    /// Unit (`1` for a dimensionless number).
+    pub unit: &'static str,
+    /// Smallest accepted value.
+    pub min: f32,
+    /// Largest accepted value.
+    pub max: f32,
+    /// `true` when only whole numbers are accepted.
+    pub integer: bool,
+    get: fn(&EmaParams) -> f32,
+    set: fn(&mut EmaParams, f32),
+}
+
+impl ParamField {
+    /// The field's value in `p`.
+    pub fn get(&self, p: &EmaParams) -> f32 {
+        (self.get)(p)
+    }
+
+    /// Sets the field's value in `p` (unchecked: [`EmaParams::check`] checks the whole set).
+    pub fn set(&self, p: &mut EmaParams, value: f32) {
+        (self.set)(p, value)
+    }
+
+    /// Looks a field up by name.
+    pub fn find(name: &str) -> Option<&'static ParamField> {
+        FIELDS.iter().find(|f| f.name == name)
+    }
+
+    /// The field's own check: finite, within `[min, max]`, whole when [`ParamField::integer`].
+    pub fn check(&self, value: f32) -> Result<(), ParamsError> {
+        if !value.is_finite() {
+            return Err(ParamsError::NotFinite { field: self.name });
+        }
+        if value < self.min || value > self.max {
+            return Err(ParamsError::OutOfRange { field: self.name, value, min: self.min, max: self.max });
+        }
+        if self.integer && libm::truncf(value) != value {
+            return Err(ParamsError::NotInteger { field: self.name, value });
+        }
+        Ok(())
+    }
+}
+
+/// One [`ParamField`] entry, its accessors generated from the field name.
+macro_rules! field {
+    ($name:ident, $unit:expr, $min:expr, $max:expr, $integer:expr, $doc:expr) => {
+        ParamField {
+            name: stringify!($name),
+            doc: $doc,
+            unit: $unit,
+            min: $min,
+            max: $max,
+            integer: $integer,
+            get: |p| p.$name,
+            set: |p, v| p.$name = v,
+        }
+    };
+}
+
+/// Every field of [`EmaParams`] in declaration order, with its unit and range.
+///
+/// The ranges bound a flight-control EMA from a small trim-tab actuator to a primary-surface one
+/// (a few hundred W to a few tens of kW); they exist to catch a mistyped unit or digit (a
+/// resistance in mΩ, an inductance in mH), not to judge a design. Some zero values are allowed
+/// where the physics allows them (no friction, no hinge load, no sensor noise).
+pub const FIELDS: [ParamField; 28] = [
+    field!(supply_voltage_v, "V", 10.0, 1000.0, false, "DC-link voltage V_dc"),
+    field!(pole_pairs, "1", 1.0, 32.0, true, "Motor pole pairs p: electrical angle = p * mechanical angle"),
+    field!(phase_resistance_ohm, "ohm", 1.0e-3, 100.0, false, "Per-phase winding resistance R_0 at 20 degC"),
+    field!(phase_inductance_h, "H", 1.0e-6, 1.0, false, "Per-phase inductance L_0 = L - M (self minus mutual)"),
+    field!(
+        phase_emf_constant_v_s_per_rad,
+        "V s/rad",
+        1.0e-3,
+        10.0,
+        false,
+        "Per-phase back-EMF constant k_0 (flat-top value; torque constant of a conducting pair = 2 k_0)"
+    ),
+    field!(current_limit_a, "A", 0.1, 1000.0, false, "Controller current saturation I_max"),
+    field!(
+        hysteresis_half_band_a,
+        "A",
+        0.0,
+        100.0,
+        false,
+        "Hysteresis current-control half band h (below current_limit_a)"
+    ),
+    field!(motor_inertia_kg_m2, "kg m^2", 1.0e-7, 1.0, false, "Rotor plus first gear stage inertia J_m"),
+    field!(gear_ratio, "1", 1.0, 10000.0, false, "Overall reduction N (motor rad per surface rad)"),
+    field!(surface_inertia_kg_m2, "kg m^2", 0.0, 1000.0, false, "Control surface inertia J_u"),
+    field!(viscous_friction_n_m_s_per_rad, "N m s/rad", 0.0, 1.0, false, "Motor-side viscous friction C_m"),
+    field!(static_friction_n_m, "N m", 0.0, 100.0, false, "Motor-side static (breakaway) dry friction FSJ_0"),
+    field!(
+        dynamic_friction_n_m,
+        "N m",
+        0.0,
+        100.0,
+        false,
+        "Motor-side dynamic (sliding) dry friction FDJ_0 (at most static_friction_n_m)"
+    ),
+    field!(
+        efficiency_opposing,
+        "1",
+        0.05,
+        1.0,
+        false,
+        "Transmission efficiency with the load opposing the motion eta_O"
+    ),
+    field!(
+        efficiency_aiding,
+        "1",
+        -1.0,
+        1.0,
+        false,
+        "Transmission efficiency with the load aiding the motion eta_A (<= 0: irreversible)"
+    ),
+    field!(
+        nominal_backlash_rad,
+        "rad",
+        0.0,
+        1.0e-3,
+        false,
+        "Healthy total free play at the surface BL_0 (the backlash fault reaches 100 times it)"
+    ),
+    field!(end_stop_rad, "rad", 0.01, 1.6, false, "End-stop position +-theta_max of the surface"),
+    field!(
+        hinge_stiffness_n_m_per_rad,
+        "N m/rad",
+        0.0,
+        1.0e6,
+        false,
+        "Aerodynamic hinge-moment stiffness K_h at the surface"
+    ),
+    field!(
+        kp_a_per_rad,
+        "A/rad",
+        1.0,
+        1.0e5,
+        false,
+        "Proportional gain of the position loop Kp_0 (current per surface angle error)"
+    ),
+    field!(ki_a_per_rad_s, "A/(rad s)", 0.0, 1.0e6, false, "Integral gain Ki"),
+    field!(kd_a_s_per_rad, "A s/rad", 0.0, 1.0e4, false, "Derivative gain Kd (derivative on measurement)"),
+    field!(
+        control_period_s,
+        "s",
+        1.0e-5,
+        1.0e-3,
+        false,
+        "Control (ACE) sample period T: also the ADC period and the monitor model's step"
+    ),
+    field!(
+        derivative_filter_s,
+        "s",
+        1.0e-5,
+        1.0,
+        false,
+        "First-order derivative filter time constant tau_D (longer than control_period_s)"
+    ),
+    field!(
+        current_loop_lag_s,
+        "s",
+        1.0e-7,
+        1.0e-2,
+        false,
+        "Equivalent closed current-loop lag tau_c of the monitor model (current sensor bandwidth: 1/(2 pi f))"
+    ),
+    field!(current_noise_a, "A", 0.0, 10.0, false, "RMS white noise of each phase-current sensor"),
+    field!(position_noise_rad, "rad", 0.0, 1.0e-2, false, "RMS white noise of the surface position transducer"),
+    field!(position_lag_s, "s", 1.0e-6, 0.1, false, "First-order lag tau_theta of the surface position transducer"),
+    field!(
+        position_resolution_rad,
+        "rad",
+        1.0e-9,
+        1.0e-2,
+        false,
+        "Resolution (one code) of the surface position transducer"
+    ),
+];
+
+/// Why a parameter set is refused ([`EmaParams::check`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
+pub enum ParamsError {
+    /// The field is NaN or infinite.
+    NotFinite {
+        /// Field name.
+        field: &'static str,
+    },
+    /// The field is outside its range `[min, max]`.
+    OutOfRange {
+        /// Field name.
+        field: &'static str,
+        /// The value given.
+        value: f32,
+        /// Smallest accepted value.
+        min: f32,
+        /// Largest accepted value.
+        max: f32,
+    },
+    /// The field must be a whole number.
+    NotInteger {
+        /// Field name.
+        field: &'static str,
+        /// The value given.
+        value: f32,
+    },
+    /// A relation between fields does not hold; `field` is the one named as the culprit.
+    Relation {
+        /// Field name.
+        field: &'static str,
+        /// The relation that must hold.
+        rule: &'static str,
+    },
+}
+
+impl ParamsError {
+    /// The field the error is about.
+    pub fn field(&self) -> &'static str {
+        match *self {
+            ParamsError::NotFinite { field }
+            | ParamsError::OutOfRange { field, .. }
+            | ParamsError::NotInteger { field, .. }
+            | ParamsError::Relation { field, .. } => field,
+        }
+    }
+}
+
+impl fmt::Display for ParamsError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            ParamsError::NotFinite { field } => write!(f, "{field} must be a finite number"),
+            ParamsError::OutOfRange { field, value, min, max } => {
+                write!(f, "{field} = {value} is outside its range [{min}, {max}]")
+            }
+            ParamsError::NotInteger { field, value } => write!(f, "{field} = {value} must be a whole number"),
+            ParamsError::Relation { field, rule } => write!(f, "{field}: {rule}"),
+        }
+    }
+}
+
+/// Smallest ratio of the electrical (`L_0/R_0`) and mechanical (`J_eq·R_0/(2·k_0²)`) time
+/// constants to the control period: the monitor model integrates both with explicit steps of one
+/// period ([`crate::model`]), whose error stays a few percent at ten steps per time constant (and
+/// which diverge beyond two periods per time constant).
+pub const MIN_STEPS_PER_TIME_CONSTANT: f32 = 10.0;
+
+impl EmaParams {
+    /// Checks every field against its range in [`FIELDS`], then the relations the models need:
+    ///
+    /// - `dynamic_friction_n_m ≤ static_friction_n_m` (sliding friction does not exceed breakaway);
+    /// - `hysteresis_half_band_a < current_limit_a`;
+    /// - `control_period_s < derivative_filter_s` (the filter's discrete gain `T/τ_D` below 1);
+    /// - `position_resolution_rad < end_stop_rad`;
+    /// - `L_0/R_0 ≥ 10·T` and `τ_m = J_eq·R_0/(2·k_0²) ≥ 10·T` ([`MIN_STEPS_PER_TIME_CONSTANT`]):
+    ///   the pair's resistance `2R_0`, torque constant `2k_0` and back-EMF `2k_0·ω` give the
+    ///   mechanical time constant `J_eq·2R_0/(2k_0)²`.
+    ///
+    /// Returns the first violation, in [`FIELDS`] order.
+    pub fn check(&self) -> Result<(), ParamsError> {
+        for field in FIELDS.iter() {
+            field.check(field.get(self))?;
+        }
+        let relation = |ok: bool, field, rule| if ok { Ok(()) } else { Err(ParamsError::Relation { field, rule }) };
+        relation(
+            self.dynamic_friction_n_m <= self.static_friction_n_m,
+            "dynamic_friction_n_m",
+            "must not exceed static_friction_n_m",
+        )?;
+        relation(
+            self.hysteresis_half_band_a < self.current_limit_a,
+            "hysteresis_half_band_a",
+            "must be below current_limit_a",
+        )?;
+        relation(
+            self.control_period_s < self.derivative_filter_s,
+            "derivative_filter_s",
+            "must be longer than control_period_s",
+        )?;
+        relation(
+            self.position_resolution_rad < self.end_stop_rad,
+            "position_resolution_rad",
+            "must be below end_stop_rad",
+        )?;
+        let min_tau = MIN_STEPS_PER_TIME_CONSTANT * self.control_period_s;
+        relation(
+            self.phase_inductance_h / self.phase_resistance_ohm >= min_tau,
+            "phase_inductance_h",
+            "the electrical time constant phase_inductance_h / phase_resistance_ohm must be at least 10 control periods",
+        )?;
+        let k0 = self.phase_emf_constant_v_s_per_rad;
+        relation(
+            self.equivalent_inertia_kg_m2() * self.phase_resistance_ohm / (2.0 * k0 * k0) >= min_tau,
+            "motor_inertia_kg_m2",
+            "the mechanical time constant J_eq * phase_resistance_ohm / (2 phase_emf_constant^2) must be at least 10 control periods",
+        )?;
+        Ok(())
+    }
+}
+
 impl Default for EmaParams {
     fn default() -> Self {
         Self::NOMINAL
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nominal_passes_and_the_table_covers_every_field() {
+        assert_eq!(EmaParams::NOMINAL.check(), Ok(()));
+        // every field is in the table once, in declaration order, and its accessors are its own
+        let mut p = EmaParams::NOMINAL;
+        for (i, f) in FIELDS.iter().enumerate() {
+            assert!(FIELDS[..i].iter().all(|g| g.name != f.name), "{} twice", f.name);
+            assert!(f.min <= f.get(&EmaParams::NOMINAL) && f.get(&EmaParams::NOMINAL) <= f.max, "{}", f.name);
+            f.set(&mut p, -1.0e9 - i as f32);
+        }
+        for (i, f) in FIELDS.iter().enumerate() {
+            assert_eq!(f.get(&p), -1.0e9 - i as f32, "{}", f.name);
+        }
+        // a set that moves every field leaves nothing at nominal: every field is reached
+        let fields = [
+            p.supply_voltage_v,
+            p.pole_pairs,
+            p.phase_resistance_ohm,
+            p.phase_inductance_h,
+            p.phase_emf_constant_v_s_per_rad,
+            p.current_limit_a,
+            p.hysteresis_half_band_a,
+            p.motor_inertia_kg_m2,
+            p.gear_ratio,
+            p.surface_inertia_kg_m2,
+            p.viscous_friction_n_m_s_per_rad,
+            p.static_friction_n_m,
+            p.dynamic_friction_n_m,
+            p.efficiency_opposing,
+            p.efficiency_aiding,
+            p.nominal_backlash_rad,
+            p.end_stop_rad,
+            p.hinge_stiffness_n_m_per_rad,
+            p.kp_a_per_rad,
+            p.ki_a_per_rad_s,
+            p.kd_a_s_per_rad,
+            p.control_period_s,
+            p.derivative_filter_s,
+            p.current_loop_lag_s,
+            p.current_noise_a,
+            p.position_noise_rad,
+            p.position_lag_s,
+            p.position_resolution_rad,
+        ];
+        assert!(fields.iter().all(|v| *v <= -1.0e9), "{fields:?}");
+        assert_eq!(ParamField::find("gear_ratio").map(|f| f.unit), Some("1"));
+        assert!(ParamField::find("gear").is_none());
+    }
+
+    #[test]
+    fn ranges_refuse_non_finite_out_of_range_and_fractional_values() {
+        let with = |name: &str, v: f32| {
+            let mut p = EmaParams::NOMINAL;
+            ParamField::find(name).unwrap().set(&mut p, v);
+            p.check()
+        };
+        assert_eq!(
+            with("phase_resistance_ohm", f32::NAN),
+            Err(ParamsError::NotFinite { field: "phase_resistance_ohm" })
+        );
+        assert_eq!(with("gear_ratio", f32::INFINITY), Err(ParamsError::NotFinite { field: "gear_ratio" }));
+        assert_eq!(with("gear_ratio", 0.0).map_err(|e| e.field()), Err("gear_ratio"));
+        assert_eq!(with("pole_pairs", 0.0).map_err(|e| e.field()), Err("pole_pairs"));
+        assert_eq!(with("pole_pairs", 4.5), Err(ParamsError::NotInteger { field: "pole_pairs", value: 4.5 }));
+        assert_eq!(with("efficiency_opposing", 1.01).map_err(|e| e.field()), Err("efficiency_opposing"));
+        assert_eq!(with("efficiency_opposing", 0.0).map_err(|e| e.field()), Err("efficiency_opposing"));
+        assert_eq!(with("efficiency_aiding", -0.5), Ok(()));
+        assert_eq!(with("control_period_s", 2.0e-3).map_err(|e| e.field()), Err("control_period_s"));
+        assert_eq!(with("control_period_s", 5.0e-6).map_err(|e| e.field()), Err("control_period_s"));
+        // a resistance typed in milliohm
+        let e = with("phase_resistance_ohm", 500.0).unwrap_err();
+        assert_eq!(e, ParamsError::OutOfRange { field: "phase_resistance_ohm", value: 500.0, min: 1.0e-3, max: 100.0 });
+        let mut text = heapless::String::<128>::new();
+        core::fmt::write(&mut text, format_args!("{e}")).unwrap();
+        assert_eq!(text.as_str(), "phase_resistance_ohm = 500 is outside its range [0.001, 100]");
+    }
+
+    #[test]
+    fn relations_between_fields() {
+        let relation = |p: EmaParams| match p.check() {
+            Err(ParamsError::Relation { field, .. }) => field,
+            other => panic!("{other:?}"),
+        };
+        let n = EmaParams::NOMINAL;
+        assert_eq!(relation(EmaParams { dynamic_friction_n_m: 0.2, ..n }), "dynamic_friction_n_m");
+        assert_eq!(relation(EmaParams { hysteresis_half_band_a: 20.0, ..n }), "hysteresis_half_band_a");
+        assert_eq!(relation(EmaParams { derivative_filter_s: 1.0e-4, ..n }), "derivative_filter_s");
+        // L/R = 0.2 ms at a 0.1 ms period: explicit steps of T would be inaccurate
+        assert_eq!(relation(EmaParams { phase_inductance_h: 1.0e-4, ..n }), "phase_inductance_h");
+        // J_eq·R/(2k²) = 2.25 ms nominal; a 1/100 rotor brings it near 0.03 ms
+        assert_eq!(
+            relation(EmaParams { motor_inertia_kg_m2: 1.5e-6, surface_inertia_kg_m2: 0.0, ..n }),
+            "motor_inertia_kg_m2"
+        );
+        // a plausible other actuator passes
+        let other = EmaParams {
+            phase_resistance_ohm: 0.65,
+            phase_emf_constant_v_s_per_rad: 0.117,
+            motor_inertia_kg_m2: 1.875e-4,
+            kp_a_per_rad: 595.0,
+            ..n
+        };
+        assert_eq!(other.check(), Ok(()));
     }
 }

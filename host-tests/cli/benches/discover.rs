@@ -26,13 +26,23 @@ fn standard_recording() -> Recording {
 fn bench(c: &mut Criterion) {
     let recording = standard_recording();
     let path = Path::new("standard.csv");
-    let trace = condition_recording(&recording, path, &Profile::STANDARD).expect("conditions");
+    let trace = condition_recording(&recording, path, &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD)
+        .expect("conditions");
     let mut group = c.benchmark_group("discover");
     group.sample_size(10);
     for threads in [1usize, 2] {
         group.bench_function(format!("standard recording, {threads} thread(s)"), |b| {
             b.iter(|| {
-                let d = discover::<HOST_WINDOW>(&trace, &Profile::STANDARD, path, None, 1, threads).expect("runs");
+                let d = discover::<HOST_WINDOW>(
+                    &trace,
+                    &ema_monitor::EmaParams::NOMINAL,
+                    &Profile::STANDARD,
+                    path,
+                    None,
+                    1,
+                    threads,
+                )
+                .expect("runs");
                 assert_eq!(d.named.len(), 1);
             })
         });

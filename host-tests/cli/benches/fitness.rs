@@ -22,7 +22,8 @@ fn bench(c: &mut Criterion) {
     let truth = FaultVector([0.25, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
     let rec = simulate(&SimConfig { faults: truth, seed: 1, ..SimConfig::default() }).expect("simulates");
     let recording = Recording::from_reference(&rec, Vec::new());
-    let trace = condition_recording(&recording, Path::new("standard.csv"), &Profile::STANDARD).expect("conditions");
+    let trace = condition_recording(&recording, Path::new("standard.csv"), &EmaParams::NOMINAL, &Profile::STANDARD)
+        .expect("conditions");
     let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD)
         .expect("a conditioned trace is finished")
         .with_fast_regime_weight(FAST_REGIME_WEIGHT)

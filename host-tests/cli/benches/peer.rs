@@ -78,7 +78,8 @@ fn record(name: &str, truth: FaultVector) -> Box<MeasuredTrace<HOST_WINDOW>> {
     let rec = simulate(&SimConfig { faults: truth, seed: NOISE_SEED, ..SimConfig::default() })
         .expect("the reference model simulates the standard manoeuvre");
     let recording = Recording::from_reference(&rec, Vec::new());
-    condition_recording(&recording, Path::new(name), &Profile::STANDARD).expect("a reference recording conditions")
+    condition_recording(&recording, Path::new(name), &EmaParams::NOMINAL, &Profile::STANDARD)
+        .expect("a reference recording conditions")
 }
 
 /// One identification's outcome.
@@ -100,7 +101,7 @@ fn ours(trace: &MeasuredTrace<HOST_WINDOW>, algorithm: Algorithm, max_iterations
         IdentifyConfig { fast_regime_weight: FAST_REGIME_WEIGHT, ..IdentifyConfig::paper() }
     };
     let config = IdentifyConfig { algorithm, seed: OPTIMIZER_SEED, max_iterations, ..base };
-    let out = identify_trace(trace, &Profile::STANDARD, &config, Path::new("peer bench"))
+    let out = identify_trace(trace, &EmaParams::NOMINAL, &Profile::STANDARD, &config, Path::new("peer bench"))
         .expect("the core accepts the paper's settings");
     Outcome {
         estimate: out.report.faults,

@@ -35,6 +35,7 @@ use serde::Serialize;
 use crate::error::CliError;
 use crate::identify::{condition_recording, identify_trace, AlgorithmArg};
 use crate::output::{prepare_dir, write_files, OutputArgs};
+use crate::params::ParamsArgs;
 use crate::plots;
 use crate::progress::{self, ProgressArgs};
 use crate::recording_io::Recording;
@@ -122,6 +123,9 @@ pub struct CampaignArgs {
     /// `--quiet`.
     #[command(flatten)]
     pub progress: ProgressArgs,
+    /// The actuator's parameters: the reference model simulates it, the monitor model identifies it.
+    #[command(flatten)]
+    pub params: ParamsArgs,
 }
 
 /// The files `--out DIR` receives, checked before the first run and written together at the end.
@@ -171,11 +175,12 @@ pub struct RunResult {
 /// nearby vector can fit better.
 pub fn detectability_floor<const W: usize>(
     trace: &MeasuredTrace<W>,
+    params: &EmaParams,
     profile: &Profile,
     config: &IdentifyConfig,
     truth: &FaultVector,
 ) -> FaultVector {
-    let Some(fit) = CurrentFit::new(trace, EmaParams::NOMINAL, *profile)
+    let Some(fit) = CurrentFit::new(trace, *params, *profile)
         .ok()
         .map(|fit| fit.with_effects(config.effects))
         .and_then(|fit| fit.with_fast_regime_weight(config.fast_regime_weight))
@@ -296,17 +301,18 @@ pub fn identify_config(args: &CampaignArgs) -> IdentifyConfig {
     crate::identify::method_flags(base, args.paper_only, args.fast_regime_weight)
 }
 
-/// Simulates and identifies one planned run under `profile`.
+/// Simulates and identifies one planned run of the actuator `params` under `profile`.
 /// `base` gives the identification's settings; the algorithm and the seed come from the plan.
-pub fn execute(p: &Plan, base: &IdentifyConfig, profile: &Profile) -> Result<RunResult, CliError> {
-    let config = SimConfig { faults: p.truth, seed: p.seed, profile: *profile, ..SimConfig::default() };
+pub fn execute(p: &Plan, base: &IdentifyConfig, params: &EmaParams, profile: &Profile) -> Result<RunResult, CliError> {
+    let config =
+        SimConfig { params: *params, faults: p.truth, seed: p.seed, profile: *profile, ..SimConfig::default() };
     let rec = simulate(&config).map_err(|e| CliError::Simulation(e.to_string()))?;
     let recording = Recording::from_reference(&rec, Vec::new());
     let identify = IdentifyConfig { algorithm: Algorithm::from(p.algorithm), seed: p.seed, ..*base };
     let label = PathBuf::from(format!("campaign run {} {} {} #{}", alg_name(p.algorithm), p.mode, p.level, p.run));
-    let trace = condition_recording(&recording, &label, profile)?;
-    let outcome = identify_trace(&trace, profile, &identify, &label)?;
-    let floor = detectability_floor(&trace, profile, &identify, &p.truth);
+    let trace = condition_recording(&recording, &label, params, profile)?;
+    let outcome = identify_trace(&trace, params, profile, &identify, &label)?;
+    let floor = detectability_floor(&trace, params, profile, &identify, &p.truth);
     let estimate = outcome.report.faults;
     Ok(RunResult {
         plan: p.clone(),
@@ -326,12 +332,13 @@ fn alg_name(a: AlgorithmArg) -> &'static str {
     }
 }
 
-/// Runs every planned run under `profile` on `threads` workers (a rayon pool of its own);
+/// Runs every planned run of the actuator `params` under `profile` on `threads` workers (a rayon pool of its own);
 /// results in plan order, whatever the thread count, since every run's draws come from its plan.
 /// `progress` shows a bar of the runs on stderr ([`progress::bar`]).
 pub fn run_all(
     plans: &[Plan],
     base: &IdentifyConfig,
+    params: &EmaParams,
     profile: &Profile,
     threads: usize,
     progress: bool,
@@ -345,7 +352,7 @@ pub fn run_all(
         plans
             .par_iter()
             .map(|p| {
-                let r = execute(p, base, profile);
+                let r = execute(p, base, params, profile);
                 bar.inc(1);
                 r
             })
@@ -597,6 +604,7 @@ pub fn run(args: &CampaignArgs) -> Result<String, CliError> {
     }
     crate::identify::check_fast_regime_weight(args.fast_regime_weight)?;
     let profile = resolve_profile(&args.profile)?;
+    let params = args.params.load()?;
     let plans = plan(args)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     if threads == 0 {
@@ -606,7 +614,7 @@ pub fn run(args: &CampaignArgs) -> Result<String, CliError> {
     if let Some(dir) = &args.output.out {
         prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
     }
-    let results = run_all(&plans, &identify_config(args), &profile, threads, args.progress.visible())?;
+    let results = run_all(&plans, &identify_config(args), &params, &profile, threads, args.progress.visible())?;
     let summary = summarize(&results);
     if let Some(dir) = &args.output.out {
         let contents = [

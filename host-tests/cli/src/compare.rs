@@ -24,6 +24,7 @@ use serde::Serialize;
 
 use crate::error::CliError;
 use crate::identify::HOST_WINDOW;
+use crate::params::ParamsArgs;
 use crate::schema::Document;
 
 /// Arguments of `ema compare`.
@@ -38,6 +39,9 @@ pub struct CompareArgs {
     /// Which rotor angle the monitor model's shape functions and commutation use.
     #[arg(long, value_enum, default_value_t = RotorAngle::Model)]
     pub rotor_angle: RotorAngle,
+    /// The actuator's parameters (both models).
+    #[command(flatten)]
+    pub params: ParamsArgs,
 }
 
 /// The rotor angle the monitor model runs with in `ema compare`.
@@ -128,11 +132,17 @@ fn wrapped(angle_rad: f64) -> f32 {
     angle_rad.rem_euclid(std::f64::consts::TAU) as f32
 }
 
-/// Runs one case with the monitor model's rotor angle from `rotor`.
-pub fn compare_case(name: &str, faults: FaultVector, seed: u64, rotor: RotorAngle) -> Result<CaseResult, CliError> {
-    let params = EmaParams::NOMINAL;
+/// Runs one case of the actuator `params` with the monitor model's rotor angle from `rotor`.
+pub fn compare_case(
+    name: &str,
+    faults: FaultVector,
+    seed: u64,
+    rotor: RotorAngle,
+    params: &EmaParams,
+) -> Result<CaseResult, CliError> {
+    let params = *params;
     let profile = Profile::STANDARD;
-    let config = SimConfig { faults, seed, ..SimConfig::default() };
+    let config = SimConfig { params, faults, seed, ..SimConfig::default() };
     let rec = simulate(&config).map_err(|e| CliError::Simulation(e.to_string()))?;
     let mut trace = Box::new(MeasuredTrace::<HOST_WINDOW>::new());
     for s in &rec.samples {
@@ -222,9 +232,10 @@ pub struct CompareJson<'a> {
 
 /// Runs `ema compare`.
 pub fn run(args: &CompareArgs) -> Result<String, CliError> {
+    let params = args.params.load()?;
     let results: Vec<CaseResult> = cases()
         .into_iter()
-        .map(|(name, k)| compare_case(&name, k, args.seed, args.rotor_angle))
+        .map(|(name, k)| compare_case(&name, k, args.seed, args.rotor_angle, &params))
         .collect::<Result<_, _>>()?;
     if args.json {
         let cases = results

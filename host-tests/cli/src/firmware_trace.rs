@@ -42,6 +42,7 @@ use ema_reference::{simulate, Effects, SimConfig};
 use crate::error::CliError;
 use crate::identify::check_recording;
 use crate::output::{check_file, write_files, OutputArgs, Overwrite};
+use crate::params::ParamsArgs;
 use crate::recording_io::{read_recording, Recording};
 
 /// Fault vector of the built-in trace: friction `k1 = 0.25`, everything else healthy
@@ -63,6 +64,10 @@ pub struct FirmwareTraceArgs {
     /// Pack this recording CSV (10 kHz, standard profile, 8500 rows) instead of the built-in run.
     #[arg(long, value_name = "RECORDING")]
     pub from: Option<PathBuf>,
+    /// The actuator's parameters: the built-in run simulates it (pair the trace with the same
+    /// file in EMA_PARAMS); --from checks the recording against its control period.
+    #[command(flatten)]
+    pub params: ParamsArgs,
 }
 
 /// Frames of a firmware trace: the standard profile at 10 kHz (8500, as the built-in trace).
@@ -79,7 +84,7 @@ pub fn default_out(from: Option<&Path>) -> PathBuf {
     PathBuf::from(name)
 }
 
-/// The reference-model configuration of the built-in trace.
+/// The reference-model configuration of the built-in trace (the nominal actuator).
 pub fn firmware_trace_config() -> SimConfig {
     SimConfig {
         params: EmaParams::NOMINAL,
@@ -93,10 +98,12 @@ pub fn firmware_trace_config() -> SimConfig {
     }
 }
 
-/// Simulates [`firmware_trace_config`] and packs the recorded ADC codes of the three phases:
-/// the exact content of `traces/standard.ematrace`.
-pub fn firmware_trace_bytes() -> Result<Vec<u8>, CliError> {
-    let recording = simulate(&firmware_trace_config()).map_err(|e| CliError::Simulation(e.to_string()))?;
+/// Simulates [`firmware_trace_config`] with the actuator `params` and packs the recorded ADC
+/// codes of the three phases: with [`EmaParams::NOMINAL`], the exact content of
+/// `traces/standard.ematrace`.
+pub fn firmware_trace_bytes(params: &EmaParams) -> Result<Vec<u8>, CliError> {
+    let config = SimConfig { params: *params, ..firmware_trace_config() };
+    let recording = simulate(&config).map_err(|e| CliError::Simulation(e.to_string()))?;
     let period = 1.0 / f64::from(SAMPLE_RATE_HZ);
     if (recording.sample_period_s - period).abs() > 1e-9 * period {
         return Err(CliError::Simulation(format!(
@@ -114,8 +121,8 @@ pub fn firmware_trace_bytes() -> Result<Vec<u8>, CliError> {
 
 /// Packs a recording read from `path` (named in messages) into a firmware trace: checks the
 /// sample rate and the standard profile's command, requires [`FIRMWARE_TRACE_FRAMES`] rows.
-pub fn recording_trace_bytes(recording: &Recording, path: &Path) -> Result<Vec<u8>, CliError> {
-    check_recording(recording, path, &Profile::STANDARD, &EmaParams::NOMINAL)?;
+pub fn recording_trace_bytes(recording: &Recording, path: &Path, params: &EmaParams) -> Result<Vec<u8>, CliError> {
+    check_recording(recording, path, &Profile::STANDARD, params)?;
     if recording.len() != FIRMWARE_TRACE_FRAMES {
         return Err(CliError::Input {
             path: path.to_path_buf(),
@@ -144,10 +151,11 @@ pub fn run(args: &FirmwareTraceArgs) -> Result<String, CliError> {
     let out = args.output.out.clone().unwrap_or_else(|| default_out(args.from.as_deref()));
     let overwrite = args.output.overwrite();
     check_file(&out, overwrite)?;
+    let params = args.params.load()?;
     if let Some(from) = &args.from {
-        return run_from(from, &out, overwrite);
+        return run_from(from, &out, overwrite, &params);
     }
-    let bytes = firmware_trace_bytes()?;
+    let bytes = firmware_trace_bytes(&params)?;
     let trace = PackedTrace::parse(&bytes)
         .map_err(|e| CliError::Simulation(format!("the packed trace does not read back: {e}")))?;
     write_files(&[(&out, &bytes)], overwrite)?;
@@ -164,9 +172,9 @@ pub fn run(args: &FirmwareTraceArgs) -> Result<String, CliError> {
 }
 
 /// `ema firmware-trace --from RECORDING [--out FILE]`.
-fn run_from(from: &Path, out: &Path, overwrite: Overwrite) -> Result<String, CliError> {
+fn run_from(from: &Path, out: &Path, overwrite: Overwrite, params: &EmaParams) -> Result<String, CliError> {
     let recording = read_recording(from)?;
-    let bytes = recording_trace_bytes(&recording, from)?;
+    let bytes = recording_trace_bytes(&recording, from, params)?;
     let trace = PackedTrace::parse(&bytes)
         .map_err(|e| CliError::Simulation(format!("the packed trace does not read back: {e}")))?;
     write_files(&[(out, &bytes)], overwrite)?;

@@ -41,6 +41,7 @@ use serde::Serialize;
 
 use crate::error::CliError;
 use crate::input;
+use crate::params::ParamsArgs;
 use crate::progress::{self, ProgressArgs};
 use crate::recording_io::{read_recording, Recording};
 use crate::schema::Document;
@@ -117,6 +118,9 @@ pub struct IdentifyArgs {
     /// `--quiet`.
     #[command(flatten)]
     pub progress: ProgressArgs,
+    /// The actuator's parameters.
+    #[command(flatten)]
+    pub params: ParamsArgs,
 }
 
 /// Outcome of one identification.
@@ -143,8 +147,9 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
         ..base
     };
     let config = method_flags(config, args.paper_only, args.fast_regime_weight);
+    let params = args.params.load()?;
     let outcome = match (&args.firmware_trace, &args.file) {
-        (Some(path), _) => match firmware_trace_outcome(&read_firmware_trace(path)?, &config) {
+        (Some(path), _) => match firmware_trace_outcome(&read_firmware_trace(path)?, &params, &config) {
             Ok(outcome) => outcome,
             Err(refusal) => {
                 if args.bits {
@@ -159,7 +164,7 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
             let profile = resolve_profile(&args.profile)?;
             let recording = read_recording(path).map_err(CliError::Recording)?;
             let spinner = progress::spinner(format!("identifying {}", path.display()), args.progress.visible());
-            let outcome = identify_recording(&recording, path, &profile, &config);
+            let outcome = identify_recording(&recording, path, &params, &profile, &config);
             spinner.finish_and_clear();
             outcome?
         }
@@ -218,16 +223,18 @@ pub fn effects_label(effects: &ModelEffects) -> String {
     }
 }
 
-/// Identifies a recording read from `path` (used for messages), driven by `profile`; the report
-/// carries the count of refused frames and is `SENSOR_FAULT` when there are too many.
+/// Identifies a recording read from `path` (used for messages) of the actuator `params`, driven
+/// by `profile`; the report carries the count of refused frames and is `SENSOR_FAULT` when there
+/// are too many.
 pub fn identify_recording(
     recording: &Recording,
     path: &Path,
+    params: &EmaParams,
     profile: &Profile,
     config: &IdentifyConfig,
 ) -> Result<Outcome, CliError> {
-    let (trace, acquired) = condition_recording_checked(recording, path, profile)?;
-    let outcome = identify_trace(&trace, profile, config, path)?;
+    let (trace, acquired) = condition_recording_checked(recording, path, params, profile)?;
+    let outcome = identify_trace(&trace, params, profile, config, path)?;
     Ok(Outcome { report: outcome.report.with_acquisition(&acquired), ..outcome })
 }
 
@@ -239,9 +246,10 @@ pub fn identify_recording(
 pub fn condition_recording(
     recording: &Recording,
     path: &Path,
+    params: &EmaParams,
     profile: &Profile,
 ) -> Result<Box<MeasuredTrace<HOST_WINDOW>>, CliError> {
-    check_recording(recording, path, profile, &EmaParams::NOMINAL)?;
+    check_recording(recording, path, profile, params)?;
     let mut trace = Box::new(MeasuredTrace::<HOST_WINDOW>::new());
     for k in 0..recording.len() {
         trace
@@ -258,9 +266,10 @@ pub fn condition_recording(
 pub fn condition_recording_checked(
     recording: &Recording,
     path: &Path,
+    params: &EmaParams,
     profile: &Profile,
 ) -> Result<(Box<MeasuredTrace<HOST_WINDOW>>, AcquisitionSummary), CliError> {
-    check_recording(recording, path, profile, &EmaParams::NOMINAL)?;
+    check_recording(recording, path, profile, params)?;
     let mut check = FrameCheck::new(Calibration::NOMINAL, AcquisitionConfig::DEFAULT)
         .map_err(|e| input_error(path, &e.to_string()))?;
     let mut summary = AcquisitionSummary::default();
@@ -283,25 +292,28 @@ pub fn condition_recording_checked(
     Ok((trace, summary))
 }
 
-/// Identifies a conditioned trace (any window size); `path` names the input in messages.
+/// Identifies a conditioned trace (any window size) of the actuator `params`; `path` names the
+/// input in messages.
 pub fn identify_trace<const W: usize>(
     trace: &MeasuredTrace<W>,
+    params: &EmaParams,
     profile: &Profile,
     config: &IdentifyConfig,
     path: &Path,
 ) -> Result<Outcome, CliError> {
-    run_identification(trace, profile, config).map_err(|e| input_error(path, &e.to_string()))
+    run_identification(trace, params, profile, config).map_err(|e| input_error(path, &e.to_string()))
 }
 
 /// The identification of a conditioned trace to its end, as the firmware's `identify` runs it.
 fn run_identification<const W: usize>(
     trace: &MeasuredTrace<W>,
+    params: &EmaParams,
     profile: &Profile,
     config: &IdentifyConfig,
 ) -> Result<Outcome, monitor::MonitorError> {
     let start = Instant::now();
     let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> =
-        Box::new(Identification::new(trace, EmaParams::NOMINAL, *profile, config)?);
+        Box::new(Identification::new(trace, *params, *profile, config)?);
     id.run(u32::MAX);
     Ok(Outcome { report: id.report(), seconds: start.elapsed().as_secs_f64() })
 }
@@ -345,20 +357,21 @@ fn read_firmware_trace(path: &Path) -> Result<Vec<u8>, CliError> {
 /// The firmware's path on the bytes of a packed trace, step for step as `src/main.rs`: parse,
 /// replay ADC and `OneShot` reader (nominal calibration, default checks), [`monitor::acquire`]
 /// into the on-board window, the identification under `config` (the firmware's is
-/// `IdentifyConfig::onboard()` with its model effects), the acquisition's verdict, then
+/// `IdentifyConfig::onboard()` with its model effects) of the actuator `params` (the firmware's
+/// are `EMA_PARAMS`'), the acquisition's verdict, then
 /// `INCONCLUSIVE (rate mismatch)` when the header's rate is not 10 kHz. A step that refuses the
 /// trace gives the [`Refusal`] the firmware logs.
-pub fn firmware_trace_outcome(bytes: &[u8], config: &IdentifyConfig) -> Result<Outcome, Refusal> {
+pub fn firmware_trace_outcome(bytes: &[u8], params: &EmaParams, config: &IdentifyConfig) -> Result<Outcome, Refusal> {
     let packed = PackedTrace::parse(bytes).map_err(|e| Refusal::new("trace", e))?;
-    let rate_ok = monitor::rate_matches(packed.sample_rate_hz() as f32, &EmaParams::NOMINAL);
+    let rate_ok = monitor::rate_matches(packed.sample_rate_hz() as f32, params);
     let adc = ReplayAdc::new(packed);
     let mut reader =
         PhaseCurrentReader::new(adc, (PhaseA, PhaseB, PhaseC), Calibration::NOMINAL, AcquisitionConfig::DEFAULT)
             .map_err(|e| Refusal::new("reader", e))?;
     let mut trace = Box::new(MeasuredTrace::<ONBOARD_WINDOW>::new());
     let acquired = monitor::acquire(&mut reader, &mut trace).map_err(|e| Refusal::new("acquisition", e))?;
-    let outcome =
-        run_identification(&trace, &Profile::STANDARD, config).map_err(|e| Refusal::new("identification", e))?;
+    let outcome = run_identification(&trace, params, &Profile::STANDARD, config)
+        .map_err(|e| Refusal::new("identification", e))?;
     let report = outcome.report.with_acquisition(&acquired);
     let report = if rate_ok { report } else { report.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
     Ok(Outcome { report, ..outcome })

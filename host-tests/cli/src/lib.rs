@@ -12,6 +12,10 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+/// The core's parameter table, reached by [`params_file`] as `super::core_params` (as in the firmware's
+/// build script, which includes that file).
+use ema_monitor::params as core_params;
+
 pub mod campaign;
 pub mod compare;
 pub mod discover;
@@ -20,6 +24,8 @@ pub mod firmware_trace;
 pub mod identify;
 pub mod input;
 pub mod output;
+pub mod params;
+pub mod params_file;
 pub mod parity_traces;
 pub mod plots;
 pub mod profile_file;

@@ -1,6 +1,6 @@
 //! `ema`: host tools of ema-monitor. Subcommands: `simulate` (reference model → recording CSV),
 //! `identify` (core → health report), `firmware-trace`, `compare`, `campaign`, `discover` (missing
-//! effects).
+//! effects), `params` (the actuator parameter template).
 
 use std::io::{ErrorKind as IoErrorKind, Write};
 use std::process::ExitCode;
@@ -13,6 +13,7 @@ use ema_cli::discover::{self, DiscoverArgs};
 use ema_cli::error::{CliError, EXIT_FAILURE};
 use ema_cli::firmware_trace::{self, FirmwareTraceArgs};
 use ema_cli::identify::{self, IdentifyArgs};
+use ema_cli::params::{self, ParamsCommandArgs};
 use ema_cli::simulate::{self, SimulateArgs};
 
 /// Host tools of the EMA on-board health monitor.
@@ -37,6 +38,8 @@ enum Command {
     Campaign(CampaignArgs),
     /// Where the monitor model and a recording disagree, which library effect is missing, and the gap it closes.
     Discover(DiscoverArgs),
+    /// Print the nominal actuator parameters as a commented TOML template (edit it, pass it with --params).
+    Params(ParamsCommandArgs),
 }
 
 fn main() -> ExitCode {
@@ -51,6 +54,7 @@ fn main() -> ExitCode {
         Command::Compare(args) => compare::run(args),
         Command::Campaign(args) => campaign::run(args),
         Command::Discover(args) => discover::run(args),
+        Command::Params(args) => params::run(args),
     };
     match result {
         // A reader that stops early (`ema discover FILE | head`) is not an error.
@@ -77,7 +81,7 @@ fn clap_error(e: &clap::Error) -> ExitCode {
         }
         ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
             eprintln!(
-                "error: a subcommand is required (simulate, identify, firmware-trace, compare, campaign, discover); try 'ema --help'"
+                "error: a subcommand is required (simulate, identify, firmware-trace, compare, campaign, discover, params); try 'ema --help'"
             );
             ExitCode::from(EXIT_FAILURE)
         }

@@ -1,7 +1,7 @@
 //! `ema simulate`: runs the reference model and writes a recording.
 //!
 //! ```text
-//! ema simulate --faults k1,…,k8 [--effect ID=S]… [--profile standard|FILE] [--noise on|off] [--seed N] --out FILE.csv [--force]
+//! ema simulate --faults k1,…,k8 [--effect ID=S]… [--profile standard|FILE] [--params FILE.toml] [--noise on|off] [--seed N] --out FILE.csv [--force]
 //! ```
 //!
 //! `--out` is checked before the simulation runs; an existing file is replaced only with
@@ -15,6 +15,7 @@ use ema_reference::{simulate, Effect, Effects, SimConfig};
 
 use crate::error::CliError;
 use crate::output::{check_file, OutputArgs};
+use crate::params::{describe, ParamsArgs};
 use crate::profile_file::read_profile;
 use crate::recording_io::{write_recording, Recording};
 
@@ -54,6 +55,9 @@ pub struct SimulateArgs {
     /// `--out FILE.csv` (required) and `--force`.
     #[command(flatten)]
     pub output: OutputArgs,
+    /// The actuator's parameters (recorded in the file's metadata).
+    #[command(flatten)]
+    pub params: ParamsArgs,
 }
 
 /// Parses `k1,…,k8`: exactly eight numbers in `[0, 1]`.
@@ -133,6 +137,7 @@ pub fn resolve_profile(name: &str) -> Result<Profile, CliError> {
 /// The simulation configuration the arguments describe.
 pub fn config(args: &SimulateArgs) -> Result<SimConfig, CliError> {
     Ok(SimConfig {
+        params: args.params.load()?,
         faults: parse_faults(&args.faults)?,
         effects: parse_effects(&args.effects)?,
         profile: resolve_profile(&args.profile)?,
@@ -156,6 +161,7 @@ pub fn run(args: &SimulateArgs) -> Result<String, CliError> {
         format!("faults: {k}"),
         format!("effects: {}", if fx.is_empty() { "none".to_owned() } else { fx.join(",") }),
         format!("profile: {}", args.profile),
+        format!("params: {} ({})", args.params.source(), describe(&cfg.params)),
         format!("noise: {}, seed: {}", if cfg.noise { "on" } else { "off" }, cfg.seed),
         format!("sample_rate_hz: {}", ema_monitor::trace::SAMPLE_RATE_HZ),
     ];

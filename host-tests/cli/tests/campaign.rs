@@ -25,6 +25,7 @@ fn args(runs: u32, modes: &[&str]) -> CampaignArgs {
         json: false,
         output: Default::default(),
         progress: Default::default(),
+        params: Default::default(),
     }
 }
 
@@ -87,8 +88,10 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
     // the global search alone, so every run spends exactly its budget
     let a = CampaignArgs { paper_only: true, ..args(1, &["friction", "gain"]) };
     let plans = plan(&a).expect("valid");
-    let one = run_all(&plans, &identify_config(&a), &Profile::STANDARD, 1, false).expect("runs");
-    let two = run_all(&plans, &identify_config(&a), &Profile::STANDARD, 2, false).expect("runs");
+    let one = run_all(&plans, &identify_config(&a), &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD, 1, false)
+        .expect("runs");
+    let two = run_all(&plans, &identify_config(&a), &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD, 2, false)
+        .expect("runs");
     // every column but `identification_s` (third to last), which is wall time
     let strip = |csv: String| -> Vec<Vec<String>> {
         csv.lines()
@@ -122,6 +125,7 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
     let refined = run_all(
         &plans,
         &identify_config(&CampaignArgs { paper_only: false, ..a.clone() }),
+        &ema_monitor::EmaParams::NOMINAL,
         &Profile::STANDARD,
         2,
         false,
@@ -148,18 +152,32 @@ fn the_detectability_floor_drops_only_what_the_recording_cannot_show() {
     let truth = FaultVector([0.7, 0.0, 0.0, 0.0, 0.0, 0.02, 0.3, 0.5]);
     let rec = simulate(&SimConfig { faults: truth, seed: 5, ..SimConfig::default() }).expect("sim");
     let recording = ema_cli::recording_io::Recording::from_reference(&rec, Vec::new());
-    let trace = ema_cli::identify::condition_recording(&recording, std::path::Path::new("t"), &Profile::STANDARD)
-        .expect("conditions");
+    let trace = ema_cli::identify::condition_recording(
+        &recording,
+        std::path::Path::new("t"),
+        &ema_monitor::EmaParams::NOMINAL,
+        &Profile::STANDARD,
+    )
+    .expect("conditions");
     let config = identify_config(&args(1, &[]));
     // a high friction stays, a 0.02 eccentricity goes (its phase with it)
-    let floor = campaign::detectability_floor(&trace, &Profile::STANDARD, &config, &truth);
+    let floor =
+        campaign::detectability_floor(&trace, &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD, &config, &truth);
     assert_eq!(floor, FaultVector([0.7, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]));
     let strong = FaultVector([0.7, 0.0, 0.0, 0.0, 0.0, 0.8, 0.3, 0.5]);
     let rec = simulate(&SimConfig { faults: strong, seed: 5, ..SimConfig::default() }).expect("sim");
     let recording = ema_cli::recording_io::Recording::from_reference(&rec, Vec::new());
-    let trace = ema_cli::identify::condition_recording(&recording, std::path::Path::new("t"), &Profile::STANDARD)
-        .expect("conditions");
-    assert_eq!(campaign::detectability_floor(&trace, &Profile::STANDARD, &config, &strong), strong);
+    let trace = ema_cli::identify::condition_recording(
+        &recording,
+        std::path::Path::new("t"),
+        &ema_monitor::EmaParams::NOMINAL,
+        &Profile::STANDARD,
+    )
+    .expect("conditions");
+    assert_eq!(
+        campaign::detectability_floor(&trace, &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD, &config, &strong),
+        strong
+    );
 }
 
 #[test]
@@ -201,7 +219,7 @@ fn a_profile_file_drives_every_run() {
     let a = CampaignArgs { paper_only: true, profile: path_str(&file).to_string(), ..args(1, &["friction"]) };
     let plans = plan(&a).expect("valid");
     let config = identify_config(&a);
-    let flown = run_all(&plans, &config, &profile, 1, false).expect("runs");
+    let flown = run_all(&plans, &config, &ema_monitor::EmaParams::NOMINAL, &profile, 1, false).expect("runs");
     for (p, r) in plans.iter().zip(&flown) {
         let rec = simulate(&SimConfig { faults: p.truth, seed: p.seed, profile, ..SimConfig::default() }).expect("sim");
         let samples = profile.duration_s() / ema_monitor::EmaParams::NOMINAL.control_period_s;
@@ -210,6 +228,7 @@ fn a_profile_file_drives_every_run() {
         let by_hand = ema_cli::identify::identify_recording(
             &recording,
             std::path::Path::new("by hand"),
+            &ema_monitor::EmaParams::NOMINAL,
             &profile,
             &ema_monitor::monitor::IdentifyConfig { seed: p.seed, ..config },
         )

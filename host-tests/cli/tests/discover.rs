@@ -27,8 +27,23 @@ fn recording(effects: &[(Effect, f64)], faults: [f32; 8], seed: u64) -> Recordin
 
 fn run(effects: &[(Effect, f64)], faults: [f32; 8], seed: u64) -> Discovery {
     let path = Path::new("in-memory.csv");
-    let trace = condition_recording(&recording(effects, faults, seed), path, &Profile::STANDARD).unwrap();
-    discover::<HOST_WINDOW>(&trace, &Profile::STANDARD, path, Some(FaultVector(faults)), 1, 2).unwrap()
+    let trace = condition_recording(
+        &recording(effects, faults, seed),
+        path,
+        &ema_monitor::EmaParams::NOMINAL,
+        &Profile::STANDARD,
+    )
+    .unwrap();
+    discover::<HOST_WINDOW>(
+        &trace,
+        &ema_monitor::EmaParams::NOMINAL,
+        &Profile::STANDARD,
+        path,
+        Some(FaultVector(faults)),
+        1,
+        2,
+    )
+    .unwrap()
 }
 
 fn named(d: &Discovery) -> Vec<EffectId> {
@@ -247,7 +262,14 @@ fn the_on_board_fit_does_not_read_cogging_as_eccentricity() {
         let recording = recording(&[(Effect::Cogging, 1.0)], HEALTHY, seed);
         let path = Path::new("in-memory.csv");
         let config = ema_monitor::monitor::IdentifyConfig::onboard();
-        let outcome = ema_cli::identify::identify_recording(&recording, path, &Profile::STANDARD, &config).unwrap();
+        let outcome = ema_cli::identify::identify_recording(
+            &recording,
+            path,
+            &ema_monitor::EmaParams::NOMINAL,
+            &Profile::STANDARD,
+            &config,
+        )
+        .unwrap();
         let k = outcome.report.faults.0;
         assert_eq!(k[5], 0.0, "seed {seed}: eccentricity read from cogging: {k:?}");
     }

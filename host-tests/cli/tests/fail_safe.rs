@@ -31,7 +31,9 @@ fn config() -> IdentifyConfig {
 }
 
 fn report(r: &Recording) -> HealthReport {
-    identify_recording(r, Path::new("in-memory.csv"), &Profile::STANDARD, &config()).unwrap().report
+    identify_recording(r, Path::new("in-memory.csv"), &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD, &config())
+        .unwrap()
+        .report
 }
 
 #[test]

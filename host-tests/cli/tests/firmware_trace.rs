@@ -29,7 +29,8 @@ fn faults_csv() -> String {
 
 #[test]
 fn committed_trace_matches_the_reference_model() {
-    let fresh = firmware_trace_bytes().expect("the reference model records the firmware trace");
+    let fresh =
+        firmware_trace_bytes(&ema_monitor::EmaParams::NOMINAL).expect("the reference model records the firmware trace");
     let on_disk = committed();
     let first_difference = fresh.iter().zip(&on_disk).position(|(a, b)| a != b);
     assert!(

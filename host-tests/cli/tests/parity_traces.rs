@@ -56,12 +56,13 @@ fn committed_parity_traces_are_what_the_generator_writes() {
 fn the_second_fault_is_a_diagnosis_at_10_khz_and_inconclusive_as_declared() {
     let config = onboard(Some("viscous.conf"));
     let mut bytes = committed("backlash-short-viscous-8khz.ematrace");
-    let declared = firmware_trace_outcome(&bytes, &config).expect("identified").report;
+    let declared =
+        firmware_trace_outcome(&bytes, &ema_monitor::EmaParams::NOMINAL, &config).expect("identified").report;
     assert_eq!(declared.status, Status::Inconclusive(Abstain::RateMismatch), "{declared}");
     // the same frames declared at 10 kHz: a diagnosis (backlash and a short on phase C, both
     // DEGRADED), and the declared rate changes nothing but the status
     bytes[8..12].copy_from_slice(&SAMPLE_RATE_HZ.to_le_bytes());
-    let at_rate = firmware_trace_outcome(&bytes, &config).expect("identified").report;
+    let at_rate = firmware_trace_outcome(&bytes, &ema_monitor::EmaParams::NOMINAL, &config).expect("identified").report;
     assert_eq!(at_rate.status, Status::Degraded, "{at_rate}");
     let k = at_rate.faults.0;
     assert!((k[1] - 0.3).abs() < 0.02 && (k[4] - 0.35).abs() < 0.02, "{k:?}");
@@ -72,14 +73,18 @@ fn the_second_fault_is_a_diagnosis_at_10_khz_and_inconclusive_as_declared() {
 #[test]
 fn a_stuck_phase_is_a_sensor_fault() {
     let report =
-        firmware_trace_outcome(&committed("stuck-phase-b.ematrace"), &onboard(None)).expect("identified").report;
+        firmware_trace_outcome(&committed("stuck-phase-b.ematrace"), &ema_monitor::EmaParams::NOMINAL, &onboard(None))
+            .expect("identified")
+            .report;
     assert_eq!(report.status, Status::SensorFault, "{report}");
     assert!(summary_line(&report).starts_with("summary: SENSOR_FAULT fitness "), "{}", summary_line(&report));
 }
 
 #[test]
 fn too_short_and_malformed_traces_are_refused_with_the_firmware_summary() {
-    let refusal = |name: &str| firmware_trace_outcome(&committed(name), &onboard(None)).expect_err(name);
+    let refusal = |name: &str| {
+        firmware_trace_outcome(&committed(name), &ema_monitor::EmaParams::NOMINAL, &onboard(None)).expect_err(name)
+    };
     let short: Refusal = refusal("too-short.ematrace");
     assert_eq!(short.summary_line(), "summary: REFUSED acquisition Conditioning(TooShort)");
     let padding = refusal("bad-padding.ematrace");

@@ -47,7 +47,7 @@ fuzz_target!(|data: &[u8]| {
             (&rec.position_rad, &rec.ia_a, &rec.ib_a, &rec.ic_a)
         );
     }
-    if let Ok((trace, summary)) = condition_recording_checked(&rec, path, &Profile::STANDARD) {
+    if let Ok((trace, summary)) = condition_recording_checked(&rec, path, &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD) {
         assert!(trace.is_finished() && trace.current_a().iter().all(|i| i.is_finite()));
         assert_eq!(summary.frames as usize, n);
     }

@@ -44,7 +44,8 @@ fn measured_mean(
     for &(seed, noise) in &runs {
         let cfg = SimConfig { seed, noise, effects, faults: *k, ..SimConfig::default() };
         let recording = Recording::from_reference(&simulate(&cfg)?, vec![]);
-        let trace = condition_recording(&recording, Path::new("in-memory.csv"), &Profile::STANDARD)?;
+        let trace =
+            condition_recording(&recording, Path::new("in-memory.csv"), &EmaParams::NOMINAL, &Profile::STANDARD)?;
         if models.is_empty() {
             for fx in model_effects {
                 models.push(series(&trace, &EmaParams::NOMINAL, &Profile::STANDARD, k, fx));

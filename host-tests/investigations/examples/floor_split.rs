@@ -80,7 +80,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for seed in 1..=seeds {
         let cfg = SimConfig { seed, effects, faults: k, ..SimConfig::default() };
         let recording = Recording::from_reference(&simulate(&cfg)?, vec![]);
-        let trace = condition_recording(&recording, Path::new("in-memory.csv"), &Profile::STANDARD)?;
+        let trace =
+            condition_recording(&recording, Path::new("in-memory.csv"), &EmaParams::NOMINAL, &Profile::STANDARD)?;
         let current: Vec<f64> = trace.current_a().iter().map(|&y| f64::from(y)).collect();
         measured.push(moving_mean(&current, SMOOTH_BLOCKS));
         // the model is deterministic: one run, along the first recording

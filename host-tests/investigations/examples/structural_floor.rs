@@ -36,7 +36,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (_, effects) = parse_effect_both_sides(args.get(2).map(String::as_str))?;
     let profile = resolve_profile("standard")?;
     let recording = read_recording(path)?;
-    let trace = condition_recording(&recording, path, &profile)?;
+    let trace = condition_recording(&recording, path, &EmaParams::NOMINAL, &profile)?;
     let s = series(&trace, &EmaParams::NOMINAL, &profile, &k, &effects);
     let (all, n) = band(&s, |_| true);
     println!("structural residual RMS (2 ms means): {all:.4} A over {n} blocks");

@@ -29,7 +29,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Err(usage.into());
     };
     let recording = read_recording(file)?;
-    let trace = condition_recording(&recording, Path::new(file), &Profile::STANDARD)?;
+    let trace = condition_recording(&recording, Path::new(file), &EmaParams::NOMINAL, &Profile::STANDARD)?;
     let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD)?
         .with_fast_regime_weight(FAST_REGIME_WEIGHT)
         .ok_or("fast-regime weight")?;

@@ -24,10 +24,39 @@ pub fn position_lsb_rad() -> f64 {
 
 /// Quantizes a position to the 16-bit transducer code grid (saturating at the range ends).
 pub fn quantize_position(theta_rad: f64) -> f64 {
-    let lsb = position_lsb_rad();
-    let half = f64::from(1u32 << (POSITION_BITS - 1));
-    let code = (theta_rad / lsb).round().clamp(-half, half - 1.0);
-    code * lsb + 0.0 // + 0.0 turns −0 into +0
+    PositionGrid::NOMINAL.quantize(theta_rad)
+}
+
+/// The code grid of a position transducer: `2·half_codes` codes of `lsb_rad` over
+/// `±half_codes·lsb_rad`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PositionGrid {
+    /// One code.
+    pub lsb_rad: f64,
+    /// Codes on each side of zero.
+    pub half_codes: f64,
+}
+
+impl PositionGrid {
+    /// The nominal transducer: 16 bits over ±[`POSITION_RANGE_RAD`].
+    pub const NOMINAL: Self = Self {
+        lsb_rad: 2.0 * POSITION_RANGE_RAD / (1u32 << POSITION_BITS) as f64,
+        half_codes: (1u32 << (POSITION_BITS - 1)) as f64,
+    };
+
+    /// The transducer of an actuator: a whole number of codes spanning its travel `±end_stop_rad`,
+    /// each as close as that allows to the resolution `resolution_rad` (the nominal table's
+    /// `1.2/65536` in `f32` gives exactly [`PositionGrid::NOMINAL`]).
+    pub fn of(resolution_rad: f64, end_stop_rad: f64) -> Self {
+        let codes = (2.0 * end_stop_rad / resolution_rad).round().max(2.0);
+        Self { lsb_rad: 2.0 * end_stop_rad / codes, half_codes: (codes / 2.0).floor() }
+    }
+
+    /// Quantizes a position to the grid (saturating at the range ends).
+    pub fn quantize(&self, theta_rad: f64) -> f64 {
+        let code = (theta_rad / self.lsb_rad).round().clamp(-self.half_codes, self.half_codes - 1.0);
+        code * self.lsb_rad + 0.0 // + 0.0 turns −0 into +0
+    }
 }
 
 /// Current ADC: `(counts, amps)` of a current through the shared 12-bit format.
@@ -79,6 +108,18 @@ mod tests {
             l.update(1.0);
         }
         assert!((l.value - (1.0 - (-1.0f64).exp())).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_nominal_parameters_give_the_nominal_grid() {
+        let p = ema_monitor::EmaParams::NOMINAL;
+        let grid =
+            PositionGrid::of(crate::params::widen(p.position_resolution_rad), crate::params::widen(p.end_stop_rad));
+        assert_eq!(grid, PositionGrid::NOMINAL);
+        // a coarser transducer over a shorter travel
+        let coarse = PositionGrid::of(1.0e-4, 0.3);
+        assert_eq!(coarse.half_codes, 3000.0);
+        assert_eq!(coarse.quantize(1.0), 2999.0 * coarse.lsb_rad);
     }
 
     #[test]

@@ -248,6 +248,8 @@ pub struct Simulator {
     bus_current: Lag,
     rng: Option<NoiseRng>,
     quantization: bool,
+    /// Code grid of the position transducer (`EmaParams::position_resolution_rad` over the travel).
+    position_grid: sensors::PositionGrid,
     sample_index: u64,
     ledger: EnergyLedger,
     interval_energy_j: f64,
@@ -310,6 +312,10 @@ impl Simulator {
             bus_current: Lag::new(maxima::BUS_FILTER_S, dt),
             rng: cfg.noise.then(|| NoiseRng::new(cfg.seed)),
             quantization: cfg.quantization,
+            position_grid: sensors::PositionGrid::of(
+                crate::params::widen(cfg.params.position_resolution_rad),
+                crate::params::widen(cfg.params.end_stop_rad),
+            ),
             sample_index: 0,
             ledger: EnergyLedger::default(),
             interval_energy_j: 0.0,
@@ -372,7 +378,7 @@ impl Simulator {
             None => (0.0, [0.0; 3]),
         };
         let raw_position = self.position_lag.value + pos_noise;
-        let position_rad = if self.quantization { sensors::quantize_position(raw_position) } else { raw_position };
+        let position_rad = if self.quantization { self.position_grid.quantize(raw_position) } else { raw_position };
         let mut phase_current_a = [0.0; 3];
         let mut adc_counts = [0u16; 3];
         for j in 0..3 {

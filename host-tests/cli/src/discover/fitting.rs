@@ -52,15 +52,17 @@ pub struct PartFit<'a, const W: usize> {
 }
 
 impl<'a, const W: usize> PartFit<'a, W> {
-    /// The fitness over `part` with `base` effects on and the severities of `free` fitted.
+    /// The fitness over `part` of the actuator `params` with `base` effects on and the severities of
+    /// `free` fitted.
     pub fn new(
         trace: &'a MeasuredTrace<W>,
+        params: EmaParams,
         profile: Profile,
         base: ModelEffects,
         free: Vec<EffectId>,
         part: Part,
     ) -> Self {
-        Self { trace, params: EmaParams::NOMINAL, profile, base, free, part }
+        Self { trace, params, profile, base, free, part }
     }
 
     /// The fault vector and the effects a point stands for.
@@ -229,6 +231,7 @@ fn select_groups<const W: usize, const D: usize>(
 ///    evaluations).
 pub fn fit_model<const W: usize>(
     trace: &MeasuredTrace<W>,
+    params: &EmaParams,
     profile: &Profile,
     free: &[EffectId],
     start: &ModelFit,
@@ -236,22 +239,23 @@ pub fn fit_model<const W: usize>(
     n_eff: f64,
 ) -> ModelFit {
     match free.len() {
-        0 => fit_d::<W, 8>(trace, profile, free, start, part, n_eff),
-        1 => fit_d::<W, 9>(trace, profile, free, start, part, n_eff),
-        _ => fit_d::<W, 10>(trace, profile, &free[..2], start, part, n_eff),
+        0 => fit_d::<W, 8>(trace, params, profile, free, start, part, n_eff),
+        1 => fit_d::<W, 9>(trace, params, profile, free, start, part, n_eff),
+        _ => fit_d::<W, 10>(trace, params, profile, &free[..2], start, part, n_eff),
     }
 }
 
 /// [`fit_model`] in `D` = 8 + (free effects, at most 2) dimensions.
 fn fit_d<const W: usize, const D: usize>(
     trace: &MeasuredTrace<W>,
+    params: &EmaParams,
     profile: &Profile,
     free: &[EffectId],
     start_fit: &ModelFit,
     part: Part,
     n_eff: f64,
 ) -> ModelFit {
-    let mut objective = PartFit::new(trace, *profile, ModelEffects::NONE, free.to_vec(), part);
+    let mut objective = PartFit::new(trace, *params, *profile, ModelEffects::NONE, free.to_vec(), part);
     let fb = fault_bounds();
     let mut bounds = Bounds::<D>::unit();
     bounds.periodic[..FAULT_COUNT].copy_from_slice(&fb.periodic);

@@ -81,6 +81,7 @@ pub use residual::{above_noise_a, moving_mean, series, Series, CLEAN_FLOOR_A, NO
 use crate::error::CliError;
 use crate::identify::{condition_recording, identify_trace, HOST_WINDOW};
 use crate::output::{prepare_dir, OutputArgs};
+use crate::params::ParamsArgs;
 use crate::progress::{self, ProgressArgs};
 use crate::recording_io::read_recording;
 use crate::simulate::{parse_faults, resolve_profile};
@@ -116,6 +117,9 @@ pub struct DiscoverArgs {
     /// `--quiet`.
     #[command(flatten)]
     pub progress: ProgressArgs,
+    /// The actuator's parameters.
+    #[command(flatten)]
+    pub params: ParamsArgs,
 }
 
 /// Everything `ema discover` found.
@@ -191,16 +195,17 @@ pub enum Withdrawal {
     AtBound(f32),
 }
 
-/// Runs the whole workflow on a conditioned trace.
+/// Runs the whole workflow on a conditioned trace of the actuator `params`.
 pub fn discover<const W: usize>(
     trace: &MeasuredTrace<W>,
+    params: &EmaParams,
     profile: &Profile,
     file: &Path,
     truth: Option<FaultVector>,
     seed: u64,
     threads: usize,
 ) -> Result<Discovery, CliError> {
-    discover_with_progress(trace, profile, file, truth, seed, threads, &ProgressBar::hidden())
+    discover_with_progress(trace, params, profile, file, truth, seed, threads, &ProgressBar::hidden())
 }
 
 /// [`discover`], advancing `bar` by one step per fit: the current model, the reference of the
@@ -208,6 +213,7 @@ pub fn discover<const W: usize>(
 /// and the on-board diagnoses; its message names the step.
 pub fn discover_with_progress<const W: usize>(
     trace: &MeasuredTrace<W>,
+    params: &EmaParams,
     profile: &Profile,
     file: &Path,
     truth: Option<FaultVector>,
@@ -218,37 +224,36 @@ pub fn discover_with_progress<const W: usize>(
     let start = Instant::now();
     bar.set_length(4);
     bar.set_message("fitting the current model");
-    let params = EmaParams::NOMINAL;
     // 1. the current model, as on board (whole recording)
     // Every sample at full weight: the discrepancies discover looks for live in the fast regime too.
     let config = IdentifyConfig { seed, fast_regime_weight: 1.0, ..IdentifyConfig::onboard() };
-    let report = identify_trace(trace, profile, &config, file)?.report;
+    let report = identify_trace(trace, params, profile, &config, file)?.report;
     bar.inc(1);
     let mut evaluations = u64::from(report.evaluations);
-    let whole = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::All);
+    let whole = PartFit::new(trace, *params, *profile, ModelEffects::NONE, vec![], Part::All);
     let before = ModelFit {
         k: report.faults,
         effects: ModelEffects::NONE,
         error: whole.error(&report.faults, &ModelEffects::NONE, f32::INFINITY),
         evaluations: report.evaluations,
     };
-    let series_before = series(trace, &params, profile, &before.k, &ModelEffects::NONE);
+    let series_before = series(trace, params, profile, &before.k, &ModelEffects::NONE);
     // 2. where
     let mut windows = hot_windows(&series_before);
     let regimes = regimes(&series_before);
     let orders = orders(&series_before);
     // 3. name: the reference (no effect) fitted on the fit part like every candidate
-    let fit = CurrentFit::new(trace, params, *profile).map_err(|e| CliError::Simulation(e.to_string()))?;
+    let fit = CurrentFit::new(trace, *params, *profile).map_err(|e| CliError::Simulation(e.to_string()))?;
     let n_eff_part = 0.5 * f64::from(fit.effective_samples(&before.k));
     let mut on: Vec<EffectId> = Vec::new();
     let mut named = Vec::new();
     let mut rounds = Vec::new();
     bar.set_message("fitting the reference on the fit part");
-    let mut base_fit = fit_model(trace, profile, &on, &before, Part::Fit, n_eff_part);
+    let mut base_fit = fit_model(trace, params, profile, &on, &before, Part::Fit, n_eff_part);
     bar.inc(1);
     evaluations += u64::from(base_fit.evaluations);
     while named.len() < MAX_NAMED {
-        let (round, reference) = search_round(trace, profile, &on, &base_fit, n_eff_part, threads, bar);
+        let (round, reference) = search_round(trace, params, profile, &on, &base_fit, n_eff_part, threads, bar);
         evaluations += round.evaluations();
         let winner = round.named;
         let winner_fit = winner.and(round.candidates.first()).map(|c| c.fit.clone());
@@ -265,7 +270,8 @@ pub fn discover_with_progress<const W: usize>(
                 if let Some((p, p_fit, p_confidence)) = pinned.filter(|_| named.len() + 2 <= MAX_NAMED) {
                     let mut trial: Vec<EffectId> = on.clone();
                     trial.push(p);
-                    let (pair_round, _) = search_round(trace, profile, &trial, &p_fit, n_eff_part, threads, bar);
+                    let (pair_round, _) =
+                        search_round(trace, params, profile, &trial, &p_fit, n_eff_part, threads, bar);
                     evaluations += pair_round.evaluations();
                     let pair = pair_round.named.zip(pair_round.candidates.first().map(|c| c.fit.clone()));
                     let p_severity = pair.as_ref().map_or(0.0, |(_, fit)| fit.effects.get(p));
@@ -296,13 +302,13 @@ pub fn discover_with_progress<const W: usize>(
             break (before.clone(), series_before.clone());
         }
         bar.inc_length(1);
-        let fit = fit_model(trace, profile, &on, &base_fit, Part::All, 2.0 * n_eff_part);
+        let fit = fit_model(trace, params, profile, &on, &base_fit, Part::All, 2.0 * n_eff_part);
         bar.inc(1);
         evaluations += u64::from(fit.evaluations);
         let (effect, why) = match on.iter().find(|e| fit.effects.get(**e) >= PINNED_SEVERITY) {
             Some(&pinned) => (pinned, Withdrawal::AtBound(fit.effects.get(pinned))),
             None => {
-                let series_after = series(trace, &params, profile, &fit.k, &fit.effects);
+                let series_after = series(trace, params, profile, &fit.k, &fit.effects);
                 if structural_energy(&series_after) < energy_before {
                     for (e, s, _) in &mut named {
                         *s = fit.effects.get(*e);
@@ -323,14 +329,14 @@ pub fn discover_with_progress<const W: usize>(
     // 5. the diagnosis the firmware gives, before and after promoting the named effects
     bar.set_message("the on-board diagnosis");
     let onboard = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
-    let onboard_before = identify_trace(trace, profile, &onboard, file)?.report;
+    let onboard_before = identify_trace(trace, params, profile, &onboard, file)?.report;
     bar.inc(1);
     evaluations += u64::from(onboard_before.evaluations);
     let onboard_after = if on.is_empty() {
         onboard_before.faults
     } else {
         let promoted =
-            identify_trace(trace, profile, &IdentifyConfig { effects: after.effects, ..onboard }, file)?.report;
+            identify_trace(trace, params, profile, &IdentifyConfig { effects: after.effects, ..onboard }, file)?.report;
         evaluations += u64::from(promoted.evaluations);
         promoted.faults
     };
@@ -369,10 +375,12 @@ pub fn run(args: &DiscoverArgs) -> Result<String, CliError> {
         prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
     }
     let recording = read_recording(&args.file).map_err(CliError::Recording)?;
-    let trace = condition_recording(&recording, &args.file, &profile)?;
+    let params = args.params.load()?;
+    let trace = condition_recording(&recording, &args.file, &params, &profile)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let bar = progress::bar(4, "fits", args.progress.visible());
-    let d = discover_with_progress::<HOST_WINDOW>(&trace, &profile, &args.file, truth, args.seed, threads, &bar);
+    let d =
+        discover_with_progress::<HOST_WINDOW>(&trace, &params, &profile, &args.file, truth, args.seed, threads, &bar);
     bar.finish_and_clear();
     let d = d?;
     if let Some(dir) = &args.output.out {

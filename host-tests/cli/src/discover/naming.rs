@@ -181,6 +181,7 @@ fn delta_bic(n_eff: f64, before: f32, after: f32, extra_parameters: f64) -> f64 
 #[allow(clippy::too_many_arguments)]
 pub(super) fn search_round<const W: usize>(
     trace: &MeasuredTrace<W>,
+    params: &EmaParams,
     profile: &Profile,
     on: &[EffectId],
     base_fit: &ModelFit,
@@ -197,7 +198,7 @@ pub(super) fn search_round<const W: usize>(
     let fit_one = |effect: &EffectId| {
         let mut free: Vec<EffectId> = on.to_vec();
         free.push(*effect);
-        let fit = fit_model(trace, profile, &free, base_fit, Part::Fit, n_eff_part);
+        let fit = fit_model(trace, params, profile, &free, base_fit, Part::Fit, n_eff_part);
         bar.inc(1);
         (*effect, fit)
     };
@@ -211,8 +212,8 @@ pub(super) fn search_round<const W: usize>(
         Err(_) => effects.iter().map(fit_one).collect(),
     };
     fits.sort_by_key(|(effect, _)| *effect);
-    let fit_part = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::Fit);
-    let held = PartFit::new(trace, *profile, ModelEffects::NONE, vec![], Part::HeldOut);
+    let fit_part = PartFit::new(trace, *params, *profile, ModelEffects::NONE, vec![], Part::Fit);
+    let held = PartFit::new(trace, *params, *profile, ModelEffects::NONE, vec![], Part::HeldOut);
     // the reference: the best fit without a new effect
     let mut reference = base_fit.clone();
     for (effect, fit) in &fits {
@@ -226,7 +227,7 @@ pub(super) fn search_round<const W: usize>(
     }
     let reference_held_out = held.error(&reference.k, &reference.effects, f32::INFINITY);
     let reference_energy =
-        structural_energy(&series(trace, &EmaParams::NOMINAL, profile, &reference.k, &reference.effects)).max(1e-30);
+        structural_energy(&series(trace, params, profile, &reference.k, &reference.effects)).max(1e-30);
     let reference_parameters = parameter_count(&reference);
     let above_noise_share = |after_energy: f64, samples: usize| {
         let above = reference_energy - samples as f64 * NOISE_FLOOR_A * NOISE_FLOOR_A;
@@ -242,7 +243,7 @@ pub(super) fn search_round<const W: usize>(
             let extra = parameter_count(&fit) as f64 - reference_parameters as f64;
             let e_held = held.error(&fit.k, &fit.effects, f32::INFINITY);
             let e_held_without = held.error(&fit.k, &fit.effects.without(effect), f32::INFINITY);
-            let after = series(trace, &EmaParams::NOMINAL, profile, &fit.k, &fit.effects);
+            let after = series(trace, params, profile, &fit.k, &fit.effects);
             Candidate {
                 effect,
                 severity: fit.effects.get(effect),

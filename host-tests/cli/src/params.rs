@@ -1,0 +1,75 @@
+//! `ema params` and the `--params FILE` flag: the actuator's parameters as a file.
+//!
+//! ```text
+//! ema params > my.toml          # the nominal set as a commented TOML template
+//! ema identify --params my.toml FILE.csv
+//! ```
+//!
+//! The file format and its checks are [`crate::params_file`]'s.
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+use ema_monitor::EmaParams;
+
+use crate::error::CliError;
+use crate::input::read_text;
+use crate::params_file::{parse_params, template};
+
+/// Largest parameter file read (the template is about 4 kB).
+pub const MAX_PARAMS_BYTES: usize = 64 * 1024;
+
+/// The `--params FILE` flag, flattened into every command that models the actuator.
+#[derive(Args, Debug, Clone, Default)]
+pub struct ParamsArgs {
+    /// Actuator parameter file (TOML; `ema params` prints the template). Without it: the nominal actuator.
+    #[arg(long = "params", value_name = "FILE.toml")]
+    pub params: Option<PathBuf>,
+}
+
+impl ParamsArgs {
+    /// The parameter set: the file's, or [`EmaParams::NOMINAL`] without `--params`.
+    pub fn load(&self) -> Result<EmaParams, CliError> {
+        match &self.params {
+            Some(path) => read_params(path),
+            None => Ok(EmaParams::NOMINAL),
+        }
+    }
+
+    /// How the parameters are named in output metadata: the file as given, or `nominal`.
+    pub fn source(&self) -> String {
+        self.params.as_ref().map_or_else(|| "nominal".to_owned(), |p| p.display().to_string())
+    }
+}
+
+/// Reads and checks a parameter file; errors name the file, line and key.
+pub fn read_params(path: &Path) -> Result<EmaParams, CliError> {
+    let input = |message: String| CliError::Input { path: path.to_path_buf(), message };
+    let file = std::fs::File::open(path).map_err(|e| input(format!("cannot read the parameter file: {e}")))?;
+    let text = read_text(file, MAX_PARAMS_BYTES).map_err(|e| input(e.to_string()))?;
+    parse_params(&text).map_err(|e| CliError::Input { path: path.to_path_buf(), message: e.to_string() })
+}
+
+/// Arguments of `ema params` (none).
+#[derive(Args, Debug, Clone)]
+pub struct ParamsCommandArgs {}
+
+/// Runs `ema params`: the nominal set as a commented TOML template (printed by `main`).
+pub fn run(_args: &ParamsCommandArgs) -> Result<String, CliError> {
+    Ok(template(&EmaParams::NOMINAL).trim_end().to_owned())
+}
+
+/// One line of `name=value` for the recording's metadata: every field that differs from nominal
+/// (`nominal` when none does).
+pub fn describe(params: &EmaParams) -> String {
+    let changed: Vec<String> = ema_monitor::params::FIELDS
+        .iter()
+        .filter(|f| f.get(params).to_bits() != f.get(&EmaParams::NOMINAL).to_bits())
+        .map(|f| format!("{}={:?}", f.name, f.get(params)))
+        .collect();
+    if changed.is_empty() {
+        "nominal".to_owned()
+    } else {
+        changed.join(",")
+    }
+}
