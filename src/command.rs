@@ -78,7 +78,8 @@ impl core::error::Error for CommandError {}
 /// stride suits a smooth command.
 ///
 /// Built only by the checked constructors: every sample is finite and strictly inside the end
-/// stops, there is at least one, and the stride is in `1..=`[`MAX_STRIDE`].
+/// stops, and the stride is in `1..=`[`MAX_STRIDE`]; there is at least one sample, except in
+/// [`SampledCommand::EMPTY`] (a zero-length manoeuvre) and after a refused load.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SampledCommand<const N: usize> {
     samples: [f32; N],
@@ -92,28 +93,50 @@ pub struct SampledCommand<const N: usize> {
 pub const ONBOARD_COMMAND_SAMPLES: usize = crate::monitor::ONBOARD_WINDOW * crate::conditioning::DECIMATION;
 
 impl<const N: usize> SampledCommand<N> {
+    /// No sample: a zero-length manoeuvre, which every trace is longer than (an identification
+    /// under it is refused). It is the buffer a firmware keeps in a static and fills in place
+    /// with [`SampledCommand::load`], so that the `4·N` bytes never pass through the stack.
+    pub const EMPTY: Self = Self { samples: [0.0; N], len: 0, stride: NonZeroU32::MIN };
+
     /// The command `samples`, one every `stride` control periods, checked against the end stops
     /// `end_stop_rad` (the actuator's [`EmaParams::end_stop_rad`]).
     pub fn new(samples: impl IntoIterator<Item = f32>, stride: u32, end_stop_rad: f32) -> Result<Self, CommandError> {
-        let stride = NonZeroU32::new(stride).filter(|s| s.get() <= MAX_STRIDE).ok_or(CommandError::Stride)?;
-        let mut out = Self { samples: [0.0; N], len: 0, stride };
+        let mut out = Self::EMPTY;
+        out.load(samples, stride, end_stop_rad)?;
+        Ok(out)
+    }
+
+    /// [`SampledCommand::new`] in place: on an error the command is left [`SampledCommand::EMPTY`].
+    pub fn load(
+        &mut self,
+        samples: impl IntoIterator<Item = f32>,
+        stride: u32,
+        end_stop_rad: f32,
+    ) -> Result<(), CommandError> {
+        self.len = 0;
+        self.stride = NonZeroU32::new(stride).filter(|s| s.get() <= MAX_STRIDE).ok_or(CommandError::Stride)?;
         for (index, value) in samples.into_iter().enumerate() {
-            let slot = out.samples.get_mut(index).ok_or(CommandError::TooLong { capacity: N })?;
-            if !value.is_finite() {
-                return Err(CommandError::NotFinite { index });
-            }
-            // false for a NaN end stop too
+            let Some(slot) = self.samples.get_mut(index) else {
+                self.len = 0;
+                return Err(CommandError::TooLong { capacity: N });
+            };
+            // `inside` is false for a NaN end stop too
             let inside = libm::fabsf(value) < end_stop_rad;
-            if !inside {
-                return Err(CommandError::BeyondEndStops { index });
+            if !value.is_finite() || !inside {
+                self.len = 0;
+                return Err(if value.is_finite() {
+                    CommandError::BeyondEndStops { index }
+                } else {
+                    CommandError::NotFinite { index }
+                });
             }
             *slot = value;
-            out.len = index + 1;
+            self.len = index + 1;
         }
-        if out.len == 0 {
+        if self.len == 0 {
             return Err(CommandError::Empty);
         }
-        Ok(out)
+        Ok(())
     }
 
     /// `profile` sampled every `stride` control periods of `params` over its frames
@@ -121,15 +144,23 @@ impl<const N: usize> SampledCommand<N> {
     /// as the model computes its step time, so at stride 1 the model runs exactly as under the
     /// profile itself.
     pub fn sampled(profile: &Profile, stride: u32, params: &EmaParams) -> Result<Self, CommandError> {
-        let step = NonZeroU32::new(stride).filter(|s| s.get() <= MAX_STRIDE).ok_or(CommandError::Stride)?;
+        let mut out = Self::EMPTY;
+        out.load_profile(profile, stride, params)?;
+        Ok(out)
+    }
+
+    /// [`SampledCommand::sampled`] in place: on an error the command is left
+    /// [`SampledCommand::EMPTY`].
+    pub fn load_profile(&mut self, profile: &Profile, stride: u32, params: &EmaParams) -> Result<(), CommandError> {
+        let Some(step) = NonZeroU32::new(stride).filter(|s| s.get() <= MAX_STRIDE) else {
+            self.len = 0;
+            return Err(CommandError::Stride);
+        };
         let frames = Command::Profile(*profile).frames(params);
         let count = frames.saturating_add(step.get() - 1) / step; // ⌈frames / S⌉, S ≠ 0
         let dt = params.control_period_s;
-        Self::new(
-            (0..count).map(|i| profile.command_rad(i.wrapping_mul(step.get()) as f32 * dt)),
-            stride,
-            params.end_stop_rad,
-        )
+        let samples = (0..count).map(|i| profile.command_rad(i.wrapping_mul(step.get()) as f32 * dt));
+        self.load(samples, stride, params.end_stop_rad)
     }
 
     /// The samples.
@@ -239,6 +270,44 @@ impl<'a> From<&Command<'a>> for Command<'a> {
     }
 }
 
+/// A command source the functions that run the model take: `&Profile` (so that a call with a
+/// borrowed profile reads as without sampled commands), a [`Command`] or `&Command`, a
+/// `&SampledCommand<N>` or [`CommandSamples`].
+pub trait CommandSource<'a> {
+    /// The command.
+    fn into_command(self) -> Command<'a>;
+}
+
+impl<'a> CommandSource<'a> for &Profile {
+    fn into_command(self) -> Command<'a> {
+        Command::Profile(*self)
+    }
+}
+
+impl<'a> CommandSource<'a> for Command<'a> {
+    fn into_command(self) -> Command<'a> {
+        self
+    }
+}
+
+impl<'a> CommandSource<'a> for &Command<'a> {
+    fn into_command(self) -> Command<'a> {
+        *self
+    }
+}
+
+impl<'a, const N: usize> CommandSource<'a> for &'a SampledCommand<N> {
+    fn into_command(self) -> Command<'a> {
+        self.as_command()
+    }
+}
+
+impl<'a> CommandSource<'a> for CommandSamples<'a> {
+    fn into_command(self) -> Command<'a> {
+        Command::Sampled(self)
+    }
+}
+
 /// The command at model step `n` (time `t_s = n·T_c`), read at non-decreasing steps.
 pub(crate) trait CommandCursor {
     /// `θ_cmd` at step `step`, time `t_s`.
@@ -300,8 +369,11 @@ mod tests {
         assert_eq!(SampledCommand::<4>::new([0.0, f32::NAN], 1, e), Err(CommandError::NotFinite { index: 1 }));
         assert_eq!(SampledCommand::<4>::new([0.0, 0.1, -0.6], 1, e), Err(CommandError::BeyondEndStops { index: 2 }));
         assert_eq!(SampledCommand::<4>::new([0.0], 1, f32::NAN), Err(CommandError::BeyondEndStops { index: 0 }));
-        let ok = SampledCommand::<4>::new([0.0, 0.1, -0.5, 0.2], MAX_STRIDE, e).unwrap();
+        let mut ok = SampledCommand::<4>::new([0.0, 0.1, -0.5, 0.2], MAX_STRIDE, e).unwrap();
         assert_eq!((ok.samples(), ok.stride()), (&[0.0, 0.1, -0.5, 0.2][..], MAX_STRIDE));
+        // a refused load in place leaves no sample: a zero-length manoeuvre
+        assert_eq!(ok.load([0.1, 0.7], 1, e), Err(CommandError::BeyondEndStops { index: 1 }));
+        assert_eq!((ok.samples(), ok.as_command().frames(&EmaParams::NOMINAL)), (&[][..], 0));
     }
 
     #[test]

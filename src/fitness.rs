@@ -22,7 +22,7 @@
 //! Their terms are multiplied by `ρ` ([`FAST_REGIME_WEIGHT`] in the monitor's configuration):
 //! `E(k) = (1/n)·Σ_i ρ_i·w_i·r_i²`, `ρ_i = ρ` in the fast regime, 1 elsewhere.
 
-use crate::command::{Command, CommandCursor, SampledCursor};
+use crate::command::{Command, CommandCursor, CommandSource, SampledCursor};
 use crate::conditioning::{ConditioningError, MeasuredEnvelope, MeasuredTrace, SensorErrorEnvelope, DECIMATION};
 use crate::effects::ModelEffects;
 use crate::faults::{FaultVector, FAULT_COUNT};
@@ -78,7 +78,7 @@ pub struct WindowErrors {
 /// `false` to stop early.
 pub fn simulate_window<'c>(
     params: &EmaParams,
-    command: impl Into<Command<'c>>,
+    command: impl CommandSource<'c>,
     k: &FaultVector,
     samples: usize,
     sink: impl FnMut(usize, f32, &ModelState) -> bool,
@@ -89,7 +89,7 @@ pub fn simulate_window<'c>(
 /// [`simulate_window`] with the monitor model's optional effect terms `effects` switched on.
 pub fn simulate_window_with_effects<'c>(
     params: &EmaParams,
-    command: impl Into<Command<'c>>,
+    command: impl CommandSource<'c>,
     k: &FaultVector,
     effects: &ModelEffects,
     samples: usize,
@@ -98,7 +98,7 @@ pub fn simulate_window_with_effects<'c>(
     let model = MonitorModel::with_effects(params, k, effects);
     // The command source and the step's effect terms chosen once per window, not per step
     // (MonitorModel::step_with): each pair is its own loop.
-    match (&command.into(), model.has_step_terms()) {
+    match (&command.into_command(), model.has_step_terms()) {
         (Command::Profile(p), true) => {
             run_window::<true>(&model, params, effects, ProfileCursor::new(p), samples, &mut sink)
         }

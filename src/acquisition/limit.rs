@@ -1,7 +1,7 @@
 //! [`FrameLimit`]: ends a live acquisition on the manoeuvre's frame count.
 
 use super::{AcquisitionError, PhaseCurrents, PhaseFrame};
-use crate::command::Command;
+use crate::command::CommandSource;
 use crate::params::EmaParams;
 
 /// A [`PhaseCurrents`] source that yields at most `frames` frames, then
@@ -26,7 +26,7 @@ impl<S> FrameLimit<S> {
 
     /// Reads the frames of one run of `command` (a [`crate::Profile`] or a sampled command) at
     /// the control rate of `params` ([`manoeuvre_frames`]).
-    pub fn manoeuvre<'c>(source: S, command: impl Into<Command<'c>>, params: &EmaParams) -> Self {
+    pub fn manoeuvre<'c>(source: S, command: impl CommandSource<'c>, params: &EmaParams) -> Self {
         Self::new(source, manoeuvre_frames(command, params))
     }
 
@@ -56,10 +56,10 @@ impl<S: PhaseCurrents> PhaseCurrents for FrameLimit<S> {
     }
 }
 
-/// Frames in one run of `command` at the control rate ([`Command::frames`]): `round(T / Tc)` with
+/// Frames in one run of `command` at the control rate ([`crate::Command::frames`]): `round(T / Tc)` with
 /// `T` a profile's duration and `Tc` the control period (the standard manoeuvre: 0.85 s / 100 µs =
 /// 8500), or a sampled command's samples × stride. A non-finite or negative ratio gives 0 (the
 /// `as` cast saturates; nothing panics).
-pub fn manoeuvre_frames<'c>(command: impl Into<Command<'c>>, params: &EmaParams) -> u32 {
-    command.into().frames(params)
+pub fn manoeuvre_frames<'c>(command: impl CommandSource<'c>, params: &EmaParams) -> u32 {
+    command.into_command().frames(params)
 }

@@ -59,10 +59,11 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::Args;
+use ema_monitor::command::CommandSource;
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::fitness::CurrentFit;
 use ema_monitor::monitor::IdentifyConfig;
-use ema_monitor::{EffectId, EmaParams, FaultVector, ModelEffects, Profile};
+use ema_monitor::{EffectId, EmaParams, FaultVector, ModelEffects};
 
 pub use fitting::{
     fault_parameter_count, fit_model, parameter_count, ModelFit, Part, PartFit, CHUNK_BLOCKS, MIN_SEVERITY,
@@ -78,10 +79,10 @@ pub use report::{model_config, summary, to_json, verdict, write_outputs, OUTPUT_
 pub use residual::{above_noise_a, moving_mean, series, Series, CLEAN_FLOOR_A, NOISE_FLOOR_A, SMOOTH_BLOCKS};
 
 use crate::error::CliError;
-use crate::identify::{condition_recording, identify_trace, HOST_WINDOW};
+use crate::identify::{condition_recording_for, identify_trace, model_command, CommandArg, HOST_WINDOW};
 use crate::output::{prepare_dir, Overwrite};
 use crate::recording_io::read_recording;
-use crate::simulate::{parse_faults, resolve_profile};
+use crate::simulate::parse_faults;
 use localisation::window_rms;
 use naming::search_round;
 use residual::{rms, structural_energy};
@@ -97,6 +98,10 @@ pub struct DiscoverArgs {
     /// Command profile the recording was made with: `standard` or a profile file.
     #[arg(long, default_value = "standard")]
     pub profile: String,
+    /// What drives the monitor model: the command profile (`--profile`, which the recording's
+    /// command must match) or the recording's own command column (any manoeuvre).
+    #[arg(long, value_enum, default_value = "profile")]
+    pub command: CommandArg,
     /// Print JSON instead of the readable summary.
     #[arg(long)]
     pub json: bool,
@@ -189,16 +194,18 @@ pub enum Withdrawal {
     AtBound(f32),
 }
 
-/// Runs the whole workflow on a conditioned trace.
-pub fn discover<const W: usize>(
+/// Runs the whole workflow on a conditioned trace, the model driven by `command` (a profile or
+/// the recording's sampled command).
+pub fn discover<'c, const W: usize>(
     trace: &MeasuredTrace<W>,
-    profile: &Profile,
+    command: impl CommandSource<'c>,
     file: &Path,
     truth: Option<FaultVector>,
     seed: u64,
     threads: usize,
 ) -> Result<Discovery, CliError> {
     let start = Instant::now();
+    let profile = &command.into_command();
     let params = EmaParams::NOMINAL;
     // 1. the current model, as on board (whole recording)
     // Every sample at full weight: the discrepancies discover looks for live in the fast regime too.
@@ -334,18 +341,24 @@ pub fn discover<const W: usize>(
 
 /// Runs `ema discover`.
 pub fn run(args: &DiscoverArgs) -> Result<String, CliError> {
-    let profile = resolve_profile(&args.profile)?;
     let truth = args.truth.as_deref().map(parse_faults).transpose()?;
     let overwrite = Overwrite::from_force(args.force);
     if let Some(dir) = &args.out {
         prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
     }
     let recording = read_recording(&args.file).map_err(CliError::Recording)?;
-    let trace = condition_recording(&recording, &args.file, &profile)?;
+    let command = model_command(args.command, &args.profile, &recording, &args.file)?;
+    let trace = condition_recording_for(&recording, &args.file, &command)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let d = discover::<HOST_WINDOW>(&trace, &profile, &args.file, truth, args.seed, threads)?;
+    let d = discover::<HOST_WINDOW>(&trace, command.command(), &args.file, truth, args.seed, threads)?;
     if let Some(dir) = &args.out {
         write_outputs(dir, &d, overwrite)?;
     }
-    Ok(if args.json { to_json(&d).to_string() } else { summary(&d) })
+    Ok(if args.json {
+        let mut v = to_json(&d);
+        v["command"] = command.to_json();
+        v.to_string()
+    } else {
+        format!("{}\ncommand: {}", summary(&d), command.label())
+    })
 }

@@ -3,7 +3,7 @@
 //! rules decide whether its winner is named (`docs/decisions/0009-effect-naming-rules.md`).
 
 use ema_monitor::conditioning::MeasuredTrace;
-use ema_monitor::{EffectId, EmaParams, ModelEffects, Profile};
+use ema_monitor::{Command, EffectId, EmaParams, ModelEffects};
 
 use super::fitting::{fault_parameter_count, fit_model, parameter_count, ModelFit, Part, PartFit, MIN_SEVERITY};
 use super::residual::{series, structural_energy, NOISE_FLOOR_A};
@@ -179,7 +179,7 @@ fn delta_bic(n_eff: f64, before: f32, after: f32, extra_parameters: f64) -> f64 
 #[allow(clippy::too_many_arguments)]
 pub(super) fn search_round<const W: usize>(
     trace: &MeasuredTrace<W>,
-    profile: &Profile,
+    profile: &Command<'_>,
     on: &[EffectId],
     base_fit: &ModelFit,
     n_eff_part: f64,
