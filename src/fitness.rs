@@ -30,6 +30,7 @@ use crate::model::{ModelState, MonitorModel};
 use crate::optimizer::Objective;
 use crate::params::EmaParams;
 use crate::profile::ProfileCursor;
+use core::num::NonZeroUsize;
 use heapless::Vec;
 
 /// Motor speed above which a window sample belongs to the fast regime (rad/s): the step and
@@ -341,10 +342,13 @@ impl<const W: usize> CurrentFit<'_, W> {
         let inv_n = 1.0 / n as f32;
         let mut rho = self.regime_weights();
         let errors = &mut out.errors;
+        // ≥ EVIDENCE_WINDOW_SAMPLES; as a non-zero type the division has no panic path wherever
+        // the loop is compiled (the sampled command's loop is out of line)
+        let per_window = NonZeroUsize::new(window_samples).unwrap_or(NonZeroUsize::MIN);
         simulate_window_with_effects(&self.params, self.command, k, &self.effects, n, |i, model_a, _| {
             let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
             let r = y_i - model_a;
-            if let Some(e) = errors.get_mut(i / window_samples) {
+            if let Some(e) = errors.get_mut(i / per_window) {
                 *e += rho.at(i) * w_i * r * r * inv_n;
             }
             true

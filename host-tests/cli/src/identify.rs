@@ -112,7 +112,7 @@ impl ModelCommand {
         }
     }
 
-    /// `profile standard`, `profile FILE` or `recorded (8500 samples at 10 kHz, 0.85 s)`.
+    /// `profile standard`, `profile FILE` or `recorded (8500 samples at 10000 Hz, 0.85 s)`.
     pub fn label(&self) -> String {
         match self {
             ModelCommand::Profile { name, .. } => format!("profile {name}"),
