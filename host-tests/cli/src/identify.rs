@@ -143,23 +143,43 @@ fn control_rate_hz() -> f64 {
 }
 
 /// The command `--command` names for `recording` (read from `path`, named in errors): the profile
-/// `profile` (`standard` or a file), or the recording's command column. `--profile` other than
-/// `standard` with `--command recorded` is refused: the recorded command replaces the profile.
+/// `profile` (`standard` or a file), or the recording's command column ([`resolve_command`], then
+/// [`command_for`]).
 pub fn model_command(
     arg: CommandArg,
     profile: &str,
     recording: &Recording,
     path: &Path,
 ) -> Result<ModelCommand, CliError> {
+    command_for(resolve_command(arg, profile)?, recording, path)
+}
+
+/// The flags' part of [`model_command`], checked before the recording is read: the profile
+/// `profile` resolved (`Some`) under `--command profile`, `None` under `--command recorded`, which
+/// refuses a `--profile` other than `standard` (the recorded command replaces the profile).
+pub fn resolve_command(arg: CommandArg, profile: &str) -> Result<Option<ModelCommand>, CliError> {
     match arg {
         CommandArg::Profile => {
-            Ok(ModelCommand::Profile { profile: resolve_profile(profile)?, name: profile.to_owned() })
+            Ok(Some(ModelCommand::Profile { profile: resolve_profile(profile)?, name: profile.to_owned() }))
         }
         CommandArg::Recorded if profile != "standard" => Err(CliError::flag(
             "--profile",
             "--command recorded drives the model by the recording's command column; drop --profile",
         )),
-        CommandArg::Recorded => recorded_command(recording, path, &EmaParams::NOMINAL).map(ModelCommand::Recorded),
+        CommandArg::Recorded => Ok(None),
+    }
+}
+
+/// The resolved command ([`resolve_command`]), or for `None` the recording's command column
+/// ([`recorded_command`]).
+pub fn command_for(
+    resolved: Option<ModelCommand>,
+    recording: &Recording,
+    path: &Path,
+) -> Result<ModelCommand, CliError> {
+    match resolved {
+        Some(command) => Ok(command),
+        None => recorded_command(recording, path, &EmaParams::NOMINAL).map(ModelCommand::Recorded),
     }
 }
 
@@ -284,8 +304,9 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
             }
         },
         (None, Some(path)) => {
+            let resolved = resolve_command(args.command, &args.profile)?;
             let recording = read_recording(path).map_err(CliError::Recording)?;
-            let command = model_command(args.command, &args.profile, &recording, path)?;
+            let command = command_for(resolved, &recording, path)?;
             (identify_recording_with(&recording, path, &command, &config)?, command)
         }
         (None, None) => return Err(CliError::flag("FILE", "give a recording CSV or --firmware-trace FILE")),

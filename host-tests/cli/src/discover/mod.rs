@@ -79,7 +79,7 @@ pub use report::{model_config, summary, to_json, verdict, write_outputs, OUTPUT_
 pub use residual::{above_noise_a, moving_mean, series, Series, CLEAN_FLOOR_A, NOISE_FLOOR_A, SMOOTH_BLOCKS};
 
 use crate::error::CliError;
-use crate::identify::{condition_recording_for, identify_trace, model_command, CommandArg, HOST_WINDOW};
+use crate::identify::{command_for, condition_recording_for, identify_trace, resolve_command, CommandArg, HOST_WINDOW};
 use crate::output::{prepare_dir, Overwrite};
 use crate::recording_io::read_recording;
 use crate::simulate::parse_faults;
@@ -341,13 +341,14 @@ pub fn discover<'c, const W: usize>(
 
 /// Runs `ema discover`.
 pub fn run(args: &DiscoverArgs) -> Result<String, CliError> {
+    let resolved = resolve_command(args.command, &args.profile)?;
     let truth = args.truth.as_deref().map(parse_faults).transpose()?;
     let overwrite = Overwrite::from_force(args.force);
     if let Some(dir) = &args.out {
         prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
     }
     let recording = read_recording(&args.file).map_err(CliError::Recording)?;
-    let command = model_command(args.command, &args.profile, &recording, &args.file)?;
+    let command = command_for(resolved, &recording, &args.file)?;
     let trace = condition_recording_for(&recording, &args.file, &command)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let d = discover::<HOST_WINDOW>(&trace, command.command(), &args.file, truth, args.seed, threads)?;
