@@ -9,7 +9,9 @@
 //! level and settings of any value) → acquisition → identification → health report. The calibration, the acquisition and identification settings,
 //! the actuator parameters and the command profile pass through `black_box` too: the proof holds
 //! for any of them (the solver, the polish, model selection and the effect terms included), not
-//! only for the on-board defaults.
+//! only for the on-board defaults. The command that drives the model is the profile or, chosen
+//! through `black_box`, a sampled command built from it at any stride (its checked constructor
+//! and the interpolating cursor included).
 #![no_std]
 #![no_main]
 
@@ -22,10 +24,11 @@ use ema_monitor::acquisition::{
     AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc, ReplayReader, Sampler,
     SamplerConfig, SamplerProducer, SAMPLER_QUEUE,
 };
+use ema_monitor::command::ONBOARD_COMMAND_SAMPLES;
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::trace::PackedTrace;
-use ema_monitor::{EmaParams, Profile};
+use ema_monitor::{Command, EmaParams, Profile, SampledCommand};
 
 static TRACE: &[u8] = include_bytes!("../traces/standard.ematrace");
 
@@ -53,13 +56,12 @@ fn main() -> ! {
         monitor::acquire(&mut live, &mut measured).ok()?;
         live.outcome().ok()?;
         let config = black_box(IdentifyConfig { max_iterations: 30, ..IdentifyConfig::onboard() });
-        let mut id = Identification::<ONBOARD_WINDOW, ONBOARD_POPULATION>::new(
-            &measured,
-            black_box(EmaParams::NOMINAL),
-            black_box(Profile::STANDARD),
-            &config,
-        )
-        .ok()?;
+        let params = black_box(EmaParams::NOMINAL);
+        let profile = black_box(Profile::STANDARD);
+        let sampled = SampledCommand::<ONBOARD_COMMAND_SAMPLES>::sampled(&profile, black_box(1), &params).ok()?;
+        let command = if black_box(true) { Command::Profile(profile) } else { sampled.as_command() };
+        let mut id =
+            Identification::<ONBOARD_WINDOW, ONBOARD_POPULATION>::new(&measured, params, command, &config).ok()?;
         // The public calls in any order: a report before the first evaluation, the search, then a
         // step after the end.
         let early = id.report();

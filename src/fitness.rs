@@ -22,13 +22,15 @@
 //! Their terms are multiplied by `ρ` ([`FAST_REGIME_WEIGHT`] in the monitor's configuration):
 //! `E(k) = (1/n)·Σ_i ρ_i·w_i·r_i²`, `ρ_i = ρ` in the fast regime, 1 elsewhere.
 
+use crate::command::{Command, CommandCursor, CommandSource, SampledCursor};
 use crate::conditioning::{ConditioningError, MeasuredEnvelope, MeasuredTrace, SensorErrorEnvelope, DECIMATION};
 use crate::effects::ModelEffects;
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::model::{ModelState, MonitorModel};
 use crate::optimizer::Objective;
 use crate::params::EmaParams;
-use crate::profile::{Profile, ProfileCursor};
+use crate::profile::ProfileCursor;
+use core::num::NonZeroUsize;
 use heapless::Vec;
 
 /// Motor speed above which a window sample belongs to the fast regime (rad/s): the step and
@@ -84,44 +86,73 @@ pub struct WindowResidual {
     pub lag: f32,
 }
 
-/// Runs the monitor model with faults `k` under `profile` for `samples` window samples and hands
-/// each block mean of the expected measured envelope ([`MeasuredEnvelope`] of `I_out`, with the
-/// sensors' and controller's noise), with the model state at the block's end, to
-/// `sink(index, value, state)`; `sink` returns `false` to stop early.
-pub fn simulate_window(
+/// Runs the monitor model with faults `k` under `command` (a [`crate::Profile`], or a sampled
+/// command: [`Command`]) for `samples` window samples and hands each block mean of the expected
+/// measured envelope ([`MeasuredEnvelope`] of `I_out`, with the sensors' and controller's noise),
+/// with the model state at the block's end, to `sink(index, value, state)`; `sink` returns
+/// `false` to stop early.
+pub fn simulate_window<'c>(
     params: &EmaParams,
-    profile: &Profile,
+    command: impl CommandSource<'c>,
     k: &FaultVector,
     samples: usize,
     sink: impl FnMut(usize, f32, &ModelState) -> bool,
 ) {
-    simulate_window_with_effects(params, profile, k, &ModelEffects::NONE, samples, sink)
+    simulate_window_with_effects(params, command, k, &ModelEffects::NONE, samples, sink)
 }
 
 /// [`simulate_window`] with the monitor model's optional effect terms `effects` switched on.
-pub fn simulate_window_with_effects(
+pub fn simulate_window_with_effects<'c>(
     params: &EmaParams,
-    profile: &Profile,
+    command: impl CommandSource<'c>,
     k: &FaultVector,
     effects: &ModelEffects,
     samples: usize,
     mut sink: impl FnMut(usize, f32, &ModelState) -> bool,
 ) {
     let model = MonitorModel::with_effects(params, k, effects);
-    // The step's effect terms chosen once per window, not per step (MonitorModel::step_with).
-    if model.has_step_terms() {
-        run_window::<true>(&model, params, effects, profile, samples, &mut sink);
-    } else {
-        run_window::<false>(&model, params, effects, profile, samples, &mut sink);
+    // The command source and the step's effect terms chosen once per window, not per step
+    // (MonitorModel::step_with): each pair is its own loop.
+    match (&command.into_command(), model.has_step_terms()) {
+        (Command::Profile(p), true) => {
+            run_window::<true>(&model, params, effects, ProfileCursor::new(p), samples, &mut sink)
+        }
+        (Command::Profile(p), false) => {
+            run_window::<false>(&model, params, effects, ProfileCursor::new(p), samples, &mut sink)
+        }
+        (Command::Sampled(s), terms) => {
+            run_sampled(&model, params, effects, terms, SampledCursor::new(s), samples, &mut sink)
+        }
     }
 }
 
-/// The loop of [`simulate_window_with_effects`] with (`TERMS`) or without the step's effect terms.
+/// [`run_window`] under a sampled command, kept out of line so that the profile's loop is
+/// inlined into its callers as it is without sampled commands (its instruction count on board is
+/// unchanged).
+#[inline(never)]
+fn run_sampled(
+    model: &MonitorModel,
+    params: &EmaParams,
+    effects: &ModelEffects,
+    terms: bool,
+    command: SampledCursor<'_>,
+    samples: usize,
+    sink: &mut impl FnMut(usize, f32, &ModelState) -> bool,
+) {
+    if terms {
+        run_window::<true>(model, params, effects, command, samples, sink)
+    } else {
+        run_window::<false>(model, params, effects, command, samples, sink)
+    }
+}
+
+/// The loop of [`simulate_window_with_effects`] with (`TERMS`) or without the step's effect
+/// terms, reading the command from `command`.
 fn run_window<const TERMS: bool>(
     model: &MonitorModel,
     params: &EmaParams,
     effects: &ModelEffects,
-    profile: &Profile,
+    mut command: impl CommandCursor,
     samples: usize,
     sink: &mut impl FnMut(usize, f32, &ModelState) -> bool,
 ) {
@@ -129,7 +160,6 @@ fn run_window<const TERMS: bool>(
     let sensors = SensorErrorEnvelope::of(params, effects);
     let dt = model.dt_s();
     let mut state = ModelState::at_rest();
-    let mut command = ProfileCursor::new(profile);
     let mut step = 0u32;
     for i in 0..samples {
         let mut block = 0.0f32;
@@ -140,7 +170,7 @@ fn run_window<const TERMS: bool>(
                 }
                 _ => envelope.expected_a(state.output_current_a),
             };
-            model.step_with::<TERMS>(&mut state, command.command_rad(step as f32 * dt));
+            model.step_with::<TERMS>(&mut state, command.command_rad(step, step as f32 * dt));
             step += 1;
         }
         if !sink(i, block * (1.0 / DECIMATION as f32), &state) {
@@ -154,7 +184,7 @@ fn run_window<const TERMS: bool>(
 pub struct CurrentFit<'a, const W: usize> {
     trace: &'a MeasuredTrace<W>,
     params: EmaParams,
-    profile: Profile,
+    command: Command<'a>,
     effects: ModelEffects,
     /// Window-sample intervals `[start, end)` of the fast regime, in order.
     fast_intervals: Vec<(u32, u32), MAX_FAST_INTERVALS>,
@@ -188,14 +218,26 @@ impl RegimeWeights<'_> {
 }
 
 impl<'a, const W: usize> CurrentFit<'a, W> {
-    /// The fitness of the monitor model of `params`, driven by `profile`, against `trace`. Only a
-    /// finished trace ([`MeasuredTrace::finish`]) has the weights `w_i` the fitness needs: an
-    /// unfinished one is refused with [`ConditioningError::Finished`].
-    pub fn new(trace: &'a MeasuredTrace<W>, params: EmaParams, profile: Profile) -> Result<Self, ConditioningError> {
+    /// The fitness of the monitor model of `params`, driven by `command` (a [`crate::Profile`] or
+    /// a sampled command), against `trace`. Only a finished trace ([`MeasuredTrace::finish`]) has
+    /// the weights `w_i` the fitness needs: an unfinished one is refused with
+    /// [`ConditioningError::Finished`].
+    pub fn new(
+        trace: &'a MeasuredTrace<W>,
+        params: EmaParams,
+        command: impl Into<Command<'a>>,
+    ) -> Result<Self, ConditioningError> {
         if !trace.is_finished() {
             return Err(ConditioningError::Finished);
         }
-        Ok(Self { trace, params, profile, effects: ModelEffects::NONE, fast_intervals: Vec::new(), fast_weight: 1.0 })
+        Ok(Self {
+            trace,
+            params,
+            command: command.into(),
+            effects: ModelEffects::NONE,
+            fast_intervals: Vec::new(),
+            fast_weight: 1.0,
+        })
     }
 
     /// The same fitness with the fast-regime samples weighted by `weight` (module doc). The
@@ -213,7 +255,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
         let mut start: Option<u32> = None;
         let intervals = &mut self.fast_intervals;
         let n = self.trace.len();
-        simulate_window(&self.params, &self.profile, &FaultVector::HEALTHY, n, |i, _, state| {
+        simulate_window(&self.params, self.command, &FaultVector::HEALTHY, n, |i, _, state| {
             let fast = libm::fabsf(state.motor_speed_rad_s) > FAST_REGIME_SPEED_RAD_S;
             match (fast, start) {
                 (true, None) => start = Some(i as u32),
@@ -253,9 +295,9 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
         &self.effects
     }
 
-    /// The command profile that drives the model.
-    pub fn profile(&self) -> &Profile {
-        &self.profile
+    /// The command that drives the model.
+    pub fn command(&self) -> &Command<'a> {
+        &self.command
     }
 
     /// The measured trace.
@@ -282,7 +324,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
         let limit = if abandon_above.is_finite() { abandon_above * n as f32 } else { f32::INFINITY };
         let mut sum = 0.0f32;
         let mut rho = self.regime_weights();
-        simulate_window_with_effects(&self.params, &self.profile, k, &self.effects, n, |i, model_a, _| {
+        simulate_window_with_effects(&self.params, self.command, k, &self.effects, n, |i, model_a, _| {
             // i < n and a finished trace has one weight per sample: `get` never misses (a miss
             // would end the sum; it exists so that no panic path does).
             let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
@@ -314,10 +356,13 @@ impl<const W: usize> CurrentFit<'_, W> {
         let inv_n = 1.0 / n as f32;
         let mut rho = self.regime_weights();
         let errors = &mut out.errors;
-        simulate_window_with_effects(&self.params, &self.profile, k, &self.effects, n, |i, model_a, _| {
+        // ≥ EVIDENCE_WINDOW_SAMPLES; as a non-zero type the division has no panic path wherever
+        // the loop is compiled (the sampled command's loop is out of line)
+        let per_window = NonZeroUsize::new(window_samples).unwrap_or(NonZeroUsize::MIN);
+        simulate_window_with_effects(&self.params, self.command, k, &self.effects, n, |i, model_a, _| {
             let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
             let r = y_i - model_a;
-            if let Some(e) = errors.get_mut(i / window_samples) {
+            if let Some(e) = errors.get_mut(i / per_window) {
                 *e += rho.at(i) * w_i * r * r * inv_n;
             }
             true
@@ -347,7 +392,7 @@ impl<const W: usize> CurrentFit<'_, W> {
         let w = self.trace.weight();
         let (mut sum_sq, mut sum_lag, mut previous) = (0.0f32, 0.0f32, 0.0f32);
         let mut rho = self.regime_weights();
-        simulate_window_with_effects(&self.params, &self.profile, k, &self.effects, y.len(), |i, model_a, _| {
+        simulate_window_with_effects(&self.params, self.command, k, &self.effects, y.len(), |i, model_a, _| {
             let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
             let u = libm::sqrtf(rho.at(i) * w_i) * (y_i - model_a);
             sum_sq += u * u;
@@ -372,7 +417,7 @@ impl<const W: usize> CurrentFit<'_, W> {
         let (mut sum_sq, mut sum_lag, mut previous) = (0.0f32, 0.0f32, 0.0f32);
         let (mut window, mut windows) = (WindowResidual::default(), 0usize);
         let mut rho = self.regime_weights();
-        simulate_window_with_effects(&self.params, &self.profile, k, &self.effects, n, |i, model_a, _| {
+        simulate_window_with_effects(&self.params, &self.command, k, &self.effects, n, |i, model_a, _| {
             let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
             let v = rho.at(i) * w_i;
             let r = y_i - model_a;
@@ -421,6 +466,7 @@ impl<const W: usize> Objective<FAULT_COUNT> for CurrentFit<'_, W> {
 mod tests {
     use super::*;
     use crate::conditioning::MIN_SAMPLES;
+    use crate::profile::Profile;
 
     /// A "measurement" made by the monitor model itself (noise-free), through the conditioner.
     fn self_trace(k: &FaultVector) -> MeasuredTrace<2200> {

@@ -23,7 +23,8 @@
 //! [`optimizer`], [`health`]; [`monitor`] wires them; [`effects`] holds the optional effect terms
 //! the discrepancy workflow adds to the model. Shared definitions: [`params`] (nominal
 //! actuator), [`faults`] (the fault vector and its physical mapping), [`profile`] (the test
-//! manoeuvre), [`trace`] (the ADC format).
+//! manoeuvre), [`command`] (what drives the model: a profile or a sampled command), [`trace`]
+//! (the ADC format).
 //!
 //! **Inlining.** The non-generic helpers the fitness loop calls every model step carry
 //! `#[inline]` on hosted targets only (the firmware's fat LTO inlines on its own), which changes
@@ -40,6 +41,7 @@
 mod fmt;
 
 pub mod acquisition;
+pub mod command;
 pub mod conditioning;
 pub mod effects;
 pub mod faults;
@@ -56,6 +58,7 @@ mod six_step;
 pub mod trace;
 pub mod trig;
 
+pub use command::{Command, SampledCommand};
 pub use effects::{EffectId, ModelEffects};
 pub use faults::{FaultVector, FAULT_COUNT};
 pub use params::EmaParams;

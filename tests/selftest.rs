@@ -25,12 +25,13 @@ use ema_monitor::acquisition::{
 };
 use ema_monitor::conditioning::{ConditioningError, MeasuredTrace, DECIMATION};
 use ema_monitor::fitness::{simulate_window, CurrentFit};
+use ema_monitor::health::HealthReport;
 use ema_monitor::model::{ModelState, MonitorModel};
-use ema_monitor::monitor::{Identification, IdentifyConfig, MonitorError};
+use ema_monitor::monitor::{self, Identification, IdentifyConfig, MonitorError, ONBOARD_WINDOW};
 use ema_monitor::optimizer::pso::{ParticleSwarm, PsoConfig};
 use ema_monitor::optimizer::{run, Bounds, Objective, Optimizer};
 use ema_monitor::trace::{self, pack, packed_len, PackedTrace, TraceError, ADC_MAX, ADC_MIDSCALE};
-use ema_monitor::{EmaParams, FaultVector, Profile};
+use ema_monitor::{Command, EmaParams, FaultVector, Profile, SampledCommand};
 use embedded_hal::adc::{Channel, OneShot};
 
 /// A test: `Ok(())` passes, `Err(reason)` fails.
@@ -60,6 +61,7 @@ const TESTS: &[(&str, Test)] = &[
     ("fitness_zero_at_the_true_vector", fitness_zero_at_the_true_vector),
     ("pso_minimises_a_sphere", pso_minimises_a_sphere),
     ("identification_refuses_impossible_config", identification_refuses_impossible_config),
+    ("identification_under_the_sampled_standard_profile", identification_under_the_sampled_standard_profile),
 ];
 
 #[entry]
@@ -497,4 +499,45 @@ fn identification_refuses_impossible_config() -> Result<(), &'static str> {
     let config = IdentifyConfig { max_iterations: 0, ..IdentifyConfig::default() };
     let r = Identification::<600, 8>::new(&t, EmaParams::NOMINAL, Profile::STANDARD, &config);
     ensure(matches!(r, Err(MonitorError::Optimizer(_))), "zero iterations accepted")
+}
+
+/// The standard profile sampled at the control rate (8500 samples, 34 000 bytes, in a static)
+/// drives the on-board identification of the built-in trace to the same report, bit for bit, as
+/// the profile itself; a short budget (3 iterations, 60 evaluations after them) keeps the test
+/// quick.
+fn identification_under_the_sampled_standard_profile() -> Result<(), &'static str> {
+    // filled in place in a static: the 34 000 bytes never pass through the stack
+    let command = cortex_m::singleton!(: SampledCommand<8500> = SampledCommand::EMPTY).ok_or("command buffer taken")?;
+    command.load_profile(&Profile::STANDARD, 1, &EmaParams::NOMINAL).map_err(|_| "sampling refused")?;
+    let command: &SampledCommand<8500> = command;
+    ensure(manoeuvre_frames(command, &EmaParams::NOMINAL) == 8500, "sampled frame count")?;
+    let t = PackedTrace::parse(BUILT_IN).map_err(|_| "built-in trace invalid")?;
+    let mut reader = PhaseCurrentReader::new(
+        ReplayAdc::new(t),
+        (PhaseA, PhaseB, PhaseC),
+        Calibration::NOMINAL,
+        AcquisitionConfig::DEFAULT,
+    )
+    .map_err(|_| "config refused")?;
+    let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
+    monitor::acquire(&mut reader, &mut trace).map_err(|_| "acquisition refused")?;
+    let config =
+        IdentifyConfig { max_iterations: 3, selection_polish_max_evaluations: 60, ..IdentifyConfig::onboard() };
+    let by_profile = short_identification(&trace, Command::Profile(Profile::STANDARD), &config)?;
+    let by_samples = short_identification(&trace, command.as_command(), &config)?;
+    ensure(by_profile.evaluations >= 150, "budget not spent")?;
+    ensure(by_samples == by_profile, "the sampled command gives another report")
+}
+
+/// One identification of `trace` under `command`, run to its end.
+#[inline(never)]
+fn short_identification(
+    trace: &MeasuredTrace<ONBOARD_WINDOW>,
+    command: Command<'_>,
+    config: &IdentifyConfig,
+) -> Result<HealthReport, &'static str> {
+    let mut id = Identification::<'_, ONBOARD_WINDOW, 50>::new(trace, EmaParams::NOMINAL, command, config)
+        .map_err(|_| "identification refused")?;
+    id.run(u32::MAX);
+    Ok(id.report())
 }

@@ -1,8 +1,8 @@
 //! [`FrameLimit`]: ends a live acquisition on the manoeuvre's frame count.
 
 use super::{AcquisitionError, PhaseCurrents, PhaseFrame};
+use crate::command::CommandSource;
 use crate::params::EmaParams;
-use crate::profile::Profile;
 
 /// A [`PhaseCurrents`] source that yields at most `frames` frames, then
 /// [`AcquisitionError::EndOfData`].
@@ -24,10 +24,10 @@ impl<S> FrameLimit<S> {
         Self { source, remaining: frames }
     }
 
-    /// Reads the frames of one run of `profile` at the control rate of `params`
-    /// ([`manoeuvre_frames`]).
-    pub fn manoeuvre(source: S, profile: &Profile, params: &EmaParams) -> Self {
-        Self::new(source, manoeuvre_frames(profile, params))
+    /// Reads the frames of one run of `command` (a [`crate::Profile`] or a sampled command) at
+    /// the control rate of `params` ([`manoeuvre_frames`]).
+    pub fn manoeuvre<'c>(source: S, command: impl CommandSource<'c>, params: &EmaParams) -> Self {
+        Self::new(source, manoeuvre_frames(command, params))
     }
 
     /// Frames left before the end of data.
@@ -56,9 +56,10 @@ impl<S: PhaseCurrents> PhaseCurrents for FrameLimit<S> {
     }
 }
 
-/// Frames in one run of `profile` at the control rate: `round(T / Tc)` with `T` the profile's
-/// duration and `Tc` the control period (the standard manoeuvre: 0.85 s / 100 µs = 8500).
-/// A non-finite or negative ratio gives 0 (the `as` cast saturates; nothing panics).
-pub fn manoeuvre_frames(profile: &Profile, params: &EmaParams) -> u32 {
-    libm::roundf(profile.duration_s() / params.control_period_s) as u32
+/// Frames in one run of `command` at the control rate ([`crate::Command::frames`]): `round(T / Tc)` with
+/// `T` a profile's duration and `Tc` the control period (the standard manoeuvre: 0.85 s / 100 µs =
+/// 8500), or a sampled command's samples × stride. A non-finite or negative ratio gives 0 (the
+/// `as` cast saturates; nothing panics).
+pub fn manoeuvre_frames<'c>(command: impl CommandSource<'c>, params: &EmaParams) -> u32 {
+    command.into_command().frames(params)
 }

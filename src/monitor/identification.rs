@@ -9,6 +9,7 @@ use super::config::{fault_bounds, selection_polish_left, starting_guesses, Algor
 use super::selection::{group_present, without_group, Selection, FAULT_GROUPS};
 use super::MODEL_MISMATCH_A;
 use super::{params_are_valid, MonitorError};
+use crate::command::Command;
 use crate::conditioning::{ConditioningError, MeasuredTrace, DECIMATION};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::CurrentFit;
@@ -19,6 +20,7 @@ use crate::optimizer::pattern::{PatternConfig, PatternSearch};
 use crate::optimizer::pso::{ParticleSwarm, PsoConfig};
 use crate::optimizer::{Optimizer, Status, TerminationReason};
 use crate::params::EmaParams;
+#[cfg(test)]
 use crate::profile::Profile;
 
 /// The global search's optimizer.
@@ -92,14 +94,16 @@ pub struct Identification<'a, const W: usize, const P: usize> {
 }
 
 impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
-    /// Prepares the identification of `trace`, measured under `profile` on an actuator whose
-    /// healthy parameters are `params`.
+    /// Prepares the identification of `trace`, measured under `command` (a [`crate::Profile`] or a
+    /// sampled command, [`Command`]) on an actuator whose healthy parameters are `params`. A trace
+    /// longer than the command (by more than one control period) is refused.
     pub fn new(
         trace: &'a MeasuredTrace<W>,
         params: EmaParams,
-        profile: Profile,
+        command: impl Into<Command<'a>>,
         config: &IdentifyConfig,
     ) -> Result<Self, MonitorError> {
+        let command = command.into();
         if !params_are_valid(&params) {
             return Err(MonitorError::Params);
         }
@@ -107,7 +111,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             return Err(MonitorError::Conditioning(ConditioningError::Finished));
         }
         let trace_s = (trace.len() * DECIMATION) as f32 * params.control_period_s;
-        if trace_s > profile.duration_s() + params.control_period_s {
+        if trace_s > command.duration_s(&params) + params.control_period_s {
             return Err(MonitorError::TraceLongerThanProfile);
         }
         let bounds = fault_bounds();
@@ -147,7 +151,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                 )
             }
         };
-        let fit = CurrentFit::new(trace, params, profile)?
+        let fit = CurrentFit::new(trace, params, command)?
             .with_effects(config.effects)
             .with_fast_regime_weight(config.fast_regime_weight)
             .ok_or(MonitorError::FastRegimeWeight)?;
@@ -329,7 +333,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         let report = HealthReport { fit_check: Some(check), ..report };
         let report =
             if check.passes() { report } else { report.abstaining(HealthStatus::Inconclusive(Abstain::PoorFit)) };
-        if super::covers(self.fit.trace().len(), self.fit.profile().duration_s(), &self.params) {
+        if super::covers(self.fit.trace().len(), self.fit.command().duration_s(&self.params), &self.params) {
             report
         } else {
             report.abstaining(HealthStatus::Inconclusive(Abstain::PartialCoverage))
@@ -352,6 +356,7 @@ mod tests {
     use crate::monitor::{
         ONBOARD_MAX_ITERATIONS, ONBOARD_POPULATION, ONBOARD_WINDOW, SELECTION_POLISH_MAX_EVALUATIONS, SELECTION_REFIT,
     };
+    use crate::profile::Profile;
 
     /// A noise-free "measurement" of the monitor model with faults `k`, through conditioning.
     fn self_trace(k: &FaultVector) -> MeasuredTrace<ONBOARD_WINDOW> {

@@ -45,7 +45,7 @@ pub enum MonitorError {
     Optimizer(ConfigError),
     /// An actuator parameter is not finite or not physical (e.g. a non-positive inertia).
     Params,
-    /// The trace is longer than the command profile that drives the model.
+    /// The trace is longer than the command (profile or sampled) that drives the model.
     TraceLongerThanProfile,
     /// The fast-regime weight is not in `(0, 1]`.
     FastRegimeWeight,
@@ -57,7 +57,9 @@ impl core::fmt::Display for MonitorError {
             MonitorError::Conditioning(e) => write!(f, "measured trace refused: {e}"),
             MonitorError::Optimizer(e) => write!(f, "optimizer settings refused: {e}"),
             MonitorError::Params => f.write_str("an actuator parameter is not finite or not physical"),
-            MonitorError::TraceLongerThanProfile => f.write_str("the trace is longer than the command profile"),
+            MonitorError::TraceLongerThanProfile => {
+                f.write_str("the trace is longer than the command that drives the model")
+            }
             MonitorError::FastRegimeWeight => f.write_str("the fast-regime weight is not in (0, 1]"),
         }
     }

@@ -5,8 +5,11 @@
 //! - a recording CSV (`ema simulate`'s format, 10 kHz): phase currents in amperes pass the same
 //!   range, stuck-channel and sum checks as on board ([`FrameCheck::amps`], the core's code with
 //!   the nominal calibration); a refused frame is held at the last good one and counted, and too
-//!   many make the report `SENSOR_FAULT`, as [`monitor::acquire`] does; the command column must match the command profile (`--profile`, default
-//!   `standard`), because the monitor model is driven by the profile, as on board;
+//!   many make the report `SENSOR_FAULT`, as [`monitor::acquire`] does. The monitor model is
+//!   driven by the command profile (`--command profile`, the default: `--profile`, default
+//!   `standard`), and then the command column must match it, or by the recording's own command
+//!   column (`--command recorded`: any manoeuvre, sampled at 10 kHz into the core's
+//!   [`SampledCommand`], at most [`HOST_COMMAND_SAMPLES`] rows, every value inside the end stops);
 //! - `--firmware-trace FILE`: the firmware's packed 12-bit trace, read through the same replay ADC,
 //!   `OneShot` reader and fixed-point calibration as on the MCU, with the on-board window, swarm
 //!   and settings — its report is bit-identical to the firmware's. `--bits` prints the fault
@@ -29,6 +32,7 @@ use clap::{Args, ValueEnum};
 use ema_monitor::acquisition::{
     AcquisitionConfig, Calibration, FrameCheck, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc,
 };
+use ema_monitor::command::{CommandError, CommandSource};
 use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
 use ema_monitor::effects::{parse_model_config, ModelEffects};
 use ema_monitor::health::{Abstain, HealthReport, Status};
@@ -36,7 +40,7 @@ use ema_monitor::monitor::{
     self, AcquisitionSummary, Algorithm, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW,
 };
 use ema_monitor::trace::{packed_len, PackedTrace};
-use ema_monitor::{EmaParams, Profile};
+use ema_monitor::{Command, EmaParams, Profile, SampledCommand};
 use serde::Serialize;
 
 use crate::error::CliError;
@@ -49,6 +53,10 @@ use crate::simulate::resolve_profile;
 
 /// Window capacity for host identifications from CSV: 3.2 s of recording at the 2.5 kHz fitness rate.
 pub const HOST_WINDOW: usize = 8192;
+
+/// Most rows `--command recorded` takes: the command buffer holds the host window's length at the
+/// control rate, [`HOST_WINDOW`] × [`DECIMATION`] = 32 768 samples (3.2768 s at 10 kHz, 128 KiB).
+pub const HOST_COMMAND_SAMPLES: usize = HOST_WINDOW * DECIMATION;
 
 /// Largest difference between the recorded command and the profile before the file is refused.
 pub const COMMAND_TOLERANCE_RAD: f64 = 1e-6;
@@ -72,6 +80,172 @@ impl From<AlgorithmArg> for Algorithm {
             AlgorithmArg::De => Algorithm::De,
         }
     }
+}
+
+/// What drives the monitor model (`--command` of `ema identify` and `ema discover`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CommandArg {
+    /// The command profile given by `--profile`; the recording's command column must match it.
+    Profile,
+    /// The recording's own command column, whatever the manoeuvre (no profile needed).
+    Recorded,
+}
+
+/// The command that drives the monitor model, as `--command` and `--profile` chose it.
+#[derive(Clone, Debug, PartialEq)]
+#[allow(clippy::large_enum_variant, reason = "one per command run; the sampled command is boxed already")]
+pub enum ModelCommand {
+    /// A command profile, with the name it was given by (`standard` or a file).
+    Profile {
+        /// The profile.
+        profile: Profile,
+        /// `standard` or the profile file's path.
+        name: String,
+    },
+    /// The recording's command column, sampled at the control rate (stride 1).
+    Recorded(Box<SampledCommand<HOST_COMMAND_SAMPLES>>),
+}
+
+impl ModelCommand {
+    /// The core's command source.
+    pub fn command(&self) -> Command<'_> {
+        match self {
+            ModelCommand::Profile { profile, .. } => Command::Profile(*profile),
+            ModelCommand::Recorded(samples) => samples.as_command(),
+        }
+    }
+
+    /// `profile standard`, `profile FILE` or `recorded (8500 samples at 10000 Hz, 0.85 s)`.
+    pub fn label(&self) -> String {
+        self.to_json().label()
+    }
+
+    /// The JSON report's `command`: `{"source": "profile", "profile": NAME}` or
+    /// `{"source": "recorded", "samples": N, "duration_s": T}`.
+    pub fn to_json(&self) -> CommandJson {
+        match self {
+            ModelCommand::Profile { name, .. } => {
+                CommandJson { source: "profile", profile: Some(name.clone()), samples: None, duration_s: None }
+            }
+            ModelCommand::Recorded(s) => CommandJson {
+                source: "recorded",
+                profile: None,
+                samples: Some(s.samples().len()),
+                duration_s: Some(s.samples().len() as f64 / control_rate_hz()),
+            },
+        }
+    }
+}
+
+/// What drove the monitor model, in the JSON reports of `ema identify` and `ema discover`.
+#[derive(Clone, Debug, Serialize)]
+pub struct CommandJson {
+    /// `profile` or `recorded`.
+    pub source: &'static str,
+    /// The profile's name (`standard` or its file), under `profile`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub profile: Option<String>,
+    /// Samples of the recorded command, under `recorded`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub samples: Option<usize>,
+    /// Length of the recorded command (s), under `recorded`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub duration_s: Option<f64>,
+}
+
+impl CommandJson {
+    /// `profile NAME`, or `recorded (N samples at R Hz, T s)`.
+    pub fn label(&self) -> String {
+        match (&self.profile, self.samples, self.duration_s) {
+            (Some(name), _, _) => format!("profile {name}"),
+            (None, Some(n), Some(t)) => format!("recorded ({n} samples at {} Hz, {t} s)", control_rate_hz()),
+            _ => self.source.to_owned(),
+        }
+    }
+}
+
+/// The nominal control rate in Hz, rounded to an integer (10 000).
+fn control_rate_hz() -> f64 {
+    (1.0 / f64::from(EmaParams::NOMINAL.control_period_s)).round()
+}
+
+/// The command `--command` names for `recording` (read from `path`, named in errors): the profile
+/// `profile` (`standard` or a file), or the recording's command column ([`resolve_command`], then
+/// [`command_for`]).
+pub fn model_command(
+    arg: CommandArg,
+    profile: &str,
+    recording: &Recording,
+    path: &Path,
+    params: &EmaParams,
+) -> Result<ModelCommand, CliError> {
+    command_for(resolve_command(arg, profile)?, recording, path, params)
+}
+
+/// The flags' part of [`model_command`], checked before the recording is read: the profile
+/// `profile` resolved (`Some`) under `--command profile`, `None` under `--command recorded`, which
+/// refuses a `--profile` other than `standard` (the recorded command replaces the profile).
+pub fn resolve_command(arg: CommandArg, profile: &str) -> Result<Option<ModelCommand>, CliError> {
+    match arg {
+        CommandArg::Profile => {
+            Ok(Some(ModelCommand::Profile { profile: resolve_profile(profile)?, name: profile.to_owned() }))
+        }
+        CommandArg::Recorded if profile != "standard" => Err(CliError::flag(
+            "--profile",
+            "--command recorded drives the model by the recording's command column; drop --profile",
+        )),
+        CommandArg::Recorded => Ok(None),
+    }
+}
+
+/// The resolved command ([`resolve_command`]), or for `None` the recording's command column
+/// ([`recorded_command`]).
+pub fn command_for(
+    resolved: Option<ModelCommand>,
+    recording: &Recording,
+    path: &Path,
+    params: &EmaParams,
+) -> Result<ModelCommand, CliError> {
+    match resolved {
+        Some(command) => Ok(command),
+        None => recorded_command(recording, path, params).map(ModelCommand::Recorded),
+    }
+}
+
+/// The recording's command column as the core's sampled command at the control rate: at most
+/// [`HOST_COMMAND_SAMPLES`] rows, every value inside the end stops of `params`; errors name the
+/// file, the line and the limit.
+pub fn recorded_command(
+    recording: &Recording,
+    path: &Path,
+    params: &EmaParams,
+) -> Result<Box<SampledCommand<HOST_COMMAND_SAMPLES>>, CliError> {
+    if recording.len() > HOST_COMMAND_SAMPLES {
+        let rate_hz = (1.0 / f64::from(params.control_period_s)).round();
+        return Err(input_error(
+            path,
+            &format!(
+                "{} rows ({} s); --command recorded holds at most {HOST_COMMAND_SAMPLES} rows ({} s at {rate_hz} Hz): \
+                 trim the recording",
+                recording.len(),
+                recording.len() as f64 / rate_hz,
+                HOST_COMMAND_SAMPLES as f64 / rate_hz,
+            ),
+        ));
+    }
+    let samples = recording.command_rad.iter().map(|&c| c as f32);
+    SampledCommand::new(samples, 1, params.end_stop_rad).map(Box::new).map_err(|e| match e {
+        CommandError::NotFinite { index } | CommandError::BeyondEndStops { index } => input_error(
+            path,
+            &format!(
+                "line {}, field command_rad: {} rad; the command must be finite and inside the end stops (±{} rad)",
+                line_of(recording, index),
+                recording.command_rad.get(index).copied().unwrap_or(f64::NAN),
+                params.end_stop_rad
+            ),
+        ),
+        e => input_error(path, &e.to_string()),
+    })
 }
 
 /// Arguments of `ema identify`.
@@ -99,6 +273,11 @@ pub struct IdentifyArgs {
     /// Command profile the recording was made with: `standard` or a profile file.
     #[arg(long, default_value = "standard")]
     pub profile: String,
+    /// What drives the monitor model: the command profile (`--profile`, which the recording's
+    /// command must match) or the recording's own command column (any manoeuvre, at most
+    /// 32768 rows: 3.2768 s at 10 kHz).
+    #[arg(long, value_enum, default_value = "profile", conflicts_with = "firmware_trace")]
+    pub command: CommandArg,
     /// The paper's method alone: its fitness (fast-regime weight 1), the global search, no model
     /// selection, no polish.
     #[arg(long)]
@@ -148,9 +327,9 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
     };
     let config = method_flags(config, args.paper_only, args.fast_regime_weight);
     let params = args.params.load()?;
-    let outcome = match (&args.firmware_trace, &args.file) {
+    let (outcome, command) = match (&args.firmware_trace, &args.file) {
         (Some(path), _) => match firmware_trace_outcome(&read_firmware_trace(path)?, &params, &config) {
-            Ok(outcome) => outcome,
+            Ok(outcome) => (outcome, ModelCommand::Profile { profile: Profile::STANDARD, name: "standard".to_owned() }),
             Err(refusal) => {
                 if args.bits {
                     // the firmware's summary of the refusal, on stdout as an accepted report's;
@@ -161,16 +340,17 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
             }
         },
         (None, Some(path)) => {
-            let profile = resolve_profile(&args.profile)?;
+            let resolved = resolve_command(args.command, &args.profile)?;
             let recording = read_recording(path).map_err(CliError::Recording)?;
+            let command = command_for(resolved, &recording, path, &params)?;
             let spinner = progress::spinner(format!("identifying {}", path.display()), args.progress.visible());
-            let outcome = identify_recording(&recording, path, &params, &profile, &config);
+            let outcome = identify_recording_with(&recording, path, &params, &command, &config);
             spinner.finish_and_clear();
-            outcome?
+            (outcome?, command)
         }
         (None, None) => return Err(CliError::flag("FILE", "give a recording CSV or --firmware-trace FILE")),
     };
-    Ok(render(&outcome, &config.effects, args))
+    Ok(render(&outcome, &config.effects, &command, args))
 }
 
 /// What `--paper-only` and `--fast-regime-weight` (checked before, [`check_fast_regime_weight`])
@@ -233,9 +413,57 @@ pub fn identify_recording(
     profile: &Profile,
     config: &IdentifyConfig,
 ) -> Result<Outcome, CliError> {
-    let (trace, acquired) = condition_recording_checked(recording, path, params, profile)?;
-    let outcome = identify_trace(&trace, params, profile, config, path)?;
+    identify_recording_with(
+        recording,
+        path,
+        params,
+        &ModelCommand::Profile { profile: *profile, name: String::new() },
+        config,
+    )
+}
+
+/// [`identify_recording`] driven by `command`: a profile, or the recording's own command.
+pub fn identify_recording_with(
+    recording: &Recording,
+    path: &Path,
+    params: &EmaParams,
+    command: &ModelCommand,
+    config: &IdentifyConfig,
+) -> Result<Outcome, CliError> {
+    let (trace, acquired) = condition_recording_checked_for(recording, path, params, command)?;
+    let outcome = identify_trace(&trace, params, command.command(), config, path)?;
     Ok(Outcome { report: outcome.report.with_acquisition(&acquired), ..outcome })
+}
+
+/// The check a recording passes before it drives `command`: the profile's ([`check_recording`]:
+/// rate and command), or for its own command the rate only.
+fn check_for(recording: &Recording, path: &Path, params: &EmaParams, command: &ModelCommand) -> Result<(), CliError> {
+    match command {
+        ModelCommand::Profile { profile, .. } => check_recording(recording, path, profile, params),
+        ModelCommand::Recorded(_) => check_rate(recording, path, params),
+    }
+}
+
+/// [`condition_recording`] for the model driven by `command` (`ema discover --command`).
+pub fn condition_recording_for(
+    recording: &Recording,
+    path: &Path,
+    params: &EmaParams,
+    command: &ModelCommand,
+) -> Result<Box<MeasuredTrace<HOST_WINDOW>>, CliError> {
+    check_for(recording, path, params, command)?;
+    condition_frames(recording, path)
+}
+
+/// [`condition_recording_checked`] for the model driven by `command` (`ema identify --command`).
+pub fn condition_recording_checked_for(
+    recording: &Recording,
+    path: &Path,
+    params: &EmaParams,
+    command: &ModelCommand,
+) -> Result<(Box<MeasuredTrace<HOST_WINDOW>>, AcquisitionSummary), CliError> {
+    check_for(recording, path, params, command)?;
+    condition_frames_checked(recording, path)
 }
 
 /// Checks a recording made under `profile` (read from `path`, used for messages) and conditions it into the
@@ -250,6 +478,11 @@ pub fn condition_recording(
     profile: &Profile,
 ) -> Result<Box<MeasuredTrace<HOST_WINDOW>>, CliError> {
     check_recording(recording, path, profile, params)?;
+    condition_frames(recording, path)
+}
+
+/// Every frame of a checked recording into the measured trace, as it is.
+fn condition_frames(recording: &Recording, path: &Path) -> Result<Box<MeasuredTrace<HOST_WINDOW>>, CliError> {
     let mut trace = Box::new(MeasuredTrace::<HOST_WINDOW>::new());
     for k in 0..recording.len() {
         trace
@@ -270,6 +503,14 @@ pub fn condition_recording_checked(
     profile: &Profile,
 ) -> Result<(Box<MeasuredTrace<HOST_WINDOW>>, AcquisitionSummary), CliError> {
     check_recording(recording, path, profile, params)?;
+    condition_frames_checked(recording, path)
+}
+
+/// Every frame of a checked recording through the core's frame checks into the measured trace.
+fn condition_frames_checked(
+    recording: &Recording,
+    path: &Path,
+) -> Result<(Box<MeasuredTrace<HOST_WINDOW>>, AcquisitionSummary), CliError> {
     let mut check = FrameCheck::new(Calibration::NOMINAL, AcquisitionConfig::DEFAULT)
         .map_err(|e| input_error(path, &e.to_string()))?;
     let mut summary = AcquisitionSummary::default();
@@ -292,28 +533,28 @@ pub fn condition_recording_checked(
     Ok((trace, summary))
 }
 
-/// Identifies a conditioned trace (any window size) of the actuator `params`; `path` names the
-/// input in messages.
-pub fn identify_trace<const W: usize>(
+/// Identifies a conditioned trace (any window size) of the actuator `params`, the model driven by
+/// `command` (a profile or a sampled command); `path` names the input in messages.
+pub fn identify_trace<'c, const W: usize>(
     trace: &MeasuredTrace<W>,
     params: &EmaParams,
-    profile: &Profile,
+    command: impl CommandSource<'c>,
     config: &IdentifyConfig,
     path: &Path,
 ) -> Result<Outcome, CliError> {
-    run_identification(trace, params, profile, config).map_err(|e| input_error(path, &e.to_string()))
+    run_identification(trace, params, command.into_command(), config).map_err(|e| input_error(path, &e.to_string()))
 }
 
 /// The identification of a conditioned trace to its end, as the firmware's `identify` runs it.
 fn run_identification<const W: usize>(
     trace: &MeasuredTrace<W>,
     params: &EmaParams,
-    profile: &Profile,
+    command: Command<'_>,
     config: &IdentifyConfig,
 ) -> Result<Outcome, monitor::MonitorError> {
     let start = Instant::now();
     let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> =
-        Box::new(Identification::new(trace, *params, *profile, config)?);
+        Box::new(Identification::new(trace, *params, command, config)?);
     id.run(u32::MAX);
     Ok(Outcome { report: id.report(), seconds: start.elapsed().as_secs_f64() })
 }
@@ -370,7 +611,7 @@ pub fn firmware_trace_outcome(bytes: &[u8], params: &EmaParams, config: &Identif
             .map_err(|e| Refusal::new("reader", e))?;
     let mut trace = Box::new(MeasuredTrace::<ONBOARD_WINDOW>::new());
     let acquired = monitor::acquire(&mut reader, &mut trace).map_err(|e| Refusal::new("acquisition", e))?;
-    let outcome = run_identification(&trace, params, &Profile::STANDARD, config)
+    let outcome = run_identification(&trace, params, Command::Profile(Profile::STANDARD), config)
         .map_err(|e| Refusal::new("identification", e))?;
     let report = outcome.report.with_acquisition(&acquired);
     let report = if rate_ok { report } else { report.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
@@ -384,14 +625,7 @@ pub(crate) fn check_recording(
     profile: &Profile,
     params: &EmaParams,
 ) -> Result<(), CliError> {
-    let period = f64::from(params.control_period_s);
-    let measured = r.sample_period_s();
-    if (measured - period).abs() > 1e-3 * period {
-        return Err(input_error(
-            path,
-            &format!("field time_s: sample period {measured} s, the monitor needs {period} s (10 kHz)"),
-        ));
-    }
+    check_rate(r, path, params)?;
     for k in 0..r.len() {
         let expected = f64::from(profile.command_rad(k as f32 * params.control_period_s));
         if (r.command_rad[k] - expected).abs() > COMMAND_TOLERANCE_RAD {
@@ -404,6 +638,19 @@ pub(crate) fn check_recording(
                 ),
             ));
         }
+    }
+    Ok(())
+}
+
+/// Refuses a recording whose sample period is not the control period of `params`.
+fn check_rate(r: &Recording, path: &Path, params: &EmaParams) -> Result<(), CliError> {
+    let period = f64::from(params.control_period_s);
+    let measured = r.sample_period_s();
+    if (measured - period).abs() > 1e-3 * period {
+        return Err(input_error(
+            path,
+            &format!("field time_s: sample period {measured} s, the monitor needs {period} s (10 kHz)"),
+        ));
     }
     Ok(())
 }
@@ -518,12 +765,14 @@ pub struct IdentifyJson {
     /// The fault vector when the status is no diagnosis.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub k_not_a_diagnosis: Option<[f32; 8]>,
+    /// What drove the monitor model: a profile or the recorded command.
+    pub command: CommandJson,
     /// The monitor model's effect terms (`--model-config`): effect ID to severity.
     pub model_effects: std::collections::BTreeMap<&'static str, f32>,
 }
 
 /// The JSON report's body of `outcome`, the monitor model run with `effects`.
-pub fn json_body(outcome: &Outcome, effects: &ModelEffects) -> IdentifyJson {
+pub fn json_body(outcome: &Outcome, effects: &ModelEffects, command: &ModelCommand) -> IdentifyJson {
     let r = &outcome.report;
     let diagnosis = r.status.is_diagnosis();
     let modes = r
@@ -560,21 +809,27 @@ pub fn json_body(outcome: &Outcome, effects: &ModelEffects) -> IdentifyJson {
         overall: diagnosis.then(|| r.overall().label()),
         modes: diagnosis.then_some(modes),
         k_not_a_diagnosis: (!diagnosis).then_some(r.faults.0),
+        command: command.to_json(),
         model_effects: effects.active().map(|(e, s)| (e.id(), s)).collect(),
     }
 }
 
 /// The report as a JSON document ([`IdentifyJson`] in a [`Document`] whose `input_file` is the
 /// recording or the firmware trace).
-pub fn to_json(outcome: &Outcome, effects: &ModelEffects, input_file: Option<&Path>) -> String {
-    Document::new(input_file, json_body(outcome, effects)).to_json()
+pub fn to_json(outcome: &Outcome, effects: &ModelEffects, command: &ModelCommand, input_file: Option<&Path>) -> String {
+    Document::new(input_file, json_body(outcome, effects, command)).to_json()
 }
 
-fn render(outcome: &Outcome, effects: &ModelEffects, args: &IdentifyArgs) -> String {
+fn render(outcome: &Outcome, effects: &ModelEffects, command: &ModelCommand, args: &IdentifyArgs) -> String {
     let mut out = if args.json {
-        to_json(outcome, effects, args.firmware_trace.as_deref().or(args.file.as_deref()))
+        to_json(outcome, effects, command, args.firmware_trace.as_deref().or(args.file.as_deref()))
     } else {
-        let mut text = format!("{}\n  identification took {:.3} s", outcome.report, outcome.seconds);
+        let mut text = format!(
+            "{}\n  command: {}\n  identification took {:.3} s",
+            outcome.report,
+            command.label(),
+            outcome.seconds
+        );
         if args.model_config.is_some() {
             text.push_str(&format!("\n  model effects: {}", effects_label(effects)));
         }

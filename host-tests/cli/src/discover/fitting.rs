@@ -9,7 +9,7 @@ use ema_monitor::fitness::simulate_window_with_effects;
 use ema_monitor::monitor::{fault_bounds, group_pays, group_present, without_group, FAULT_GROUPS, SELECTION_REFIT};
 use ema_monitor::optimizer::pattern::{PatternConfig, PatternSearch};
 use ema_monitor::optimizer::{self, Bounds, Objective, Optimizer};
-use ema_monitor::{EffectId, EmaParams, FaultVector, ModelEffects, Profile, FAULT_COUNT};
+use ema_monitor::{Command, EffectId, EmaParams, FaultVector, ModelEffects, FAULT_COUNT};
 
 /// Blocks per chunk of the fit / held-out split (62 × 0.4 ms ≈ 25 ms, the length of the "where"
 /// windows): a signature confined to one transient, such as a Stribeck dip at the ramp's start,
@@ -45,7 +45,8 @@ impl Part {
 pub struct PartFit<'a, const W: usize> {
     trace: &'a MeasuredTrace<W>,
     params: EmaParams,
-    profile: Profile,
+    /// The command that drives the model (a profile or the recording's own).
+    profile: Command<'a>,
     base: ModelEffects,
     free: Vec<EffectId>,
     part: Part,
@@ -57,12 +58,12 @@ impl<'a, const W: usize> PartFit<'a, W> {
     pub fn new(
         trace: &'a MeasuredTrace<W>,
         params: EmaParams,
-        profile: Profile,
+        profile: impl Into<Command<'a>>,
         base: ModelEffects,
         free: Vec<EffectId>,
         part: Part,
     ) -> Self {
-        Self { trace, params, profile, base, free, part }
+        Self { trace, params, profile: profile.into(), base, free, part }
     }
 
     /// The fault vector and the effects a point stands for.
@@ -88,7 +89,7 @@ impl<'a, const W: usize> PartFit<'a, W> {
         let limit = if abandon_above.is_finite() { abandon_above * count as f32 } else { f32::INFINITY };
         let mut sum = 0.0f32;
         let part = self.part;
-        simulate_window_with_effects(&self.params, &self.profile, k, effects, y.len(), |i, model_a, _| {
+        simulate_window_with_effects(&self.params, self.profile, k, effects, y.len(), |i, model_a, _| {
             if part.contains(i) {
                 let r = y[i] - model_a;
                 sum += w[i] * r * r;
@@ -232,7 +233,7 @@ fn select_groups<const W: usize, const D: usize>(
 pub fn fit_model<const W: usize>(
     trace: &MeasuredTrace<W>,
     params: &EmaParams,
-    profile: &Profile,
+    profile: &Command<'_>,
     free: &[EffectId],
     start: &ModelFit,
     part: Part,
@@ -249,7 +250,7 @@ pub fn fit_model<const W: usize>(
 fn fit_d<const W: usize, const D: usize>(
     trace: &MeasuredTrace<W>,
     params: &EmaParams,
-    profile: &Profile,
+    profile: &Command<'_>,
     free: &[EffectId],
     start_fit: &ModelFit,
     part: Part,

@@ -59,10 +59,11 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::Args;
+use ema_monitor::command::CommandSource;
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::fitness::CurrentFit;
 use ema_monitor::monitor::IdentifyConfig;
-use ema_monitor::{EffectId, EmaParams, FaultVector, ModelEffects, Profile};
+use ema_monitor::{EffectId, EmaParams, FaultVector, ModelEffects};
 use indicatif::ProgressBar;
 
 pub use fitting::{
@@ -79,12 +80,14 @@ pub use report::{model_config, summary, to_json, verdict, write_outputs, OUTPUT_
 pub use residual::{above_noise_a, moving_mean, series, Series, CLEAN_FLOOR_A, NOISE_FLOOR_A, SMOOTH_BLOCKS};
 
 use crate::error::CliError;
-use crate::identify::{condition_recording, identify_trace, HOST_WINDOW};
+use crate::identify::{
+    command_for, condition_recording_for, identify_trace, resolve_command, CommandArg, CommandJson, HOST_WINDOW,
+};
 use crate::output::{prepare_dir, OutputArgs};
 use crate::params::ParamsArgs;
 use crate::progress::{self, ProgressArgs};
 use crate::recording_io::read_recording;
-use crate::simulate::{parse_faults, resolve_profile};
+use crate::simulate::parse_faults;
 use localisation::window_rms;
 use naming::search_round;
 use residual::{rms, structural_energy};
@@ -102,6 +105,10 @@ pub struct DiscoverArgs {
     /// Command profile the recording was made with: `standard` or a profile file.
     #[arg(long, default_value = "standard")]
     pub profile: String,
+    /// What drives the monitor model: the command profile (`--profile`, which the recording's
+    /// command must match) or the recording's own command column (any manoeuvre).
+    #[arg(long, value_enum, default_value = "profile")]
+    pub command: CommandArg,
     /// Print JSON instead of the readable summary.
     #[arg(long)]
     pub json: bool,
@@ -127,6 +134,8 @@ pub struct DiscoverArgs {
 pub struct Discovery {
     /// Recording path.
     pub file: PathBuf,
+    /// What drove the monitor model (set by `ema discover`; `None` from [`discover`] alone).
+    pub command: Option<CommandJson>,
     /// The current model's fit (whole recording).
     pub before: ModelFit,
     /// The model with the named effects (whole recording).
@@ -195,26 +204,27 @@ pub enum Withdrawal {
     AtBound(f32),
 }
 
-/// Runs the whole workflow on a conditioned trace of the actuator `params`.
-pub fn discover<const W: usize>(
+/// Runs the whole workflow on a conditioned trace of the actuator `params`, the model driven by
+/// `command` (a profile or the recording's sampled command).
+pub fn discover<'c, const W: usize>(
     trace: &MeasuredTrace<W>,
     params: &EmaParams,
-    profile: &Profile,
+    command: impl CommandSource<'c>,
     file: &Path,
     truth: Option<FaultVector>,
     seed: u64,
     threads: usize,
 ) -> Result<Discovery, CliError> {
-    discover_with_progress(trace, params, profile, file, truth, seed, threads, &ProgressBar::hidden())
+    discover_with_progress(trace, params, command, file, truth, seed, threads, &ProgressBar::hidden())
 }
 
 /// [`discover`], advancing `bar` by one step per fit: the current model, the reference of the
 /// fit part, each round's candidates (added to the bar's length as a round starts), the refit
 /// and the on-board diagnoses; its message names the step.
-pub fn discover_with_progress<const W: usize>(
+pub fn discover_with_progress<'c, const W: usize>(
     trace: &MeasuredTrace<W>,
     params: &EmaParams,
-    profile: &Profile,
+    command: impl CommandSource<'c>,
     file: &Path,
     truth: Option<FaultVector>,
     seed: u64,
@@ -222,6 +232,7 @@ pub fn discover_with_progress<const W: usize>(
     bar: &ProgressBar,
 ) -> Result<Discovery, CliError> {
     let start = Instant::now();
+    let profile = &command.into_command();
     bar.set_length(4);
     bar.set_message("fitting the current model");
     // 1. the current model, as on board (whole recording)
@@ -348,6 +359,7 @@ pub fn discover_with_progress<const W: usize>(
     Ok(Discovery {
         unexplained,
         file: file.to_path_buf(),
+        command: None,
         before,
         after,
         onboard_before: onboard_before.faults,
@@ -368,7 +380,7 @@ pub fn discover_with_progress<const W: usize>(
 
 /// Runs `ema discover`.
 pub fn run(args: &DiscoverArgs) -> Result<String, CliError> {
-    let profile = resolve_profile(&args.profile)?;
+    let resolved = resolve_command(args.command, &args.profile)?;
     let truth = args.truth.as_deref().map(parse_faults).transpose()?;
     let overwrite = args.output.overwrite();
     if let Some(dir) = &args.output.out {
@@ -376,13 +388,22 @@ pub fn run(args: &DiscoverArgs) -> Result<String, CliError> {
     }
     let recording = read_recording(&args.file).map_err(CliError::Recording)?;
     let params = args.params.load()?;
-    let trace = condition_recording(&recording, &args.file, &params, &profile)?;
+    let command = command_for(resolved, &recording, &args.file, &params)?;
+    let trace = condition_recording_for(&recording, &args.file, &params, &command)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let bar = progress::bar(4, "fits", args.progress.visible());
-    let d =
-        discover_with_progress::<HOST_WINDOW>(&trace, &params, &profile, &args.file, truth, args.seed, threads, &bar);
+    let d = discover_with_progress::<HOST_WINDOW>(
+        &trace,
+        &params,
+        command.command(),
+        &args.file,
+        truth,
+        args.seed,
+        threads,
+        &bar,
+    );
     bar.finish_and_clear();
-    let d = d?;
+    let d = Discovery { command: Some(command.to_json()), ..d? };
     if let Some(dir) = &args.output.out {
         write_outputs(dir, &d, overwrite)?;
     }

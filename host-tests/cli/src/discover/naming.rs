@@ -3,7 +3,7 @@
 //! rules decide whether its winner is named (`docs/decisions/0009-effect-naming-rules.md`).
 
 use ema_monitor::conditioning::MeasuredTrace;
-use ema_monitor::{EffectId, EmaParams, ModelEffects, Profile};
+use ema_monitor::{Command, EffectId, EmaParams, ModelEffects};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 
@@ -182,7 +182,7 @@ fn delta_bic(n_eff: f64, before: f32, after: f32, extra_parameters: f64) -> f64 
 pub(super) fn search_round<const W: usize>(
     trace: &MeasuredTrace<W>,
     params: &EmaParams,
-    profile: &Profile,
+    profile: &Command<'_>,
     on: &[EffectId],
     base_fit: &ModelFit,
     n_eff_part: f64,

@@ -11,6 +11,7 @@ use super::naming::same_signature;
 use super::residual::{above_noise_a, moving_mean, NOISE_FLOOR_A, SMOOTH_BLOCKS};
 use super::{Discovery, Withdrawal};
 use crate::error::CliError;
+use crate::identify::CommandJson;
 use crate::output::{self, Overwrite};
 use crate::plots::{line_plot, Line};
 use crate::schema::Document;
@@ -125,6 +126,9 @@ pub struct CandidateJson {
 /// documents every key.
 #[derive(Clone, Debug, Serialize)]
 pub struct DiscoveryJson {
+    /// What drove the monitor model (left out when unknown).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub command: Option<CommandJson>,
     /// The named effects.
     pub named: Vec<NamedJson>,
     /// [`verdict`].
@@ -195,6 +199,7 @@ pub struct DiscoveryJson {
 /// The JSON report's body.
 pub fn json_body(d: &Discovery) -> DiscoveryJson {
     DiscoveryJson {
+        command: d.command.clone(),
         named: d
             .named
             .iter()
@@ -362,6 +367,9 @@ pub fn verdict(d: &Discovery) -> String {
 pub fn summary(d: &Discovery) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "recording: {}", d.file.display());
+    if let Some(c) = &d.command {
+        let _ = writeln!(s, "command: {}", c.label());
+    }
     let _ = writeln!(s, "verdict: {}", verdict(d));
     let _ = writeln!(
         s,

@@ -1,9 +1,10 @@
 //! Step 1's residual: the monitor model run along a recording, the raw residual of the 0.4 ms
 //! block means and the structural residual (its 2 ms means), with the floors that judge it.
 
+use ema_monitor::command::CommandSource;
 use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
 use ema_monitor::fitness::simulate_window_with_effects;
-use ema_monitor::{EmaParams, FaultVector, ModelEffects, Profile};
+use ema_monitor::{EmaParams, FaultVector, ModelEffects};
 
 /// Blocks averaged into the structural residual (5 × 0.4 ms = 2 ms).
 pub const SMOOTH_BLOCKS: usize = 5;
@@ -49,11 +50,12 @@ pub struct Series {
     pub electrical_angle_rad: Vec<f64>,
 }
 
-/// Runs the model with `k` and `effects` along `trace`.
-pub fn series<const W: usize>(
+/// Runs the model with `k` and `effects` along `trace`, driven by `profile` (a profile or a
+/// sampled command).
+pub fn series<'c, const W: usize>(
     trace: &MeasuredTrace<W>,
     params: &EmaParams,
-    profile: &Profile,
+    profile: impl CommandSource<'c>,
     k: &FaultVector,
     effects: &ModelEffects,
 ) -> Series {
