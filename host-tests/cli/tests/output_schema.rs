@@ -32,7 +32,14 @@ fn identify_json_matches_the_schema() {
     let full = json_quietly(&["identify", "--firmware-trace", trace, "--json"]);
     assert!(short.get("k_not_a_diagnosis").is_some() && full.get("modes").is_some(), "{short}\n{full}");
     assert_eq!(full["input_file"], trace);
-    schema::check_json("`ema identify --json`", &[&short, &full]);
+    // a recording CSV: its path in input_file, and no spinner on a captured stderr
+    let dir = scratch("schema", "identify");
+    let csv = dir.join("rec.csv");
+    let wrote = ema(&["simulate", "--seed", "3", "--out", s(&csv)]);
+    assert!(wrote.status.success(), "{}", String::from_utf8_lossy(&wrote.stderr));
+    let from_csv = json_quietly(&["identify", s(&csv), "--json", "--max-iterations", "2"]);
+    assert_eq!(from_csv["input_file"], s(&csv));
+    schema::check_json("`ema identify --json`", &[&short, &full, &from_csv]);
 }
 
 #[test]
