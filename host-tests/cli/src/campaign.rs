@@ -37,7 +37,7 @@ use serde_json::json;
 use crate::error::CliError;
 use crate::identify::{condition_recording, identify_trace, AlgorithmArg};
 use crate::output::{prepare_dir, write_files, Overwrite};
-use crate::recording_io::Recording;
+use crate::recording::Recording;
 use crate::simulate::resolve_profile;
 use crate::svg;
 

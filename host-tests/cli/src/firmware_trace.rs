@@ -42,7 +42,7 @@ use ema_reference::{simulate, Effects, SimConfig};
 use crate::error::CliError;
 use crate::identify::check_recording;
 use crate::output::{check_file, write_files, Overwrite};
-use crate::recording_io::{read_recording, Recording};
+use crate::recording::{Recording, RecordingArgs};
 
 /// Fault vector of the built-in trace: friction `k1 = 0.25`, everything else healthy
 /// (`ecc_phase` and `gain` at their neutral 0.5).
@@ -62,6 +62,9 @@ pub struct FirmwareTraceArgs {
     /// Pack this recording CSV (10 kHz, standard profile, 8500 rows) instead of the built-in run.
     #[arg(long, value_name = "RECORDING")]
     pub from: Option<PathBuf>,
+    /// How to read the --from recording.
+    #[command(flatten)]
+    pub recording: RecordingArgs,
     /// Replace the output file if it exists (without it, an existing file stops the command
     /// before it runs).
     #[arg(long)]
@@ -148,7 +151,7 @@ pub fn run(args: &FirmwareTraceArgs) -> Result<String, CliError> {
     let overwrite = Overwrite::from_force(args.force);
     check_file(&out, overwrite)?;
     if let Some(from) = &args.from {
-        return run_from(from, &out, overwrite);
+        return run_from(from, &args.recording, &out, overwrite);
     }
     let bytes = firmware_trace_bytes()?;
     let trace = PackedTrace::parse(&bytes)
@@ -167,8 +170,8 @@ pub fn run(args: &FirmwareTraceArgs) -> Result<String, CliError> {
 }
 
 /// `ema firmware-trace --from RECORDING [--out FILE]`.
-fn run_from(from: &Path, out: &Path, overwrite: Overwrite) -> Result<String, CliError> {
-    let recording = read_recording(from)?;
+fn run_from(from: &Path, how: &RecordingArgs, out: &Path, overwrite: Overwrite) -> Result<String, CliError> {
+    let recording = how.load(from, Some(&Profile::STANDARD), &EmaParams::NOMINAL)?.recording;
     let bytes = recording_trace_bytes(&recording, from)?;
     let trace = PackedTrace::parse(&bytes)
         .map_err(|e| CliError::Simulation(format!("the packed trace does not read back: {e}")))?;

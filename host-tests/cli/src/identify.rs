@@ -41,7 +41,7 @@ use serde_json::json;
 
 use crate::error::CliError;
 use crate::input;
-use crate::recording_io::{read_recording, Recording};
+use crate::recording::{LoadSummary, Recording, RecordingArgs};
 use crate::simulate::resolve_profile;
 
 /// Window capacity for host identifications from CSV: 3.2 s of recording at the 2.5 kHz fitness rate.
@@ -74,9 +74,12 @@ impl From<AlgorithmArg> for Algorithm {
 /// Arguments of `ema identify`.
 #[derive(Args, Debug, Clone)]
 pub struct IdentifyArgs {
-    /// Recording CSV to identify (time_s, command_rad, position_rad, ia_A, ib_A, ic_A at 10 kHz).
+    /// Recording CSV to identify (docs/recordings.md: columns, delimiter, 5-100 kHz, trimming).
     #[arg(required_unless_present = "firmware_trace", conflicts_with = "firmware_trace")]
     pub file: Option<PathBuf>,
+    /// How to read the recording.
+    #[command(flatten)]
+    pub recording: RecordingArgs,
     /// Identify the firmware's packed trace instead, exactly as the firmware does.
     #[arg(long, value_name = "FILE")]
     pub firmware_trace: Option<PathBuf>,
@@ -138,6 +141,7 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
         ..base
     };
     let config = method_flags(config, args.paper_only, args.fast_regime_weight);
+    let mut loaded = None;
     let outcome = match (&args.firmware_trace, &args.file) {
         (Some(path), _) => match firmware_trace_outcome(&read_firmware_trace(path)?, &config) {
             Ok(outcome) => outcome,
@@ -152,12 +156,14 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
         },
         (None, Some(path)) => {
             let profile = resolve_profile(&args.profile)?;
-            let recording = read_recording(path).map_err(CliError::Recording)?;
-            identify_recording(&recording, path, &profile, &config)?
+            let load = args.recording.load(path, Some(&profile), &EmaParams::NOMINAL)?;
+            let outcome = identify_recording(&load.recording, path, &profile, &config)?;
+            loaded = Some(load.summary);
+            outcome
         }
         (None, None) => return Err(CliError::flag("FILE", "give a recording CSV or --firmware-trace FILE")),
     };
-    Ok(render(&outcome, &config.effects, args))
+    Ok(render(&outcome, &config.effects, loaded.as_ref(), args))
 }
 
 /// What `--paper-only` and `--fast-regime-weight` (checked before, [`check_fast_regime_weight`])
@@ -464,9 +470,12 @@ pub fn to_json(outcome: &Outcome) -> serde_json::Value {
     v
 }
 
-fn render(outcome: &Outcome, effects: &ModelEffects, args: &IdentifyArgs) -> String {
+fn render(outcome: &Outcome, effects: &ModelEffects, loaded: Option<&LoadSummary>, args: &IdentifyArgs) -> String {
     let mut out = if args.json {
         let mut v = to_json(outcome);
+        if let Some(l) = loaded {
+            v["recording"] = serde_json::to_value(l).unwrap_or_default();
+        }
         let fx: serde_json::Map<String, serde_json::Value> =
             effects.active().map(|(e, s)| (e.id().to_owned(), json!(s))).collect();
         v["model_effects"] = serde_json::Value::Object(fx);
@@ -475,6 +484,9 @@ fn render(outcome: &Outcome, effects: &ModelEffects, args: &IdentifyArgs) -> Str
         let mut text = format!("{}\n  identification took {:.3} s", outcome.report, outcome.seconds);
         if args.model_config.is_some() {
             text.push_str(&format!("\n  model effects: {}", effects_label(effects)));
+        }
+        if let Some(l) = loaded {
+            text.push_str(&format!("\n  {}", l.line()));
         }
         text
     };

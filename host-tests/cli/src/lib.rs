@@ -1,7 +1,7 @@
 //! # ema-cli: the host command line of ema-monitor (`ema`)
 //!
 //! One module per subcommand (`simulate`, …) plus the shared recording reader/writer
-//! ([`recording_io`]), profile files ([`profile_file`]), the bounded reading of every input file
+//! ([`recording`]), profile files ([`profile_file`]), the bounded reading of every input file
 //! ([`input`]), the hand-written SVG plots ([`svg`]) and the error type ([`error`]). Every input
 //! file is read within a stated size, so no file drives an allocation. Every output file goes
 //! through [`output`]: checked before the work, an existing file replaced only with `--force`,
@@ -21,6 +21,6 @@ pub mod input;
 pub mod output;
 pub mod parity_traces;
 pub mod profile_file;
-pub mod recording_io;
+pub mod recording;
 pub mod simulate;
 pub mod svg;

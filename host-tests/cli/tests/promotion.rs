@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 mod common;
 use common::{accepted, refused, s, scratch};
 
-use ema_cli::recording_io::read_recording;
+use ema_cli::recording::read_recording;
 use ema_monitor::trace::{counts_to_amps, PackedTrace};
 
 fn committed_trace() -> PathBuf {

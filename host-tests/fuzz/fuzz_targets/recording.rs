@@ -10,7 +10,7 @@
 use std::path::Path;
 
 use ema_cli::identify::condition_recording_checked;
-use ema_cli::recording_io::{
+use ema_cli::recording::{
     parse_recording, write_csv, MAX_COMMENT_LINES, MAX_DURATION_S, MAX_LINE_BYTES, MAX_ROWS, MIN_ROWS,
 };
 use ema_monitor::Profile;

@@ -80,7 +80,7 @@ pub use residual::{above_noise_a, moving_mean, series, Series, CLEAN_FLOOR_A, NO
 use crate::error::CliError;
 use crate::identify::{condition_recording, identify_trace, HOST_WINDOW};
 use crate::output::{prepare_dir, Overwrite};
-use crate::recording_io::read_recording;
+use crate::recording::RecordingArgs;
 use crate::simulate::{parse_faults, resolve_profile};
 use localisation::window_rms;
 use naming::search_round;
@@ -89,8 +89,11 @@ use residual::{rms, structural_energy};
 /// Arguments of `ema discover`.
 #[derive(Args, Debug, Clone)]
 pub struct DiscoverArgs {
-    /// Recording CSV (time_s, command_rad, position_rad, ia_A, ib_A, ic_A at 10 kHz).
+    /// Recording CSV (docs/recordings.md: columns, delimiter, 5-100 kHz, trimming).
     pub file: PathBuf,
+    /// How to read the recording.
+    #[command(flatten)]
+    pub recording: RecordingArgs,
     /// The true fault vector k1..k8, when known: reports the fault-vector error before and after.
     #[arg(long, value_name = "K1,...,K8", allow_hyphen_values = true)]
     pub truth: Option<String>,
@@ -340,7 +343,7 @@ pub fn run(args: &DiscoverArgs) -> Result<String, CliError> {
     if let Some(dir) = &args.out {
         prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
     }
-    let recording = read_recording(&args.file).map_err(CliError::Recording)?;
+    let recording = args.recording.load(&args.file, Some(&profile), &EmaParams::NOMINAL)?.recording;
     let trace = condition_recording(&recording, &args.file, &profile)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let d = discover::<HOST_WINDOW>(&trace, &profile, &args.file, truth, args.seed, threads)?;
