@@ -86,7 +86,8 @@ fn run(a: &Args) -> Result<String, String> {
     let channels = [&rec.position_rad[..], &rec.ia_a[..], &rec.ib_a[..], &rec.ic_a[..]];
     let body = resample::resample(&channels, &grid, grid.origin_s, period, n);
     let idle = ((0.01 / period).round() as usize).clamp(1, n);
-    let held = |u: f64| rec.command_rad[(((u - grid.origin_s) / grid.period_s + 1e-6).floor() as usize).min(rec.len() - 1)];
+    let held =
+        |u: f64| rec.command_rad[(((u - grid.origin_s) / grid.period_s + 1e-6).floor() as usize).min(rec.len() - 1)];
     let (n_pre, n_post) = ((a.pre_trigger / period).round() as usize, (a.trailing / period).round() as usize);
     let mut state = 0x9e37_79b9_7f4a_7c15_u64;
     let mut jitter = || {

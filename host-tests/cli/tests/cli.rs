@@ -199,7 +199,13 @@ fn reader_refuses_bad_files_naming_file_line_and_field() {
             None,
             "no column 'time_s' for the time channel",
         ),
-        ("fields.csv", format!("{header}\n0,0,0,0,0,0\n0.0001,0,0,0,0\n"), Some(3), None, "expected 6 fields (as the header), found 5"),
+        (
+            "fields.csv",
+            format!("{header}\n0,0,0,0,0,0\n0.0001,0,0,0,0\n"),
+            Some(3),
+            None,
+            "expected 6 fields (as the header), found 5",
+        ),
         (
             "text.csv",
             format!("{header}\n0,0,0,0,0,0\n0.0001,0,0,zero,0,0\n"),
@@ -258,7 +264,10 @@ fn reader_refuses_bad_files_naming_file_line_and_field() {
     assert!(missing.to_string().contains("nope.csv") && missing.to_string().contains("cannot open"), "{missing}");
     // A missing column shows what was looked for, the headers found and the flag to give.
     let e = read_recording(dir.join("header.csv")).expect_err("bad header").to_string();
-    assert!(e.contains("the header has 'time', 'cmd', 'pos', 'ia', 'ib', 'ic'; name the column with --column time=HEADER"), "{e}");
+    assert!(
+        e.contains("the header has 'time', 'cmd', 'pos', 'ia', 'ib', 'ic'; name the column with --column time=HEADER"),
+        "{e}"
+    );
     // A good file with comments and blank lines reads.
     let p = dir.join("good.csv");
     std::fs::write(&p, format!("# a\n\n{header}\n{good_rows}\n")).expect("writable");

@@ -3,7 +3,10 @@
 //! a pre-trigger and trailing idle, a command quantised to 1e-5 rad — each give the diagnosis of
 //! the clean 10 kHz file: the same status, and the paper's Err% (Dalla Vedova, Berri, Re, ICSRS
 //! 2018; `FaultVector::paper_error_percent`, as `ema campaign` scores) within 0.5 of the clean
-//! file's against the truth. Every refused variant fails with a message that says what to change.
+//! file's against the truth. At 5 kHz a block of the monitor holds two independent samples
+//! instead of four, and the core's fit test may abstain (`INCONCLUSIVE (poor fit)`): that status
+//! is accepted there, the Err% bound is not relaxed. Every refused variant fails with a message
+//! that says what to change.
 //!
 //! The transforms are written here independently of the reader: a Lanczos interpolation
 //! (`a = 8`, scaled to the lower rate) for the sensor channels, and the command held between the
@@ -119,13 +122,27 @@ fn bench_file(b: &Bench) -> String {
     let n_pre = (b.pre_trigger_s * b.rate_hz).round() as usize;
     let n = (end * b.rate_hz + 1e-6).floor() as usize + 1;
     let n_post = (b.trailing_s * b.rate_hz).round() as usize;
-    let channel = |x: &[f64], t: f64| if b.rate_hz == 1e4 { x[(t * 1e4).round() as usize] } else { interpolate(x, t, b.rate_hz) };
+    // at 10 kHz and below, every 10 kHz / rate-th sample: a slower logger reads the same sensors
+    let step = 1e4 / b.rate_hz;
+    let channel = |x: &[f64], t: f64| {
+        if step >= 1.0 && step.fract() == 0.0 {
+            x[(t * 1e4).round() as usize]
+        } else {
+            interpolate(x, t, b.rate_hz)
+        }
+    };
     for j in 0..n_pre + n + n_post {
         let file_t = j as f64 * period;
-        let t = file_t - b.pre_trigger_s; // manoeuvre time
-        // idle before and after: the opening and closing 10 ms of the manoeuvre, repeated
-        let src = if t < 0.0 { t.rem_euclid(0.01) } else if t > end { end - 0.01 + (t - end).rem_euclid(0.01) } else { t };
-        let command = if t < 0.0 { rec.command_rad[0] } else { hold(t.min(end)) };
+        // manoeuvre time; idle before and after: its opening and closing 10 ms, repeated
+        let (src, command) = if j < n_pre {
+            (((j as f64 - n_pre as f64) * period).rem_euclid(0.01), rec.command_rad[0])
+        } else if j < n_pre + n {
+            let t = (j - n_pre) as f64 * period;
+            (t, hold(t))
+        } else {
+            let t = end + (j - n_pre - n + 1) as f64 * period;
+            (end - 0.01 + (t - end).rem_euclid(0.01), rec.command_rad[rec.len() - 1])
+        };
         rows.push([
             file_t,
             command,
@@ -223,12 +240,22 @@ fn transformed_recordings_give_the_clean_diagnosis() {
     ];
     let mut table = format!("clean: {status}, Err% {err:.3}\n");
     let mut failures = Vec::new();
-    for (name, b) in &cases {
-        let path = write(&dir, &format!("{name}.csv"), &bench_file(b));
-        let args = RecordingArgs { columns: columns(b), ..RecordingArgs::default() };
-        let (st, e, summary) = diagnose(&path, &args);
+    let paths: Vec<PathBuf> =
+        cases.iter().map(|(name, b)| write(&dir, &format!("{name}.csv"), &bench_file(b))).collect();
+    let results: Vec<_> = std::thread::scope(|scope| {
+        let runs: Vec<_> = cases
+            .iter()
+            .zip(&paths)
+            .map(|((_, b), path)| {
+                scope.spawn(move || diagnose(path, &RecordingArgs { columns: columns(b), ..RecordingArgs::default() }))
+            })
+            .collect();
+        runs.into_iter().map(|r| r.join().expect("no panic")).collect()
+    });
+    for ((name, b), (st, e, summary)) in cases.iter().zip(results) {
         table.push_str(&format!("{name}: {st}, Err% {e:.3} (Δ {:+.3}); {}\n", e - err, summary.line()));
-        if st != status || (e - err).abs() > ERR_TOLERANCE {
+        let abstains = b.rate_hz < 1e4 && st == "Inconclusive(PoorFit)";
+        if (st != status && !abstains) || (e - err).abs() > ERR_TOLERANCE {
             failures.push(name);
         }
         if b.pre_trigger_s > 0.0 {
@@ -250,7 +277,10 @@ fn padding_at_the_monitor_rate_is_cut_exactly() {
     let rec = clean();
     assert!(!loaded.summary.resampled && (loaded.summary.start_s - 0.0123).abs() < 1e-9, "{:?}", loaded.summary);
     assert_eq!(loaded.recording.len(), rec.len());
-    assert_eq!((&loaded.recording.ia_a, &loaded.recording.ib_a, &loaded.recording.ic_a), (&rec.ia_a, &rec.ib_a, &rec.ic_a));
+    assert_eq!(
+        (&loaded.recording.ia_a, &loaded.recording.ib_a, &loaded.recording.ic_a),
+        (&rec.ia_a, &rec.ib_a, &rec.ic_a)
+    );
     assert_eq!(loaded.recording.position_rad, rec.position_rad);
     // --start says the same
     let given = RecordingArgs { start: Some(0.0123), ..RecordingArgs::default() };
@@ -266,7 +296,10 @@ fn refused_files_say_what_to_change() {
     };
     let default = RecordingArgs::default();
     let e = load(&write(&dir, "4khz.csv", &bench_file(&Bench { rate_hz: 4_000.0, ..Bench::default() })), &default);
-    assert!(e.contains("4khz.csv") && e.contains("sample rate 4000.0 Hz") && e.contains("record at 5 kHz or more"), "{e}");
+    assert!(
+        e.contains("4khz.csv") && e.contains("sample rate 4000.0 Hz") && e.contains("record at 5 kHz or more"),
+        "{e}"
+    );
     let e = load(&write(&dir, "200khz.csv", &bench_file(&Bench { rate_hz: 200_000.0, ..Bench::default() })), &default);
     assert!(e.contains("sample rate 200000.0 Hz") && e.contains("decimate the file to 100 kHz or less"), "{e}");
     // ±2.5 µs at 20 kHz: 5 % of the period
@@ -279,7 +312,10 @@ fn refused_files_say_what_to_change() {
     let p = write(&dir, "renamed.csv", &bench_file(&renamed));
     let e = load(&p, &default);
     assert!(e.contains("renamed.csv' line 1: no column 'time_s' for the time channel"), "{e}");
-    assert!(e.contains("the header has 't', 'cmd', 'pos', 'Ia', 'Ib', 'Ic'") && e.contains("--column time=HEADER"), "{e}");
+    assert!(
+        e.contains("the header has 't', 'cmd', 'pos', 'Ia', 'Ib', 'Ic'") && e.contains("--column time=HEADER"),
+        "{e}"
+    );
     let partly = RecordingArgs { columns: columns(&renamed)[..5].to_vec(), ..RecordingArgs::default() };
     assert!(load(&p, &partly).contains("no column 'ic_A' for the ic channel"));
     // longer than a recording may last: 61 s at 5 kHz
@@ -324,10 +360,17 @@ fn identify_takes_the_recording_flags() {
         args.extend(["--column", c.as_str()]);
     }
     let text = accepted(&args);
-    assert!(text.contains("recording: 20000 Hz resampled to 10000 Hz; manoeuvre starts at 0.010000 s (aligned)"), "{text}");
+    assert!(
+        text.contains("recording: 20000 Hz resampled to 10000 Hz; manoeuvre starts at 0.010000 s (aligned)"),
+        "{text}"
+    );
     let mut json = args.clone();
     json.extend(["--json", "--delimiter", "semicolon", "--start", "0.01"]);
     let v: serde_json::Value = serde_json::from_str(accepted(&json).trim()).expect("JSON");
-    assert_eq!((v["recording"]["start_from"].as_str(), v["recording"]["rows"].as_u64()), (Some("given"), Some(8500)), "{v}");
+    assert_eq!(
+        (v["recording"]["start_from"].as_str(), v["recording"]["rows"].as_u64()),
+        (Some("given"), Some(8500)),
+        "{v}"
+    );
     refused(&["identify", s(&p), "--max-iterations", "2"], &["bench.csv", "line 1", "no column 'time_s'", "--column"]);
 }

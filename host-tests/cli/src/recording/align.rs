@@ -11,9 +11,10 @@
 //! 2. the first row `r` whose command leaves the same value by the same threshold: `τ` lies in
 //!    `(t_{r−1} − t_c, t_r − t_c]`, one input period wide;
 //! 3. within it, least squares: `τ` minimises `Σ (c_i − p(t_i − τ))²` over the rows of the
-//!    manoeuvre (golden-section search; the ramps and sines of the profile fix `τ` to a fraction
+//!    manoeuvre away from the profile's steps (golden-section search; the ramps and sines of the profile fix `τ` to a fraction
 //!    of a sample, a profile of steps alone leaves it anywhere in the interval). A file at the
-//!    monitor's rate skips this step: its rows are cut, not interpolated, at `t_r − t_c`.
+//!    monitor's rate is cut, not interpolated: `τ` is the time of the row, around that interval,
+//!    of least cost.
 //!
 //! [`check_command`] then compares every row of the manoeuvre with the profile within
 //! [`COMMAND_TOLERANCE_RAD`]. The actuator's controller updates its command once per control
@@ -120,16 +121,29 @@ pub fn find_start(
             ),
         ));
     }
-    if at_monitor_rate {
-        return Ok(hi);
-    }
-    // least squares over the rows of the manoeuvre (a fixed set: those of the latest start)
+    // least squares over the rows of the manoeuvre (a fixed set: those of the latest start) away
+    // from the profile's steps, whose row is uncertain by one sample in the f32 time of a log
     let duration = f64::from(profile.duration_s());
-    let rows: Vec<usize> =
-        (r..rec.len()).take_while(|&i| grid.time_s(i) - hi <= duration - 2.0 * grid.period_s).collect();
+    let margin = 2.0 * grid.period_s.max(f64::from(ema_monitor::EmaParams::NOMINAL.control_period_s));
+    let smooth =
+        |s: f64| (command(profile, s + margin) - command(profile, (s - margin).max(0.0))).abs() <= CHANGE_THRESHOLD_RAD;
+    let rows: Vec<usize> = (r..rec.len())
+        .take_while(|&i| grid.time_s(i) - hi <= duration - 2.0 * grid.period_s)
+        .filter(|&i| smooth(grid.time_s(i) - hi))
+        .collect();
     let cost = |tau: f64| -> f64 {
         rows.iter().map(|&i| (rec.command_rad[i] - command(profile, grid.time_s(i) - tau)).powi(2)).sum()
     };
+    if at_monitor_rate {
+        // the rows around the interval: the one of least cost (ties to the one nearest the first change)
+        let row = |t: f64| ((t - t0) / grid.period_s).round().max(0.0) as usize;
+        let best = (row(lo).saturating_sub(1)..=row(hi) + 1)
+            .map(|k| grid.time_s(k))
+            .map(|tau| (cost(tau), (tau - hi).abs(), tau))
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)))
+            .map_or(hi, |b| b.2);
+        return Ok(best);
+    }
     let margin = 1e-3 * grid.period_s;
     let (mut a, mut b) = (lo + margin, hi - margin);
     if b <= a {

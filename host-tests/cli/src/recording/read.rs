@@ -198,7 +198,10 @@ pub fn parse_file(reader: impl Read, path: &Path, options: &ReadOptions) -> Resu
     let mut index = [0usize; 6];
     for (i, wanted) in options.columns.0.iter().enumerate() {
         index[i] = names.iter().position(|h| h == wanted).ok_or_else(|| {
-            at(header_line, RecordingErrorKind::MissingColumn { key: KEYS[i], wanted: wanted.clone(), found: names.clone() })
+            at(
+                header_line,
+                RecordingErrorKind::MissingColumn { key: KEYS[i], wanted: wanted.clone(), found: names.clone() },
+            )
         })?;
     }
     for record in records {
@@ -219,7 +222,8 @@ pub fn parse_file(reader: impl Read, path: &Path, options: &ReadOptions) -> Resu
                 ..at(n, kind)
             })?;
         }
-        let time_error = |kind| RecordingError { field: Some(names[index[0]].clone()), column: Some(index[0] + 1), ..at(n, kind) };
+        let time_error =
+            |kind| RecordingError { field: Some(names[index[0]].clone()), column: Some(index[0] + 1), ..at(n, kind) };
         if let Some(&previous) = rec.time_s.last() {
             if v[0] <= previous {
                 return Err(time_error(RecordingErrorKind::TimeNotIncreasing { previous, current: v[0] }));
@@ -332,7 +336,8 @@ mod tests {
         }
         // columns in another order, renamed, with an extra one; a decimal comma under semicolons
         let text = "Ic;Ib;Ia;x;pos;cmd;t\n0;0;0,5;7;0;0;0\n0;0;0,25;7;0;0;0,0001\n";
-        let items: Vec<String> = ["time=t", "command=cmd", "position=pos", "ia=Ia", "ib=Ib", "ic=Ic"].map(String::from).to_vec();
+        let items: Vec<String> =
+            ["time=t", "command=cmd", "position=pos", "ia=Ia", "ib=Ib", "ic=Ic"].map(String::from).to_vec();
         let options = ReadOptions { columns: Columns::parse(&items).expect("valid"), delimiter: None };
         let r = parse_recording_with(text.as_bytes(), Path::new("r.csv"), &options).expect("valid");
         assert_eq!((r.ia_a, r.time_s, r.row_line), (vec![0.5, 0.25], vec![0.0, 1e-4], vec![2, 3]));
