@@ -124,9 +124,9 @@ pub fn find_start(
     // least squares over the rows of the manoeuvre (a fixed set: those of the latest start) away
     // from the profile's steps, whose row is uncertain by one sample in the f32 time of a log
     let duration = f64::from(profile.duration_s());
-    let margin = 2.0 * grid.period_s.max(f64::from(ema_monitor::EmaParams::NOMINAL.control_period_s));
+    let near = 2.0 * grid.period_s.max(f64::from(ema_monitor::EmaParams::NOMINAL.control_period_s));
     let smooth =
-        |s: f64| (command(profile, s + margin) - command(profile, (s - margin).max(0.0))).abs() <= CHANGE_THRESHOLD_RAD;
+        |s: f64| (command(profile, s + near) - command(profile, (s - near).max(0.0))).abs() <= CHANGE_THRESHOLD_RAD;
     let rows: Vec<usize> = (r..rec.len())
         .take_while(|&i| grid.time_s(i) - hi <= duration - 2.0 * grid.period_s)
         .filter(|&i| smooth(grid.time_s(i) - hi))

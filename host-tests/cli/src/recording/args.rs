@@ -113,7 +113,7 @@ impl RecordingArgs {
     /// profile's at the monitor's sample times (the recorded one matched it within
     /// [`align::COMMAND_TOLERANCE_RAD`]); without one, the recorded command linearly interpolated.
     pub fn load(&self, path: &Path, profile: Option<&Profile>, params: &EmaParams) -> Result<Loaded, CliError> {
-        let flag = |m: String| CliError::Recording(RecordingError::file(path, RecordingErrorKind::Flag(m)));
+        let flag = |m: String| CliError::from(RecordingError::file(path, RecordingErrorKind::Flag(m)));
         let options = self.options().map_err(flag)?;
         let parsed = read_file(path, &options)?;
         let (raw, grid) = (&parsed.recording, parsed.grid);

@@ -135,14 +135,7 @@ pub enum RecordingErrorKind {
     /// No header line.
     Empty,
     /// A column the monitor needs is not in the header.
-    MissingColumn {
-        /// The key (`time`, `command`, …).
-        key: &'static str,
-        /// The header looked for.
-        wanted: String,
-        /// The headers found.
-        found: Vec<String>,
-    },
+    MissingColumn(Box<MissingColumn>),
     /// A row has fewer fields than the header.
     FieldCount {
         /// Fields found.
@@ -203,6 +196,17 @@ pub enum RecordingErrorKind {
     Flag(String),
 }
 
+/// A column the monitor needs that the header lacks (boxed in [`RecordingErrorKind`], which stays small).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MissingColumn {
+    /// The key (`time`, `command`, …).
+    pub key: &'static str,
+    /// The header looked for.
+    pub wanted: String,
+    /// The headers found.
+    pub found: Vec<String>,
+}
+
 /// A recording error with its location.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RecordingError {
@@ -241,10 +245,13 @@ impl fmt::Display for RecordingError {
         match &self.kind {
             RecordingErrorKind::Io(m) => write!(f, "{m}"),
             RecordingErrorKind::Empty => write!(f, "empty file, expected a header such as '{}'", HEADER.join(",")),
-            RecordingErrorKind::MissingColumn { key, wanted, found } => write!(
+            RecordingErrorKind::MissingColumn(m) => write!(
                 f,
-                "no column '{wanted}' for the {key} channel; the header has '{}'; name the column with --column {key}=HEADER",
-                found.join("', '")
+                "no column '{}' for the {} channel; the header has '{}'; name the column with --column {}=HEADER",
+                m.wanted,
+                m.key,
+                m.found.join("', '"),
+                m.key
             ),
             RecordingErrorKind::FieldCount { found, expected } => {
                 write!(f, "expected {expected} fields (as the header), found {found}")

@@ -200,7 +200,11 @@ pub fn parse_file(reader: impl Read, path: &Path, options: &ReadOptions) -> Resu
         index[i] = names.iter().position(|h| h == wanted).ok_or_else(|| {
             at(
                 header_line,
-                RecordingErrorKind::MissingColumn { key: KEYS[i], wanted: wanted.clone(), found: names.clone() },
+                RecordingErrorKind::MissingColumn(Box::new(super::MissingColumn {
+                    key: KEYS[i],
+                    wanted: wanted.clone(),
+                    found: names.clone(),
+                })),
             )
         })?;
     }
