@@ -232,7 +232,7 @@ fn firmware_trace_writes_to_the_working_directory_not_the_source_tree() {
     let o = ema_in(&dir, &["firmware-trace", "--from", s(&csv)]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(std::fs::read(dir.join("run7.ematrace")).expect("written in the working directory"), committed);
-    assert_eq!(entries(&rec_dir), ["run7.csv"]);
+    assert_eq!(entries(&rec_dir), ["run7.csv", "run7.json"]);
     assert_eq!(entries(&dir), ["run7.ematrace", "standard.ematrace"]);
     assert_eq!(std::fs::metadata(committed_trace()).unwrap().modified().unwrap(), modified);
 }
