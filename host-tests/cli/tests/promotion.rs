@@ -144,6 +144,9 @@ fn recordings_the_firmware_cannot_replay_are_refused() {
     std::fs::write(&profile, "hold 0 0\nhold 0.01 0.02\nend 0.85\n").expect("writable");
     let other = dir.join("other.csv");
     accepted(&["simulate", "--profile", s(&profile), "--out", s(&other)]);
-    refused(&["firmware-trace", "--from", s(&other), "--out", s(&out)], &["other.csv", "field command_rad"]);
+    refused(
+        &["firmware-trace", "--from", s(&other), "--out", s(&out)],
+        &["other.csv", "field 'command_rad'", "--profile"],
+    );
     assert!(!out.exists());
 }
