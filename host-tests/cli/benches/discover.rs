@@ -12,7 +12,7 @@ use std::path::Path;
 use criterion::{criterion_group, criterion_main, Criterion};
 use ema_cli::discover::discover;
 use ema_cli::identify::{condition_recording, HOST_WINDOW};
-use ema_cli::recording_io::Recording;
+use ema_cli::recording::Recording;
 use ema_monitor::{FaultVector, Profile};
 use ema_reference::{simulate, Effect, Effects, SimConfig};
 

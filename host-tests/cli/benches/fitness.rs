@@ -13,7 +13,7 @@ use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use ema_cli::identify::condition_recording;
-use ema_cli::recording_io::Recording;
+use ema_cli::recording::Recording;
 use ema_monitor::fitness::{CurrentFit, FAST_REGIME_WEIGHT};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};

@@ -38,7 +38,7 @@ use argmin::core::{CostFunction, Error, Executor, State};
 use argmin::solver::particleswarm::ParticleSwarm as ArgminParticleSwarm;
 use criterion::Criterion;
 use ema_cli::identify::{condition_recording, identify_trace, HOST_WINDOW};
-use ema_cli::recording_io::Recording;
+use ema_cli::recording::Recording;
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::fitness::{CurrentFit, FAST_REGIME_WEIGHT};
 use ema_monitor::monitor::{fault_bounds, Algorithm, IdentifyConfig, ONBOARD_MAX_ITERATIONS, ONBOARD_POPULATION};

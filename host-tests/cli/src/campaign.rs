@@ -38,7 +38,7 @@ use crate::output::{prepare_dir, write_files, OutputArgs};
 use crate::params::ParamsArgs;
 use crate::plots;
 use crate::progress::{self, ProgressArgs};
-use crate::recording_io::Recording;
+use crate::recording::Recording;
 use crate::schema::Document;
 use crate::simulate::resolve_profile;
 

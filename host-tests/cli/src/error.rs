@@ -4,7 +4,7 @@ use std::fmt;
 use std::path::PathBuf;
 
 use crate::profile_file::ProfileFileError;
-use crate::recording_io::RecordingError;
+use crate::recording::RecordingError;
 
 /// Exit status of every failed command (bad input or failed I/O).
 pub const EXIT_FAILURE: u8 = 2;
@@ -22,8 +22,9 @@ pub enum CliError {
     },
     /// A profile file could not be used (names the file and line).
     Profile(ProfileFileError),
-    /// A recording could not be read or written (names the file, line and field).
-    Recording(RecordingError),
+    /// A recording could not be read or written (names the file, line and field; boxed, so that
+    /// every command's `Result` stays small).
+    Recording(Box<RecordingError>),
     /// An output file exists and the command was not given `--force` (checked before any work).
     Exists {
         /// The file.
@@ -75,7 +76,7 @@ impl std::error::Error for CliError {
         match self {
             CliError::Io { source, .. } => Some(source),
             CliError::Profile(e) => Some(e),
-            CliError::Recording(e) => Some(e),
+            CliError::Recording(e) => Some(e.as_ref()),
             _ => None,
         }
     }
@@ -89,6 +90,6 @@ impl From<ProfileFileError> for CliError {
 
 impl From<RecordingError> for CliError {
     fn from(e: RecordingError) -> Self {
-        CliError::Recording(e)
+        CliError::Recording(Box::new(e))
     }
 }

@@ -43,7 +43,7 @@ use crate::error::CliError;
 use crate::identify::check_recording;
 use crate::output::{check_file, write_files, OutputArgs, Overwrite};
 use crate::params::ParamsArgs;
-use crate::recording_io::{read_recording, Recording};
+use crate::recording::{Recording, RecordingArgs};
 
 /// Fault vector of the built-in trace: friction `k1 = 0.25`, everything else healthy
 /// (`ecc_phase` and `gain` at their neutral 0.5).
@@ -68,6 +68,9 @@ pub struct FirmwareTraceArgs {
     /// file in EMA_PARAMS); --from checks the recording against its control period.
     #[command(flatten)]
     pub params: ParamsArgs,
+    /// How to read the --from recording.
+    #[command(flatten)]
+    pub recording: RecordingArgs,
 }
 
 /// Frames of a firmware trace: the standard profile at 10 kHz (8500, as the built-in trace).
@@ -153,7 +156,7 @@ pub fn run(args: &FirmwareTraceArgs) -> Result<String, CliError> {
     check_file(&out, overwrite)?;
     let params = args.params.load()?;
     if let Some(from) = &args.from {
-        return run_from(from, &out, overwrite, &params);
+        return run_from(from, &args.recording, &out, overwrite, &params);
     }
     let bytes = firmware_trace_bytes(&params)?;
     let trace = PackedTrace::parse(&bytes)
@@ -172,8 +175,14 @@ pub fn run(args: &FirmwareTraceArgs) -> Result<String, CliError> {
 }
 
 /// `ema firmware-trace --from RECORDING [--out FILE]`.
-fn run_from(from: &Path, out: &Path, overwrite: Overwrite, params: &EmaParams) -> Result<String, CliError> {
-    let recording = read_recording(from)?;
+fn run_from(
+    from: &Path,
+    how: &RecordingArgs,
+    out: &Path,
+    overwrite: Overwrite,
+    params: &EmaParams,
+) -> Result<String, CliError> {
+    let recording = how.load(from, Some(&Profile::STANDARD), params)?.recording;
     let bytes = recording_trace_bytes(&recording, from, params)?;
     let trace = PackedTrace::parse(&bytes)
         .map_err(|e| CliError::Simulation(format!("the packed trace does not read back: {e}")))?;

@@ -47,7 +47,7 @@ use crate::error::CliError;
 use crate::input;
 use crate::params::ParamsArgs;
 use crate::progress::{self, ProgressArgs};
-use crate::recording_io::{read_recording, Recording};
+use crate::recording::{LoadSummary, Recording, RecordingArgs};
 use crate::schema::Document;
 use crate::simulate::resolve_profile;
 
@@ -118,6 +118,14 @@ impl ModelCommand {
     /// `profile standard`, `profile FILE` or `recorded (8500 samples at 10000 Hz, 0.85 s)`.
     pub fn label(&self) -> String {
         self.to_json().label()
+    }
+
+    /// The profile, when a profile drives the model.
+    pub fn profile(&self) -> Option<&Profile> {
+        match self {
+            ModelCommand::Profile { profile, .. } => Some(profile),
+            ModelCommand::Recorded(_) => None,
+        }
     }
 
     /// The JSON report's `command`: `{"source": "profile", "profile": NAME}` or
@@ -251,9 +259,12 @@ pub fn recorded_command(
 /// Arguments of `ema identify`.
 #[derive(Args, Debug, Clone)]
 pub struct IdentifyArgs {
-    /// Recording CSV to identify (time_s, command_rad, position_rad, ia_A, ib_A, ic_A at 10 kHz).
+    /// Recording CSV to identify (docs/recordings.md: columns, delimiter, 5-100 kHz, trimming).
     #[arg(required_unless_present = "firmware_trace", conflicts_with = "firmware_trace")]
     pub file: Option<PathBuf>,
+    /// How to read the recording.
+    #[command(flatten)]
+    pub recording: RecordingArgs,
     /// Identify the firmware's packed trace instead, exactly as the firmware does.
     #[arg(long, value_name = "FILE")]
     pub firmware_trace: Option<PathBuf>,
@@ -326,6 +337,7 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
         ..base
     };
     let config = method_flags(config, args.paper_only, args.fast_regime_weight);
+    let mut loaded = None;
     let params = args.params.load()?;
     let (outcome, command) = match (&args.firmware_trace, &args.file) {
         (Some(path), _) => match firmware_trace_outcome(&read_firmware_trace(path)?, &params, &config) {
@@ -341,7 +353,9 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
         },
         (None, Some(path)) => {
             let resolved = resolve_command(args.command, &args.profile)?;
-            let recording = read_recording(path).map_err(CliError::Recording)?;
+            let load = args.recording.load(path, resolved.as_ref().and_then(ModelCommand::profile), &params)?;
+            let recording = load.recording;
+            loaded = Some(load.summary);
             let command = command_for(resolved, &recording, path, &params)?;
             let spinner = progress::spinner(format!("identifying {}", path.display()), args.progress.visible());
             let outcome = identify_recording_with(&recording, path, &params, &command, &config);
@@ -350,7 +364,7 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
         }
         (None, None) => return Err(CliError::flag("FILE", "give a recording CSV or --firmware-trace FILE")),
     };
-    Ok(render(&outcome, &config.effects, &command, args))
+    Ok(render(&outcome, &config.effects, &command, loaded.as_ref(), args))
 }
 
 /// What `--paper-only` and `--fast-regime-weight` (checked before, [`check_fast_regime_weight`])
@@ -767,12 +781,20 @@ pub struct IdentifyJson {
     pub k_not_a_diagnosis: Option<[f32; 8]>,
     /// What drove the monitor model: a profile or the recorded command.
     pub command: CommandJson,
+    /// How the recording file was read (rate, resampling, trimmed start), for a recording.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub recording: Option<LoadSummary>,
     /// The monitor model's effect terms (`--model-config`): effect ID to severity.
     pub model_effects: std::collections::BTreeMap<&'static str, f32>,
 }
 
 /// The JSON report's body of `outcome`, the monitor model run with `effects`.
-pub fn json_body(outcome: &Outcome, effects: &ModelEffects, command: &ModelCommand) -> IdentifyJson {
+pub fn json_body(
+    outcome: &Outcome,
+    effects: &ModelEffects,
+    command: &ModelCommand,
+    loaded: Option<&LoadSummary>,
+) -> IdentifyJson {
     let r = &outcome.report;
     let diagnosis = r.status.is_diagnosis();
     let modes = r
@@ -810,19 +832,32 @@ pub fn json_body(outcome: &Outcome, effects: &ModelEffects, command: &ModelComma
         modes: diagnosis.then_some(modes),
         k_not_a_diagnosis: (!diagnosis).then_some(r.faults.0),
         command: command.to_json(),
+        recording: loaded.cloned(),
         model_effects: effects.active().map(|(e, s)| (e.id(), s)).collect(),
     }
 }
 
 /// The report as a JSON document ([`IdentifyJson`] in a [`Document`] whose `input_file` is the
 /// recording or the firmware trace).
-pub fn to_json(outcome: &Outcome, effects: &ModelEffects, command: &ModelCommand, input_file: Option<&Path>) -> String {
-    Document::new(input_file, json_body(outcome, effects, command)).to_json()
+pub fn to_json(
+    outcome: &Outcome,
+    effects: &ModelEffects,
+    command: &ModelCommand,
+    loaded: Option<&LoadSummary>,
+    input_file: Option<&Path>,
+) -> String {
+    Document::new(input_file, json_body(outcome, effects, command, loaded)).to_json()
 }
 
-fn render(outcome: &Outcome, effects: &ModelEffects, command: &ModelCommand, args: &IdentifyArgs) -> String {
+fn render(
+    outcome: &Outcome,
+    effects: &ModelEffects,
+    command: &ModelCommand,
+    loaded: Option<&LoadSummary>,
+    args: &IdentifyArgs,
+) -> String {
     let mut out = if args.json {
-        to_json(outcome, effects, command, args.firmware_trace.as_deref().or(args.file.as_deref()))
+        to_json(outcome, effects, command, loaded, args.firmware_trace.as_deref().or(args.file.as_deref()))
     } else {
         let mut text = format!(
             "{}\n  command: {}\n  identification took {:.3} s",
@@ -832,6 +867,9 @@ fn render(outcome: &Outcome, effects: &ModelEffects, command: &ModelCommand, arg
         );
         if args.model_config.is_some() {
             text.push_str(&format!("\n  model effects: {}", effects_label(effects)));
+        }
+        if let Some(l) = loaded {
+            text.push_str(&format!("\n  {}", l.line()));
         }
         text
     };

@@ -1,7 +1,7 @@
 //! # ema-cli: the host command line of ema-monitor (`ema`)
 //!
 //! One module per subcommand (`simulate`, …) plus the shared recording reader/writer
-//! ([`recording_io`]), profile files ([`profile_file`]), the bounded reading of every input file
+//! ([`recording`]), profile files ([`profile_file`]), the bounded reading of every input file
 //! ([`input`]), the plots ([`plots`], plotters' SVG backend), the JSON envelope ([`schema`]), the
 //! progress bars ([`progress`]) and the error type ([`error`]). Every input
 //! file is read within a stated size, so no file drives an allocation. Every output file goes
@@ -30,6 +30,6 @@ pub mod parity_traces;
 pub mod plots;
 pub mod profile_file;
 pub mod progress;
-pub mod recording_io;
+pub mod recording;
 pub mod schema;
 pub mod simulate;

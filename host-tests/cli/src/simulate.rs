@@ -4,8 +4,10 @@
 //! ema simulate --faults k1,…,k8 [--effect ID=S]… [--profile standard|FILE] [--params FILE.toml] [--noise on|off] [--seed N] --out FILE.csv [--force]
 //! ```
 //!
-//! `--out` is checked before the simulation runs; an existing file is replaced only with
-//! `--force`, and the file is written whole or not at all ([`crate::output`]).
+//! `--out F.csv` gets a plain CSV (header and rows, [`crate::recording::write`]) and its metadata
+//! in the sidecar `F.json` ([`crate::recording::sidecar`]). Both are checked before the
+//! simulation runs; an existing one is replaced only with `--force`, and both are written in one
+//! [`write_files`] call: whole or not at all ([`crate::output`]).
 
 use std::path::Path;
 
@@ -14,10 +16,12 @@ use ema_monitor::{EffectId, FaultVector, ModelEffects, Profile, FAULT_COUNT};
 use ema_reference::{simulate, Effect, Effects, SimConfig};
 
 use crate::error::CliError;
-use crate::output::{check_file, OutputArgs};
-use crate::params::{describe, ParamsArgs};
+use crate::output::{check_file, write_files, OutputArgs};
+use crate::params::ParamsArgs;
 use crate::profile_file::read_profile;
-use crate::recording_io::{write_recording, Recording};
+use crate::recording::sidecar::{sidecar_path, Sidecar, SCHEMA_VERSION};
+use crate::recording::write::csv_bytes;
+use crate::recording::{Recording, HEADER};
 
 /// Sensor noise switch.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -152,27 +156,39 @@ pub fn run(args: &SimulateArgs) -> Result<String, CliError> {
     let cfg = config(args)?;
     let overwrite = args.output.overwrite();
     let out = args.output.out.as_deref().ok_or_else(|| CliError::flag("--out", "give the output CSV file"))?;
+    let side = sidecar_path(out);
+    if side == out {
+        return Err(CliError::flag("--out", format!("'{}': give the recording a .csv name", out.display())));
+    }
     check_file(out, overwrite)?;
+    check_file(&side, overwrite)?;
     let result = simulate(&cfg).map_err(|e| CliError::Simulation(e.to_string()))?;
-    let k = cfg.faults.0.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(",");
-    let fx: Vec<String> = cfg.effects.active().map(|(e, s)| format!("{e}={s}")).collect();
-    let comments = vec![
-        format!("ema simulate: reference model (ema-reference {})", env!("CARGO_PKG_VERSION")),
-        format!("faults: {k}"),
-        format!("effects: {}", if fx.is_empty() { "none".to_owned() } else { fx.join(",") }),
-        format!("profile: {}", args.profile),
-        format!("params: {} ({})", args.params.source(), describe(&cfg.params)),
-        format!("noise: {}, seed: {}", if cfg.noise { "on" } else { "off" }, cfg.seed),
-        format!("sample_rate_hz: {}", ema_monitor::trace::SAMPLE_RATE_HZ),
-    ];
-    let rec = Recording::from_reference(&result, comments);
-    write_recording(out, &rec, overwrite)?;
+    let rec = Recording::from_reference(&result, Vec::new());
+    let sidecar = Sidecar {
+        schema_version: SCHEMA_VERSION,
+        tool_version: env!("CARGO_PKG_VERSION").to_owned(),
+        generator: "ema simulate: reference model".to_owned(),
+        recording: out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+        columns: HEADER.map(str::to_owned).to_vec(),
+        sample_rate_hz: ema_monitor::trace::SAMPLE_RATE_HZ,
+        rows: rec.len(),
+        duration_s: f64::from(cfg.profile.duration_s()),
+        faults: cfg.faults.0.to_vec(),
+        effects: cfg.effects.active().map(|(e, s)| (e.to_string(), s)).collect(),
+        profile: args.profile.clone(),
+        params_file: args.params.source(),
+        params: ema_monitor::params::FIELDS.iter().map(|f| (f.name.to_owned(), f.get(&cfg.params))).collect(),
+        noise: cfg.noise,
+        seed: cfg.seed,
+    };
+    write_files(&[(out, &csv_bytes(&rec)), (&side, sidecar.to_json().as_bytes())], overwrite)?;
     Ok(format!(
-        "wrote {} samples ({} s at {} Hz) to {}",
+        "wrote {} samples ({} s at {} Hz) to {} and its metadata to {}",
         rec.len(),
         cfg.profile.duration_s(),
         ema_monitor::trace::SAMPLE_RATE_HZ,
-        out.display()
+        out.display(),
+        side.display()
     ))
 }
 

@@ -151,7 +151,7 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
 fn the_detectability_floor_drops_only_what_the_recording_cannot_show() {
     let truth = FaultVector([0.7, 0.0, 0.0, 0.0, 0.0, 0.02, 0.3, 0.5]);
     let rec = simulate(&SimConfig { faults: truth, seed: 5, ..SimConfig::default() }).expect("sim");
-    let recording = ema_cli::recording_io::Recording::from_reference(&rec, Vec::new());
+    let recording = ema_cli::recording::Recording::from_reference(&rec, Vec::new());
     let trace = ema_cli::identify::condition_recording(
         &recording,
         std::path::Path::new("t"),
@@ -166,7 +166,7 @@ fn the_detectability_floor_drops_only_what_the_recording_cannot_show() {
     assert_eq!(floor, FaultVector([0.7, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]));
     let strong = FaultVector([0.7, 0.0, 0.0, 0.0, 0.0, 0.8, 0.3, 0.5]);
     let rec = simulate(&SimConfig { faults: strong, seed: 5, ..SimConfig::default() }).expect("sim");
-    let recording = ema_cli::recording_io::Recording::from_reference(&rec, Vec::new());
+    let recording = ema_cli::recording::Recording::from_reference(&rec, Vec::new());
     let trace = ema_cli::identify::condition_recording(
         &recording,
         std::path::Path::new("t"),
@@ -224,7 +224,7 @@ fn a_profile_file_drives_every_run() {
         let rec = simulate(&SimConfig { faults: p.truth, seed: p.seed, profile, ..SimConfig::default() }).expect("sim");
         let samples = profile.duration_s() / ema_monitor::EmaParams::NOMINAL.control_period_s;
         assert!((rec.samples.len() as f32 - samples).abs() <= 1.0, "{} samples for {samples}", rec.samples.len());
-        let recording = ema_cli::recording_io::Recording::from_reference(&rec, Vec::new());
+        let recording = ema_cli::recording::Recording::from_reference(&rec, Vec::new());
         let by_hand = ema_cli::identify::identify_recording(
             &recording,
             std::path::Path::new("by hand"),

@@ -5,7 +5,8 @@ use std::path::Path;
 mod common;
 use common::{ema, refused, scratch};
 
-use ema_cli::recording_io::{read_recording, RecordingErrorKind, HEADER};
+use ema_cli::recording::sidecar::{Sidecar, SCHEMA_VERSION};
+use ema_cli::recording::{read_recording, RecordingErrorKind, HEADER};
 use ema_monitor::FaultVector;
 use ema_reference::{simulate, Effect, Effects, SimConfig};
 
@@ -141,12 +142,18 @@ fn simulate_round_trips_through_the_reader() {
         assert_eq!(row, want, "row {k}");
     }
     assert_eq!(rec.sample_period_s(), 1e-4);
-    assert!(
-        rec.comments.iter().any(|c| c.contains("cogging=0.3") && c.contains("dead_time=0.5")),
-        "{:?}",
-        rec.comments
-    );
-    assert!(rec.comments.iter().any(|c| c.contains(faults)), "{:?}", rec.comments);
+    // a plain CSV: the header first, no comment line; the metadata in the sidecar rec.json
+    let text = std::fs::read_to_string(&out).expect("readable");
+    assert!(text.starts_with(&format!("{}\n", HEADER.join(","))) && !text.contains('#'), "{}", &text[..80]);
+    assert!(rec.comments.is_empty(), "{:?}", rec.comments);
+    let side = Sidecar::for_recording(&out).expect("readable sidecar").expect("a sidecar beside the recording");
+    assert_eq!((side.schema_version, side.tool_version.as_str()), (SCHEMA_VERSION, env!("CARGO_PKG_VERSION")));
+    assert_eq!((side.recording.as_str(), side.rows, side.sample_rate_hz), ("rec.csv", 8500, 10_000));
+    assert_eq!(side.faults, vec![0.2, 0.1, 0.3, 0.0, 0.0, 0.4, 0.25, 0.6], "{faults}");
+    assert_eq!(side.effects.get("cogging"), Some(&0.3));
+    assert_eq!(side.effects.get("dead_time"), Some(&0.5));
+    assert_eq!((side.profile.as_str(), side.noise, side.seed), ("standard", true, 7));
+    assert_eq!(side.columns, HEADER.to_vec());
 }
 
 #[test]
@@ -190,9 +197,15 @@ fn reader_refuses_bad_files_naming_file_line_and_field() {
             format!("# c\ntime,cmd,pos,ia,ib,ic\n{good_rows}"),
             Some(2),
             None,
-            "expected 'time_s,command_rad",
+            "no column 'time_s' for the time channel",
         ),
-        ("fields.csv", format!("{header}\n0,0,0,0,0,0\n0.0001,0,0,0,0\n"), Some(3), None, "expected 6 fields, found 5"),
+        (
+            "fields.csv",
+            format!("{header}\n0,0,0,0,0,0\n0.0001,0,0,0,0\n"),
+            Some(3),
+            None,
+            "expected 6 fields (as the header), found 5",
+        ),
         (
             "text.csv",
             format!("{header}\n0,0,0,0,0,0\n0.0001,0,0,zero,0,0\n"),
@@ -237,7 +250,7 @@ fn reader_refuses_bad_files_naming_file_line_and_field() {
         let e = read_recording(&p).expect_err(name);
         let shown = e.to_string();
         assert_eq!(e.line, line, "{shown}");
-        assert_eq!(e.field, field, "{shown}");
+        assert_eq!(e.field.as_deref(), field, "{shown}");
         assert!(shown.contains(name) && shown.contains(msg), "{shown}");
         if let Some(l) = line {
             assert!(shown.contains(&format!("line {l}")), "{shown}");
@@ -249,9 +262,12 @@ fn reader_refuses_bad_files_naming_file_line_and_field() {
     let missing = read_recording(dir.join("nope.csv")).expect_err("missing file");
     assert!(matches!(missing.kind, RecordingErrorKind::Io(_)));
     assert!(missing.to_string().contains("nope.csv") && missing.to_string().contains("cannot open"), "{missing}");
-    // Wrong header shows both what was expected and what was found.
+    // A missing column shows what was looked for, the headers found and the flag to give.
     let e = read_recording(dir.join("header.csv")).expect_err("bad header").to_string();
-    assert!(e.contains("found 'time,cmd,pos,ia,ib,ic'"), "{e}");
+    assert!(
+        e.contains("the header has 'time', 'cmd', 'pos', 'ia', 'ib', 'ic'; name the column with --column time=HEADER"),
+        "{e}"
+    );
     // A good file with comments and blank lines reads.
     let p = dir.join("good.csv");
     std::fs::write(&p, format!("# a\n\n{header}\n{good_rows}\n")).expect("writable");

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 mod common;
 use common::{accepted, ema, refused, s, scratch};
 
-use ema_cli::recording_io::read_recording;
+use ema_cli::recording::read_recording;
 
 /// Longest time a refusal may take: the checks run before any simulation or identification, so a
 /// refused command returns at once. The commands refused below take far longer when they run
@@ -80,10 +80,14 @@ fn simulate_keeps_an_existing_file_unless_forced() {
     // --force replaces it with a complete recording, no temporary file left
     accepted(&["simulate", "--out", s(&out), "--force"]);
     assert_eq!(read_recording(&out).expect("a valid recording").len(), 8500);
-    assert_eq!(entries(&dir), ["rec.csv"]);
+    assert_eq!(entries(&dir), ["rec.csv", "rec.json"]);
     // a new file needs no --force
     accepted(&["simulate", "--noise", "off", "--out", s(&dir.join("new.csv"))]);
-    assert_eq!(entries(&dir), ["new.csv", "rec.csv"]);
+    assert_eq!(entries(&dir), ["new.csv", "new.json", "rec.csv", "rec.json"]);
+    // an existing sidecar alone stops the command too: both files are replaced together or not at all
+    std::fs::write(dir.join("side.json"), "{}").unwrap();
+    refused_fast(&["simulate", "--out", s(&dir.join("side.csv"))], &["side.json", "exists", "--force"]);
+    assert_eq!(std::fs::read_to_string(dir.join("side.json")).unwrap(), "{}");
 }
 
 #[test]
@@ -196,7 +200,7 @@ fn discover_checks_out_dir_before_the_fits() {
     refused_fast(&["discover", s(&csv), "--out", s(&csv), "--force"], &["rec.csv"]);
     refused_fast(&["discover", s(&csv), "--out", s(&csv.join("sub"))], &["rec.csv"]);
     assert_eq!(read_recording(&csv).expect("the recording is untouched").len(), 8500);
-    assert_eq!(entries(&dir), ["disc", "rec.csv"]);
+    assert_eq!(entries(&dir), ["disc", "rec.csv", "rec.json"]);
 }
 
 #[test]
@@ -228,7 +232,7 @@ fn firmware_trace_writes_to_the_working_directory_not_the_source_tree() {
     let o = ema_in(&dir, &["firmware-trace", "--from", s(&csv)]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(std::fs::read(dir.join("run7.ematrace")).expect("written in the working directory"), committed);
-    assert_eq!(entries(&rec_dir), ["run7.csv"]);
+    assert_eq!(entries(&rec_dir), ["run7.csv", "run7.json"]);
     assert_eq!(entries(&dir), ["run7.ematrace", "standard.ematrace"]);
     assert_eq!(std::fs::metadata(committed_trace()).unwrap().modified().unwrap(), modified);
 }

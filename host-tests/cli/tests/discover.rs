@@ -11,7 +11,7 @@ use ema_cli::discover::{
     above_noise_a, discover, Discovery, Withdrawal, CLEAN_FLOOR_A, NOISE_FLOOR_A, PINNED_SEVERITY, UNEXPLAINED_FACTOR,
 };
 use ema_cli::identify::{condition_recording, HOST_WINDOW};
-use ema_cli::recording_io::Recording;
+use ema_cli::recording::Recording;
 use ema_monitor::{EffectId, FaultVector, Profile};
 use ema_reference::{simulate, Effect, Effects, SimConfig};
 

@@ -10,7 +10,7 @@ use common::{accepted, refused, s, scratch};
 
 use ema_cli::identify::identify_recording;
 use ema_cli::output::Overwrite;
-use ema_cli::recording_io::{write_recording, Recording};
+use ema_cli::recording::{write_recording, Recording};
 use ema_monitor::health::{Abstain, HealthReport, Status};
 use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::{FaultVector, Profile};

@@ -7,7 +7,7 @@ mod common;
 use common::{ema, scratch};
 
 use ema_cli::firmware_trace::{default_out, firmware_trace_bytes, FIRMWARE_TRACE_FAULTS, FIRMWARE_TRACE_SEED};
-use ema_cli::recording_io::read_recording;
+use ema_cli::recording::read_recording;
 use ema_monitor::trace::{counts_to_amps, PackedTrace, SAMPLE_RATE_HZ};
 
 /// The exact command that regenerates the committed trace.

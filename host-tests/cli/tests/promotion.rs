@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 mod common;
 use common::{accepted, refused, s, scratch};
 
-use ema_cli::recording_io::read_recording;
+use ema_cli::recording::read_recording;
 use ema_monitor::trace::{counts_to_amps, PackedTrace};
 
 fn committed_trace() -> PathBuf {
@@ -144,6 +144,9 @@ fn recordings_the_firmware_cannot_replay_are_refused() {
     std::fs::write(&profile, "hold 0 0\nhold 0.01 0.02\nend 0.85\n").expect("writable");
     let other = dir.join("other.csv");
     accepted(&["simulate", "--profile", s(&profile), "--out", s(&other)]);
-    refused(&["firmware-trace", "--from", s(&other), "--out", s(&out)], &["other.csv", "field command_rad"]);
+    refused(
+        &["firmware-trace", "--from", s(&other), "--out", s(&out)],
+        &["other.csv", "field 'command_rad'", "--profile"],
+    );
     assert!(!out.exists());
 }

@@ -11,7 +11,7 @@ use ema_cli::identify::{
     identify_recording, identify_recording_with, model_command, recorded_command, CommandArg, ModelCommand,
     HOST_COMMAND_SAMPLES,
 };
-use ema_cli::recording_io::Recording;
+use ema_cli::recording::Recording;
 use ema_monitor::health::HealthReport;
 use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::profile::Segment;

@@ -4,13 +4,17 @@
 //! ([`condition_recording_checked`] under the standard profile). Every input gives a value, never
 //! a panic. An accepted recording holds `MIN_ROWS..=MAX_ROWS` rows of finite numbers at strictly
 //! increasing times spanning at most `MAX_DURATION_S`, and reads back unchanged from what
-//! [`write_csv`] makes of it.
+//! [`write_csv`] makes of it. Its alignment with the standard profile and the command check
+//! (`recording::align`) and the first samples of its resampling to 10 kHz (`recording::resample`)
+//! give a value too, the resampled samples finite.
 #![no_main]
 
 use std::path::Path;
 
 use ema_cli::identify::condition_recording_checked;
-use ema_cli::recording_io::{
+use ema_cli::recording::read::{parse_file, ReadOptions};
+use ema_cli::recording::{align, resample};
+use ema_cli::recording::{
     parse_recording, write_csv, MAX_COMMENT_LINES, MAX_DURATION_S, MAX_LINE_BYTES, MAX_ROWS, MIN_ROWS,
 };
 use ema_monitor::Profile;
@@ -46,6 +50,14 @@ fuzz_target!(|data: &[u8]| {
             (&back.position_rad, &back.ia_a, &back.ib_a, &back.ic_a),
             (&rec.position_rad, &rec.ia_a, &rec.ib_a, &rec.ic_a)
         );
+    }
+    let parsed = parse_file(data, path, &ReadOptions::default()).expect("the same bytes parse again");
+    let column = ("command_rad", 2);
+    if let Ok(start) = align::find_start(&rec, &parsed.grid, &Profile::STANDARD, false, path, column) {
+        assert!(start.is_finite());
+        let _ = align::check_command(&rec, &parsed.grid, &Profile::STANDARD, start, 1e-4, path, column);
+        let out = resample::resample(&[&rec.ia_a[..]], &parsed.grid, start, 1e-4, 16);
+        assert!(out[0].iter().all(|v| v.is_finite()));
     }
     if let Ok((trace, summary)) = condition_recording_checked(&rec, path, &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD) {
         assert!(trace.is_finished() && trace.current_a().iter().all(|i| i.is_finite()));

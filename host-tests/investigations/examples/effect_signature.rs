@@ -24,7 +24,7 @@ use std::path::Path;
 
 use ema_cli::discover::{moving_mean, series, SMOOTH_BLOCKS};
 use ema_cli::identify::condition_recording;
-use ema_cli::recording_io::Recording;
+use ema_cli::recording::Recording;
 use ema_cli::simulate::{parse_effect_both_sides, parse_faults};
 use ema_monitor::{EmaParams, FaultVector, ModelEffects, Profile};
 use ema_reference::effects::Effects;

@@ -20,7 +20,7 @@ use std::path::Path;
 
 use ema_cli::campaign::{plan, CampaignArgs};
 use ema_cli::identify::{condition_recording, identify_trace, AlgorithmArg};
-use ema_cli::recording_io::Recording;
+use ema_cli::recording::Recording;
 use ema_cli::simulate::parse_effects;
 use ema_monitor::fitness::{simulate_window, CurrentFit};
 use ema_monitor::monitor::{window_noise_variance_a2, Algorithm, IdentifyConfig, MODEL_MISMATCH_A};
@@ -44,8 +44,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         threads: Some(1),
         modes: Vec::new(),
         json: false,
-        out: None,
-        force: false,
+        output: Default::default(),
+        progress: Default::default(),
+        params: Default::default(),
     };
     // (label, faults, effects, noise, seed)
     let mut cases: Vec<(String, FaultVector, String, bool, u64)> = Vec::new();
@@ -87,9 +88,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let rec = simulate(&config)?;
         let recording = Recording::from_reference(&rec, Vec::new());
         let profile = Profile::STANDARD;
-        let trace = condition_recording(&recording, Path::new(&label), &profile)?;
+        let trace = condition_recording(&recording, Path::new(&label), &EmaParams::NOMINAL, &profile)?;
         let id = IdentifyConfig { algorithm: Algorithm::Pso, seed: 1, ..IdentifyConfig::default() };
-        let outcome = identify_trace(&trace, &profile, &id, Path::new(&label))?;
+        let outcome = identify_trace(&trace, &EmaParams::NOMINAL, &profile, &id, Path::new(&label))?;
         let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, profile)?
             .with_fast_regime_weight(id.fast_regime_weight)
             .ok_or("weight")?;

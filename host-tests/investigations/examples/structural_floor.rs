@@ -15,7 +15,7 @@ use std::path::Path;
 
 use ema_cli::discover::{series, Series};
 use ema_cli::identify::condition_recording;
-use ema_cli::recording_io::read_recording;
+use ema_cli::recording::read_recording;
 use ema_cli::simulate::{parse_effect_both_sides, parse_faults, resolve_profile};
 use ema_monitor::{EmaParams, FaultVector};
 

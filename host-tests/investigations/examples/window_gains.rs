@@ -16,7 +16,7 @@
 use std::path::Path;
 
 use ema_cli::identify::condition_recording;
-use ema_cli::recording_io::read_recording;
+use ema_cli::recording::read_recording;
 use ema_cli::simulate::parse_faults;
 use ema_monitor::fitness::{CurrentFit, FAST_REGIME_WEIGHT};
 use ema_monitor::monitor::WINDOW_GAIN_SHARE;

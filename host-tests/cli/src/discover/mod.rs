@@ -81,12 +81,13 @@ pub use residual::{above_noise_a, moving_mean, series, Series, CLEAN_FLOOR_A, NO
 
 use crate::error::CliError;
 use crate::identify::{
-    command_for, condition_recording_for, identify_trace, resolve_command, CommandArg, CommandJson, HOST_WINDOW,
+    command_for, condition_recording_for, identify_trace, resolve_command, CommandArg, CommandJson, ModelCommand,
+    HOST_WINDOW,
 };
 use crate::output::{prepare_dir, OutputArgs};
 use crate::params::ParamsArgs;
 use crate::progress::{self, ProgressArgs};
-use crate::recording_io::read_recording;
+use crate::recording::RecordingArgs;
 use crate::simulate::parse_faults;
 use localisation::window_rms;
 use naming::search_round;
@@ -97,8 +98,11 @@ use residual::{rms, structural_energy};
 #[command(mut_arg("out", |a| a.value_name("DIR").help("Write discovery.json, residual.csv, fit.svg, \
     residual.svg and model-config.txt here (created if needed; checked before the fits start)")))]
 pub struct DiscoverArgs {
-    /// Recording CSV (time_s, command_rad, position_rad, ia_A, ib_A, ic_A at 10 kHz).
+    /// Recording CSV (docs/recordings.md: columns, delimiter, 5-100 kHz, trimming).
     pub file: PathBuf,
+    /// How to read the recording.
+    #[command(flatten)]
+    pub recording: RecordingArgs,
     /// The true fault vector k1..k8, when known: reports the fault-vector error before and after.
     #[arg(long, value_name = "K1,...,K8", allow_hyphen_values = true)]
     pub truth: Option<String>,
@@ -386,8 +390,9 @@ pub fn run(args: &DiscoverArgs) -> Result<String, CliError> {
     if let Some(dir) = &args.output.out {
         prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
     }
-    let recording = read_recording(&args.file).map_err(CliError::Recording)?;
     let params = args.params.load()?;
+    let recording =
+        args.recording.load(&args.file, resolved.as_ref().and_then(ModelCommand::profile), &params)?.recording;
     let command = command_for(resolved, &recording, &args.file, &params)?;
     let trace = condition_recording_for(&recording, &args.file, &params, &command)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
