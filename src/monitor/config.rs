@@ -1,6 +1,7 @@
 //! What an identification runs with: the optimizer, its budget, the stages after the global
 //! search, and the on-board constants; the search box and the swarm's seeded starting points.
 
+use crate::conditioning::DECIMATION;
 use crate::effects::ModelEffects;
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::FAST_REGIME_WEIGHT;
@@ -78,6 +79,11 @@ pub struct IdentifyConfig {
     /// reported vector (at 0, that may take the one evaluation of a global-search vector whose
     /// absent groups were reset to healthy).
     pub selection_polish_max_evaluations: u32,
+    /// Independent frames in a window sample's block, for the noise model of the goodness-of-fit
+    /// test ([`super::window_noise_variance_a2`]): [`DECIMATION`] for frames sampled at the
+    /// control rate (the firmware's ADC), fewer for a recording interpolated from a slower rate
+    /// (`DECIMATION · f_recording / f_control`).
+    pub independent_frames_per_block: f32,
 }
 
 impl Default for IdentifyConfig {
@@ -107,6 +113,7 @@ impl IdentifyConfig {
             effects: ModelEffects::NONE,
             fast_regime_weight: 1.0,
             selection_polish_max_evaluations: SELECTION_POLISH_MAX_EVALUATIONS,
+            independent_frames_per_block: DECIMATION as f32,
         }
     }
 

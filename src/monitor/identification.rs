@@ -318,7 +318,8 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     /// rejects it, on the whole recording or in its worst window (one model run for the effective
     /// sample count and the window sums).
     fn judge(&self, report: HealthReport, best: &FaultVector) -> HealthReport {
-        let noise = super::window_noise_variance_a2(&self.params) + MODEL_MISMATCH_A * MODEL_MISMATCH_A;
+        let noise = super::window_noise_variance_a2(&self.params, self.config.independent_frames_per_block)
+            + MODEL_MISMATCH_A * MODEL_MISMATCH_A;
         let expected = self.fit.mean_sample_weight() * noise;
         let (mut worst, mut at) = (f32::NEG_INFINITY, 0u16);
         let (n_eff, windows) = self.fit.residual_windows(best, |j, w| {

@@ -55,14 +55,22 @@ impl AcquisitionSummary {
 }
 
 /// Noise variance of one window sample (a block mean of [`DECIMATION`] frames of `I_3eq`), A²:
-/// `σ² = (σ_j² + σ_s² + σ_ripple²)/DECIMATION`, the controller jitter, sensor noise and sensed
-/// hysteresis ripple of the conducting pair ([`MeasuredEnvelope`]), taken as independent from
-/// frame to frame.
-pub fn window_noise_variance_a2(params: &EmaParams) -> f32 {
+/// `σ² = (σ_j² + σ_s² + σ_ripple²)/n`, the controller jitter, sensor noise and sensed hysteresis
+/// ripple of the conducting pair ([`MeasuredEnvelope`]), with `n` the independent frames in a
+/// block: [`DECIMATION`] when every frame was sampled (frames independent from one to the next),
+/// fewer when the frames were interpolated from a slower recording (a 5 kHz file brought to
+/// 10 kHz has 2 independent frames a block). `n` is clamped to `[1, DECIMATION]`; a non-finite
+/// `n` counts as [`DECIMATION`].
+pub fn window_noise_variance_a2(params: &EmaParams, independent_frames: f32) -> f32 {
     let jitter = MeasuredEnvelope::controller_jitter_a(params);
     let ripple = MeasuredEnvelope::sensed_ripple_a(params);
     let sensor = params.current_noise_a;
-    (jitter * jitter + sensor * sensor + ripple * ripple) / DECIMATION as f32
+    let n = if independent_frames.is_finite() {
+        independent_frames.clamp(1.0, DECIMATION as f32)
+    } else {
+        DECIMATION as f32
+    };
+    (jitter * jitter + sensor * sensor + ripple * ripple) / n
 }
 
 /// `true` when `samples` window samples cover a manoeuvre of `duration_s` at the control period of

@@ -355,6 +355,8 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
             let resolved = resolve_command(args.command, &args.profile)?;
             let load = args.recording.load(path, resolved.as_ref().and_then(ModelCommand::profile), &params)?;
             let recording = load.recording;
+            let config =
+                IdentifyConfig { independent_frames_per_block: load.summary.independent_frames_per_block(), ..config };
             loaded = Some(load.summary);
             let command = command_for(resolved, &recording, path, &params)?;
             let spinner = progress::spinner(format!("identifying {}", path.display()), args.progress.visible());

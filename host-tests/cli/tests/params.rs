@@ -124,12 +124,11 @@ fn a_non_nominal_actuator_is_identified_with_its_parameters_and_worse_without() 
         };
         sim(&nominal, None);
         sim(&other, Some(p));
-        // the recording names its actuator
-        let head = std::fs::read_to_string(&other).expect("reads");
-        assert!(
-            head.lines().any(|l| l.starts_with("# params:") && l.contains("phase_resistance_ohm=0.65")),
-            "{head:.600}"
-        );
+        // the recording's sidecar names its actuator: the file and every value
+        let side: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(other.with_extension("json")).expect("reads")).expect("json");
+        assert_eq!(side["params_file"].as_str(), Some(p), "{side}");
+        assert_eq!(side["params"]["phase_resistance_ohm"].as_f64(), Some(0.65), "{side}");
         let (err_nominal, status_nominal, _) = identify(s(&nominal), None, &truth);
         let (err_with, status_with, fit_with) = identify(s(&other), Some(p), &truth);
         let (err_without, _, fit_without) = identify(s(&other), None, &truth);

@@ -115,7 +115,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             num += vi * (r[i] - r[i - 1]).powi(2);
             den += vi;
         }
-        let noise_model = f64::from(window_noise_variance_a2(&EmaParams::NOMINAL));
+        let noise_model =
+            f64::from(window_noise_variance_a2(&EmaParams::NOMINAL, ema_monitor::conditioning::DECIMATION as f32));
         let mismatch = f64::from(MODEL_MISMATCH_A).powi(2);
         let from_recording = num / den / 2.0;
         let n_eff = f64::from(check.effective_samples);

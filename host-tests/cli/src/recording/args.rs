@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use clap::Args;
+use ema_monitor::conditioning::DECIMATION;
 use ema_monitor::{EmaParams, Profile};
 use serde::Serialize;
 
@@ -61,6 +62,15 @@ pub struct LoadSummary {
 }
 
 impl LoadSummary {
+    /// Independent frames in a block of [`DECIMATION`] frames at the monitor's rate, for the fit
+    /// test's noise model ([`ema_monitor::monitor::IdentifyConfig::independent_frames_per_block`]):
+    /// [`DECIMATION`] for a file at the monitor's rate or faster, `DECIMATION · f_file / f_monitor`
+    /// for a slower one, whose frames in between are interpolated.
+    pub fn independent_frames_per_block(&self) -> f32 {
+        let share = if self.rate_hz > 0.0 { (self.source_rate_hz / self.rate_hz).min(1.0) } else { 1.0 };
+        (DECIMATION as f64 * share) as f32
+    }
+
     /// One line: `recording: 20000 Hz resampled to 10000 Hz; manoeuvre starts at 0.010000 s
     /// (aligned); trimmed 0.010000 s before, 0.050000 s after`.
     pub fn line(&self) -> String {
