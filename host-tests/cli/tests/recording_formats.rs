@@ -382,3 +382,48 @@ fn identify_takes_the_recording_flags() {
     );
     refused(&["identify", s(&p), "--max-iterations", "2"], &["bench.csv", "line 1", "no column 'time_s'", "--column"]);
 }
+
+/// The README's worked example: `traces/bench/bench.csv` (20 kHz, the bench's column names,
+/// semicolons, a pre-trigger) on the actuator of `traces/bench/actuator.toml` is identified as
+/// recorded (friction 0.3, a 0.2 short on phase A), and the nominal actuator's parameters do not
+/// explain it.
+#[test]
+fn the_shipped_bench_recording_is_identified_with_its_actuator() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../traces/bench");
+    let (csv, toml) = (format!("{dir}/bench.csv"), format!("{dir}/actuator.toml"));
+    let columns = [
+        "--column",
+        "time=t",
+        "--column",
+        "command=cmd",
+        "--column",
+        "position=pos",
+        "--column",
+        "ia=Ia",
+        "--column",
+        "ib=Ib",
+        "--column",
+        "ic=Ic",
+    ];
+    let run = |params: bool| -> serde_json::Value {
+        let mut args = vec!["identify", csv.as_str(), "--json"];
+        args.extend(columns);
+        if params {
+            args.extend(["--params", toml.as_str()]);
+        }
+        serde_json::from_str(&accepted(&args)).expect("json")
+    };
+    let truth = FaultVector([0.3, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.5]);
+    let with = run(true);
+    assert_eq!(with["status"], "DEGRADED", "{with}");
+    let k: Vec<f32> = with["k"].as_array().expect("k").iter().map(|v| v.as_f64().unwrap_or(f64::NAN) as f32).collect();
+    let err = FaultVector(k.try_into().expect("8 values")).paper_error_percent(&truth);
+    assert!(err < 1.0, "Err% {err}: {with}");
+    let start_s = with["recording"]["start_s"].as_f64().unwrap_or(f64::NAN);
+    assert!((start_s - 0.01).abs() < 1e-6, "{with}");
+    let without = run(false);
+    let k = without.get("k").or_else(|| without.get("k_not_a_diagnosis")).expect("k");
+    let k: Vec<f32> = k.as_array().expect("k").iter().map(|v| v.as_f64().unwrap_or(f64::NAN) as f32).collect();
+    let err_without = FaultVector(k.try_into().expect("8 values")).paper_error_percent(&truth);
+    assert!(err_without > 5.0 * err.max(0.5), "Err% {err_without} without the parameters, {err} with");
+}
