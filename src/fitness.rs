@@ -417,7 +417,7 @@ impl<const W: usize> CurrentFit<'_, W> {
         let (mut sum_sq, mut sum_lag, mut previous) = (0.0f32, 0.0f32, 0.0f32);
         let (mut window, mut windows) = (WindowResidual::default(), 0usize);
         let mut rho = self.regime_weights();
-        simulate_window_with_effects(&self.params, &self.command, k, &self.effects, n, |i, model_a, _| {
+        simulate_window_with_effects(&self.params, self.command, k, &self.effects, n, |i, model_a, _| {
             let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
             let v = rho.at(i) * w_i;
             let r = y_i - model_a;

@@ -219,18 +219,19 @@ pub fn discover<'c, const W: usize>(
     seed: u64,
     threads: usize,
 ) -> Result<Discovery, CliError> {
-    discover_with_progress(trace, params, command, file, truth, seed, threads, &ProgressBar::hidden())
+    let d = discover_with_progress(trace, params, command, file, seed, threads, &ProgressBar::hidden())?;
+    Ok(Discovery { truth, ..d })
 }
 
 /// [`discover`], advancing `bar` by one step per fit: the current model, the reference of the
 /// fit part, each round's candidates (added to the bar's length as a round starts), the refit
-/// and the on-board diagnoses; its message names the step.
+/// and the on-board diagnoses; its message names the step. The truth is the caller's to set
+/// ([`Discovery::truth`], `None` here): it scores the result and changes nothing in it.
 pub fn discover_with_progress<'c, const W: usize>(
     trace: &MeasuredTrace<W>,
     params: &EmaParams,
     command: impl CommandSource<'c>,
     file: &Path,
-    truth: Option<FaultVector>,
     seed: u64,
     threads: usize,
     bar: &ProgressBar,
@@ -376,7 +377,7 @@ pub fn discover_with_progress<'c, const W: usize>(
         rounds,
         named,
         withdrawn,
-        truth,
+        truth: None,
         seconds: start.elapsed().as_secs_f64(),
         evaluations,
     })
@@ -397,18 +398,10 @@ pub fn run(args: &DiscoverArgs) -> Result<String, CliError> {
     let trace = condition_recording_for(&recording, &args.file, &params, &command)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let bar = progress::bar(4, "fits", args.progress.visible());
-    let d = discover_with_progress::<HOST_WINDOW>(
-        &trace,
-        &params,
-        command.command(),
-        &args.file,
-        truth,
-        args.seed,
-        threads,
-        &bar,
-    );
+    let d =
+        discover_with_progress::<HOST_WINDOW>(&trace, &params, command.command(), &args.file, args.seed, threads, &bar);
     bar.finish_and_clear();
-    let d = Discovery { command: Some(command.to_json()), ..d? };
+    let d = Discovery { command: Some(command.to_json()), truth, ..d? };
     if let Some(dir) = &args.output.out {
         write_outputs(dir, &d, overwrite)?;
     }
