@@ -7,8 +7,8 @@
 
 use super::config::{fault_bounds, selection_polish_left, starting_guesses, Algorithm, IdentifyConfig};
 use super::selection::{group_present, without_group, Selection, FAULT_GROUPS};
+use super::MonitorError;
 use super::MODEL_MISMATCH_A;
-use super::{params_are_valid, MonitorError};
 use crate::command::Command;
 use crate::conditioning::{ConditioningError, MeasuredTrace, DECIMATION};
 use crate::faults::{FaultVector, FAULT_COUNT};
@@ -20,8 +20,6 @@ use crate::optimizer::pattern::{PatternConfig, PatternSearch};
 use crate::optimizer::pso::{ParticleSwarm, PsoConfig};
 use crate::optimizer::{Optimizer, Status, TerminationReason};
 use crate::params::EmaParams;
-#[cfg(test)]
-use crate::profile::Profile;
 
 /// The global search's optimizer.
 #[derive(Clone, Debug)]
@@ -104,7 +102,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         config: &IdentifyConfig,
     ) -> Result<Self, MonitorError> {
         let command = command.into();
-        if !params_are_valid(&params) {
+        if params.check().is_err() {
             return Err(MonitorError::Params);
         }
         if !trace.is_finished() {

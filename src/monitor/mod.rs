@@ -32,7 +32,6 @@ pub use verdict::{
 use crate::acquisition::{AcquisitionError, PhaseCurrents};
 use crate::conditioning::{ConditioningError, MeasuredTrace};
 use crate::optimizer::ConfigError;
-use crate::params::EmaParams;
 
 /// Why an identification could not start.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -43,7 +42,7 @@ pub enum MonitorError {
     Conditioning(ConditioningError),
     /// The optimizer settings were refused.
     Optimizer(ConfigError),
-    /// An actuator parameter is not finite or not physical (e.g. a non-positive inertia).
+    /// An actuator parameter is outside its range or the set is not physical ([`crate::EmaParams::check`]).
     Params,
     /// The trace is longer than the command (profile or sampled) that drives the model.
     TraceLongerThanProfile,
@@ -56,7 +55,7 @@ impl core::fmt::Display for MonitorError {
         match self {
             MonitorError::Conditioning(e) => write!(f, "measured trace refused: {e}"),
             MonitorError::Optimizer(e) => write!(f, "optimizer settings refused: {e}"),
-            MonitorError::Params => f.write_str("an actuator parameter is not finite or not physical"),
+            MonitorError::Params => f.write_str("an actuator parameter is outside its range (EmaParams::check)"),
             MonitorError::TraceLongerThanProfile => {
                 f.write_str("the trace is longer than the command that drives the model")
             }
@@ -105,46 +104,4 @@ pub fn acquire<const W: usize, S: PhaseCurrents>(
     }
     trace.finish()?;
     Ok(summary)
-}
-
-/// `true` when every parameter is finite and the physical ones are positive where they must be.
-pub fn params_are_valid(p: &EmaParams) -> bool {
-    let positive = [
-        p.supply_voltage_v,
-        p.pole_pairs,
-        p.phase_resistance_ohm,
-        p.phase_inductance_h,
-        p.phase_emf_constant_v_s_per_rad,
-        p.current_limit_a,
-        p.motor_inertia_kg_m2,
-        p.gear_ratio,
-        p.control_period_s,
-        p.derivative_filter_s,
-        p.current_loop_lag_s,
-        p.position_lag_s,
-        p.efficiency_opposing,
-        p.end_stop_rad,
-    ];
-    let non_negative = [
-        p.hysteresis_half_band_a,
-        p.surface_inertia_kg_m2,
-        p.viscous_friction_n_m_s_per_rad,
-        p.static_friction_n_m,
-        p.dynamic_friction_n_m,
-        p.nominal_backlash_rad,
-        p.hinge_stiffness_n_m_per_rad,
-        p.kp_a_per_rad,
-        p.ki_a_per_rad_s,
-        p.kd_a_s_per_rad,
-        p.current_noise_a,
-        p.position_noise_rad,
-        p.position_resolution_rad,
-    ];
-    positive.iter().all(|x| x.is_finite() && *x > 0.0)
-        && non_negative.iter().all(|x| x.is_finite() && *x >= 0.0)
-        && p.efficiency_aiding.is_finite()
-        && p.efficiency_aiding <= 1.0
-        && p.efficiency_opposing <= 1.0
-        && p.dynamic_friction_n_m <= p.static_friction_n_m
-        && p.control_period_s < p.derivative_filter_s
 }

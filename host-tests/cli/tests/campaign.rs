@@ -147,33 +147,32 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
 }
 
 /// The floor drops exactly the faults too weak to pass model selection's criterion at the truth.
-#[test]
-fn the_detectability_floor_drops_only_what_the_recording_cannot_show() {
-    let truth = FaultVector([0.7, 0.0, 0.0, 0.0, 0.0, 0.02, 0.3, 0.5]);
-    let rec = simulate(&SimConfig { faults: truth, seed: 5, ..SimConfig::default() }).expect("sim");
+/// The reference model's noisy recording (seed 5) of `faults`, conditioned on the nominal actuator.
+fn conditioned(
+    faults: FaultVector,
+) -> Box<ema_monitor::conditioning::MeasuredTrace<{ ema_cli::identify::HOST_WINDOW }>> {
+    let rec = simulate(&SimConfig { faults, seed: 5, ..SimConfig::default() }).expect("sim");
     let recording = ema_cli::recording::Recording::from_reference(&rec, Vec::new());
-    let trace = ema_cli::identify::condition_recording(
+    ema_cli::identify::condition_recording(
         &recording,
         std::path::Path::new("t"),
         &ema_monitor::EmaParams::NOMINAL,
         &Profile::STANDARD,
     )
-    .expect("conditions");
+    .expect("conditions")
+}
+
+#[test]
+fn the_detectability_floor_drops_only_what_the_recording_cannot_show() {
+    let truth = FaultVector([0.7, 0.0, 0.0, 0.0, 0.0, 0.02, 0.3, 0.5]);
+    let trace = conditioned(truth);
     let config = identify_config(&args(1, &[]));
     // a high friction stays, a 0.02 eccentricity goes (its phase with it)
     let floor =
         campaign::detectability_floor(&trace, &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD, &config, &truth);
     assert_eq!(floor, FaultVector([0.7, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]));
     let strong = FaultVector([0.7, 0.0, 0.0, 0.0, 0.0, 0.8, 0.3, 0.5]);
-    let rec = simulate(&SimConfig { faults: strong, seed: 5, ..SimConfig::default() }).expect("sim");
-    let recording = ema_cli::recording::Recording::from_reference(&rec, Vec::new());
-    let trace = ema_cli::identify::condition_recording(
-        &recording,
-        std::path::Path::new("t"),
-        &ema_monitor::EmaParams::NOMINAL,
-        &Profile::STANDARD,
-    )
-    .expect("conditions");
+    let trace = conditioned(strong);
     assert_eq!(
         campaign::detectability_floor(&trace, &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD, &config, &strong),
         strong
