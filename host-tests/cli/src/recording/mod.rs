@@ -19,7 +19,7 @@
 //! 4. [`resample`]: the channels on the monitor's 10 kHz grid from that start, band-limited;
 //! 5. [`args`]: the flags of all this ([`RecordingArgs`]) and the pipeline ([`RecordingArgs::load`]).
 //!
-//! [`write`] writes a plain CSV (header and rows, numbers in Rust's shortest round-trip form:
+//! [`mod@write`] writes a plain CSV (header and rows, numbers in Rust's shortest round-trip form:
 //! a read gives back exactly the values written) and [`sidecar`] the metadata beside it
 //! (`F.csv` → `F.json`).
 //!
