@@ -123,7 +123,7 @@ fn identify_and_discover_take_the_flag() {
     std::fs::write(&profile, OTHER_PROFILE).unwrap();
     let csv = dir.join("other.csv");
     accepted(&["simulate", "--profile", s(&profile), "--faults", "0.3,0,0,0,0,0,0.5,0.5", "--out", s(&csv)]);
-    refused(&["identify", s(&csv)], &["other.csv", "field command_rad", "--profile"]);
+    refused(&["identify", s(&csv)], &["other.csv", "field 'command_rad'", "--profile"]);
     let out = accepted(&["identify", s(&csv), "--command", "recorded", "--max-iterations", "10"]);
     assert!(out.contains("command: recorded (9000 samples at 10000 Hz, 0.9 s)"), "{out}");
     let out = accepted(&["identify", s(&csv), "--command", "recorded", "--max-iterations", "10", "--json"]);
@@ -137,5 +137,5 @@ fn identify_and_discover_take_the_flag() {
     assert!(out.contains(&format!("command: profile {}", s(&profile))), "{out}");
     refused(&["identify", s(&csv), "--command", "recorded", "--profile", s(&profile)], &["--profile", "recorded"]);
     refused(&["discover", s(&csv), "--command", "recorded", "--profile", s(&profile)], &["--profile", "recorded"]);
-    refused(&["discover", s(&csv)], &["field command_rad"]);
+    refused(&["discover", s(&csv)], &["field 'command_rad'"]);
 }
