@@ -116,6 +116,20 @@ fn with_legend<'a>(
 }
 
 /// A drawing error of plotters, as an I/O error (the caller names the file).
+/// An SVG of `size_px` (width, height) pixels that `draw` fills, as text.
+fn render_svg<E: std::fmt::Display>(
+    size_px: (u32, u32),
+    draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<(), E>,
+) -> io::Result<String> {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size_px).into_drawing_area();
+        draw(&root).map_err(plot_error)?;
+        root.present().map_err(plot_error)?;
+    }
+    Ok(svg)
+}
+
 fn plot_error(e: impl std::fmt::Display) -> io::Error {
     io::Error::other(format!("cannot draw the plot: {e}"))
 }
@@ -146,13 +160,7 @@ pub fn line_plot(
     shaded: &[(f64, f64)],
     shaded_name: &str,
 ) -> io::Result<String> {
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (960, 440)).into_drawing_area();
-        draw_lines(&root, title, y_title, t, lines, shaded, shaded_name).map_err(plot_error)?;
-        root.present().map_err(plot_error)?;
-    }
-    Ok(svg)
+    render_svg((960, 440), |root| draw_lines(root, title, y_title, t, lines, shaded, shaded_name))
 }
 
 fn draw_lines(
@@ -212,13 +220,7 @@ pub fn grouped_bars(
     top: f64,
     value: impl Fn(usize, usize) -> Option<f64>,
 ) -> io::Result<String> {
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (820, 420)).into_drawing_area();
-        draw_bars(&root, title, unit, groups, series, top, value).map_err(plot_error)?;
-        root.present().map_err(plot_error)?;
-    }
-    Ok(svg)
+    render_svg((820, 420), |root| draw_bars(root, title, unit, groups, series, top, value))
 }
 
 fn draw_bars(
