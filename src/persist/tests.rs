@@ -290,3 +290,18 @@ fn block_on_gives_up_on_a_future_that_never_completes() {
     assert_eq!(block_on(core::future::pending::<()>()), None);
     assert_eq!(block_on(async { 7 }), Some(7));
 }
+
+/// On 128 KiB pages (the STM32F446's sectors, here with 4-byte words) a page holds
+/// `(131 072 − 2 page-state words) / 764 bytes per copy` = 171 copies before the store moves on
+/// and erases: the formula of `docs/persistence.md`, "Wear".
+#[test]
+fn a_large_page_holds_the_computed_number_of_copies() {
+    let mut flash = Box::new(RamFlash::<2, 131_072>::new());
+    let r = record_after(3);
+    let mut saves = 0;
+    while flash.erase_counts().iter().sum::<u32>() == 0 {
+        HealthStore::new(&mut *flash, 0..262_144).unwrap().save(&r).unwrap();
+        saves += 1;
+    }
+    assert_eq!(saves - 1, (131_072 - 2 * 4) / (8 + 756), "copies on the first page");
+}
