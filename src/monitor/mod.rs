@@ -32,8 +32,8 @@ pub use verdict::{
     MODEL_MISMATCH_A,
 };
 pub use warm::{
-    plan_start, ColdReason, Start, WarmReport, COLD_EVERY_FLIGHTS, GROUP_NAMES, MAX_NEW_FAULTS, PROBE_SEVERITY,
-    TARGETED_REFIT,
+    plan_start, ColdReason, Start, WarmReport, COLD_EVERY_FLIGHTS, GROUP_NAMES, MAX_NEW_FAULTS, PROBE_SCOUT,
+    PROBE_SEVERITY, TARGETED_REFIT,
 };
 
 use crate::acquisition::{AcquisitionError, PhaseCurrents};

@@ -14,9 +14,10 @@
 //!    parameters at the probe point: [`group_pays`]`(E_probe, E_best, m, n)`. The probe's model
 //!    run is abandoned as soon as its cost exceeds the criterion's threshold, so a quiet probe
 //!    costs a fraction of an evaluation;
-//! 4. **targeted refit** when one fires: a compass search ([`TARGETED_REFIT`]) from the probe
-//!    that fits best, moving its group and the present ones; then the probes of the groups still
-//!    absent run again (at most [`MAX_NEW_FAULTS`] refits per flight).
+//! 4. **targeted refit** when one fires: each fired probe is scouted by a short compass search
+//!    over its group alone ([`PROBE_SCOUT`]), and a compass search ([`TARGETED_REFIT`]) from the
+//!    best scouted point moves that group and the present ones; then the probes of the groups
+//!    still absent run again (at most [`MAX_NEW_FAULTS`] refits per flight).
 //!
 //! A probe of severity `s` lowers the cost when the fault is larger than about `s/2` (`E` is
 //! nearly quadratic in a fault's severity), so the probe severity sets the smallest new fault
@@ -156,6 +157,12 @@ impl WarmReport {
     }
 }
 
+/// The scout of a fired probe: a short compass search over the probe's group alone, from the
+/// probe point (steps 0.05 → 0.0125, at most 16 evaluations). Groups whose effects look alike
+/// in the slow regime (the three shorts differ mainly in the fast reversal) can all fire; the
+/// probe at a fixed severity does not rank them, their best single-group fits do.
+pub const PROBE_SCOUT: PatternConfig = PatternConfig { initial_step: 0.05, min_step: 0.0125, max_evaluations: 16 };
+
 /// Where the warm stages are.
 #[derive(Clone, Debug)]
 pub(super) enum WarmStage {
@@ -164,12 +171,21 @@ pub(super) enum WarmStage {
     /// Evaluates `n` of the information criterion at the prior (one evaluation), then hands over
     /// to model selection.
     Samples,
-    /// Runs probe `next` on (one evaluation each); `found` is the best fired probe so far.
+    /// Runs probe `next` on (one evaluation each); bit `i` of `fired` marks probe `i` fired.
     Probe {
         /// Next probe index.
         next: u8,
-        /// The fired probe of lowest cost: its group, point and cost.
-        found: Option<(u8, [f32; FAULT_COUNT], f32)>,
+        /// Fired probes, bit `i` for probe `i`.
+        fired: u16,
+    },
+    /// Scouts the fired probes in turn ([`PROBE_SCOUT`]; one evaluation per step).
+    Scout {
+        /// Fired probes not scouted yet, bit `i` for probe `i`.
+        left: u16,
+        /// The scout under way.
+        search: PatternSearch<FAULT_COUNT>,
+        /// The best scouted point and its cost so far.
+        best: Option<([f32; FAULT_COUNT], f32)>,
     },
     /// The targeted refit (one evaluation per step).
     Refit(PatternSearch<FAULT_COUNT>),
@@ -182,6 +198,15 @@ pub(super) struct WarmState {
     pub(super) report: WarmReport,
     pub(super) effective_samples: f32,
     pub(super) probing: bool,
+}
+
+/// The parameters of `FAULT_GROUPS[group]` free, the others fixed.
+fn group_free(group: usize) -> [bool; FAULT_COUNT] {
+    let mut free = [false; FAULT_COUNT];
+    if let Some(&(first, last)) = FAULT_GROUPS.get(group) {
+        free.iter_mut().enumerate().filter(|(i, _)| (first..=last).contains(i)).for_each(|(_, f)| *f = true);
+    }
+    free
 }
 
 impl<const W: usize, const P: usize> Identification<'_, W, P> {
@@ -205,7 +230,7 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
                     self.start_polish(TerminationReason::FunctionTolerance);
                 }
             }
-            WarmStage::Probe { next, found } => {
+            WarmStage::Probe { next, fired } => {
                 let n = warm.effective_samples;
                 let mut index = usize::from(*next);
                 while index < PROBES {
@@ -220,9 +245,7 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
                             warm.report.probes = warm.report.probes.saturating_add(1);
                             if group_pays(cost, self.best_cost, parameters, n) {
                                 warm.report.fired |= 1 << g;
-                                if found.is_none_or(|(_, _, c)| cost < c) {
-                                    *found = Some((g as u8, x, cost));
-                                }
+                                *fired |= 1 << index;
                             }
                             *next = (index + 1) as u8;
                             return;
@@ -230,7 +253,22 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
                         _ => index += 1,
                     }
                 }
-                self.start_refit();
+                let fired = *fired;
+                self.next_scout(fired, None);
+            }
+            WarmStage::Scout { left, search, best } => {
+                let before = search.evaluations();
+                let status = search.step(&mut self.fit);
+                warm.report.evaluations += search.evaluations() - before;
+                if let Status::Done(_) = status {
+                    let (x, c) = search.best();
+                    let best = match *best {
+                        Some((_, b)) if b <= c => *best,
+                        _ => Some((*x, c)),
+                    };
+                    let left = *left;
+                    self.next_scout(left, best);
+                }
             }
             WarmStage::Refit(search) => {
                 let before = search.evaluations();
@@ -242,18 +280,32 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
                         (self.best, self.best_cost) = (*x, c);
                     }
                     warm.report.refits += 1;
-                    *stage = WarmStage::Probe { next: 0, found: None };
+                    *stage = WarmStage::Probe { next: 0, fired: 0 };
                 }
             }
         }
     }
 
-    /// After the probes: the targeted refit from the best fired probe, moving its group and the
-    /// present ones; or the end when none fired or [`MAX_NEW_FAULTS`] refits ran.
-    fn start_refit(&mut self) {
-        let Stage::Warm(WarmStage::Probe { found, .. }) = &self.stage else { return };
+    /// Scouts the next fired probe of `left` (no evaluation: the probe's cost is re-evaluated by
+    /// the scout's first step), or, when none is left, starts the targeted refit from `best`.
+    fn next_scout(&mut self, mut left: u16, best: Option<([f32; FAULT_COUNT], f32)>) {
+        while left != 0 {
+            let index = left.trailing_zeros() as usize;
+            left &= left - 1;
+            let Some((g, x)) = probe_point(&self.best, index) else { continue };
+            if let Ok(search) = PatternSearch::new(fault_bounds(), PROBE_SCOUT, x, None, group_free(g)) {
+                self.stage = Stage::Warm(WarmStage::Scout { left, search, best });
+                return;
+            }
+        }
+        self.start_refit(best);
+    }
+
+    /// The targeted refit from the best scouted point, moving its new group and the present
+    /// ones; or the end when no probe fired or [`MAX_NEW_FAULTS`] refits ran.
+    fn start_refit(&mut self, best: Option<([f32; FAULT_COUNT], f32)>) {
         let refits = self.warm.map_or(MAX_NEW_FAULTS, |w| w.report.refits);
-        let Some((_, x, cost)) = *found else {
+        let Some((x, cost)) = best else {
             self.stage = Stage::Done(TerminationReason::FunctionTolerance);
             return;
         };
@@ -278,7 +330,7 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
         match self.warm.as_mut() {
             Some(warm) if !warm.probing && !self.best_cost.is_nan() => {
                 warm.probing = true;
-                self.stage = Stage::Warm(WarmStage::Probe { next: 0, found: None });
+                self.stage = Stage::Warm(WarmStage::Probe { next: 0, fired: 0 });
             }
             _ => self.stage = Stage::Done(reason),
         }
@@ -369,8 +421,8 @@ mod tests {
             let t = noisy_self_trace(&truth, 11);
             let (w, report) = warm(&t, &prior);
             assert!(report.fired_group(group) && report.refits >= 1, "{report:?}");
-            let err = w.faults.paper_error_percent(&truth);
-            assert!(err < 1.0, "Err% {err}: {:?}", w.faults.0);
+            let (we, ce) = (w.faults.paper_error_percent(&truth), cold(&t).faults.paper_error_percent(&truth));
+            assert!(we <= ce + 0.2, "Err% warm {we} cold {ce}: {:?}", w.faults.0);
             assert!(!report.needs_cold(&w), "{:?}", w.fit_check);
         }
     }
