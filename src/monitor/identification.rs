@@ -75,6 +75,22 @@ pub(super) enum Stage {
     Done(TerminationReason),
 }
 
+/// The start point of a warm start from `prior`: the prior in the search box, its absent groups
+/// exactly healthy; refused when it is not a fault vector.
+fn warm_start_point(prior: &[f32; FAULT_COUNT]) -> Result<[f32; FAULT_COUNT], MonitorError> {
+    if !FaultVector(*prior).is_valid() {
+        return Err(MonitorError::Prior);
+    }
+    let mut start = *prior;
+    fault_bounds().enforce_point(&mut start);
+    for &group in FAULT_GROUPS.iter() {
+        if !group_present(&start, group) {
+            start = without_group(&start, group);
+        }
+    }
+    Ok(start)
+}
+
 /// One fault identification in progress: `W` window samples, `P` individuals.
 #[derive(Clone, Debug)]
 pub struct Identification<'a, const W: usize, const P: usize> {
@@ -156,6 +172,12 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                 )
             }
         };
+        // a warm start replaces the global search by the prior (checked here, set in place: the
+        // identification is built once, never moved, so the stack holds one copy of it)
+        let start = match config.prior {
+            Some(prior) => Some(warm_start_point(&prior)?),
+            None => None,
+        };
         let fit = CurrentFit::new(trace, params, command)?
             .with_effects(config.effects)
             .with_fast_regime_weight(config.fast_regime_weight)
@@ -165,17 +187,13 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             solver,
             params,
             config: *config,
-            stage: Stage::Global,
-            best: healthy,
+            stage: if start.is_some() { Stage::Warm(WarmStage::Start) } else { Stage::Global },
+            best: start.unwrap_or(healthy),
             best_cost: f32::INFINITY,
             kept: [true; FAULT_GROUPS.len()],
             selection_polish_evaluations: 0,
             untested_groups: 0,
-            warm: None,
-        })
-        .and_then(|id| match config.prior {
-            Some(prior) => id.warm_from(&prior),
-            None => Ok(id),
+            warm: start.map(|_| WarmState::default()),
         })
     }
 
@@ -194,24 +212,6 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         prior: &[f32; FAULT_COUNT],
     ) -> Result<Self, MonitorError> {
         Self::new(trace, params, command, &IdentifyConfig { prior: Some(*prior), ..*config })
-    }
-
-    /// Turns a cold identification not yet started into a warm start from `prior`.
-    fn warm_from(mut self, prior: &[f32; FAULT_COUNT]) -> Result<Self, MonitorError> {
-        if !FaultVector(*prior).is_valid() {
-            return Err(MonitorError::Prior);
-        }
-        let mut start = *prior;
-        fault_bounds().enforce_point(&mut start);
-        for &group in FAULT_GROUPS.iter() {
-            if !group_present(&start, group) {
-                start = without_group(&start, group);
-            }
-        }
-        self.best = start;
-        self.stage = Stage::Warm(WarmStage::Start);
-        self.warm = Some(WarmState::default());
-        Ok(self)
     }
 
     /// What the warm stages did (`None` for a cold identification).
@@ -316,7 +316,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     /// Why the global search stopped (the report's termination reason; a warm start, which has
     /// none, converged).
     pub(super) fn global_reason(&self) -> TerminationReason {
-        if self.warm.is_some() {
+        if self.warm.is_some_and(|w| !w.report.cold_fallback) {
             return TerminationReason::FunctionTolerance;
         }
         let status = match &self.solver {

@@ -24,7 +24,9 @@
 //! one flight detects; smaller ones are left to the evidence pooled over flights. The choice and
 //! its evidence: `docs/decisions/0018-warm-start.md`.
 //!
-//! When a cold identification is required instead is [`plan_start`]'s answer: no prior (the
+//! A warm result that fails its goodness-of-fit test goes on cold in the same call
+//! ([`WarmReport::cold_fallback`]). When a cold identification is required from the start is
+//! [`plan_start`]'s answer: no prior (the
 //! first flight, or after maintenance reset the record), every [`IdentifyConfig::cold_every_flights`]
 //! flights, and after a warm flight whose result fails its fit check ([`WarmReport::needs_cold`]).
 
@@ -139,9 +141,13 @@ pub struct WarmReport {
     pub probes: u16,
     /// Targeted refits run.
     pub refits: u8,
-    /// Evaluations of the warm stages: the start, the probes and the refits (model selection and
-    /// the polish count in the report's `evaluations`, with these).
+    /// Evaluations of the warm stages: the start, the probes, the scouts, the refits and the fit
+    /// check (model selection and the polish count in the report's `evaluations`, with these).
     pub evaluations: u32,
+    /// The warm result failed its fit check, and the identification went on cold (the global
+    /// search, model selection and the polish) in the same call; the evaluations of the warm
+    /// attempt are in `evaluations`.
+    pub cold_fallback: bool,
 }
 
 impl WarmReport {
@@ -306,11 +312,11 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
     fn start_refit(&mut self, best: Option<([f32; FAULT_COUNT], f32)>) {
         let refits = self.warm.map_or(MAX_NEW_FAULTS, |w| w.report.refits);
         let Some((x, cost)) = best else {
-            self.stage = Stage::Done(TerminationReason::FunctionTolerance);
+            self.end_warm(TerminationReason::FunctionTolerance);
             return;
         };
         if refits >= MAX_NEW_FAULTS {
-            self.stage = Stage::Done(TerminationReason::MaxIterations);
+            self.end_warm(TerminationReason::MaxIterations);
             return;
         }
         let mut free = [false; FAULT_COUNT];
@@ -318,21 +324,47 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
             let present = group_present(&x, (first, last));
             free.iter_mut().enumerate().filter(|(i, _)| (first..=last).contains(i)).for_each(|(_, f)| *f = present);
         }
-        self.stage = match PatternSearch::new(fault_bounds(), TARGETED_REFIT, x, Some(cost), free) {
-            Ok(search) => Stage::Warm(WarmStage::Refit(search)),
-            Err(_) => Stage::Done(TerminationReason::FunctionTolerance),
+        match PatternSearch::new(fault_bounds(), TARGETED_REFIT, x, Some(cost), free) {
+            Ok(search) => self.stage = Stage::Warm(WarmStage::Refit(search)),
+            Err(_) => self.end_warm(TerminationReason::FunctionTolerance),
+        }
+    }
+
+    /// The end of the warm stages: the fit check of the result (one model run); when it fails,
+    /// the identification starts over cold in the same call (the global search from its own
+    /// start; model selection and the polish with their whole budget), since a warm start that
+    /// does not fit left the prior's basin for a wrong one or never found a new fault's.
+    fn end_warm(&mut self, reason: TerminationReason) {
+        let fails = self.report().fit_check.is_some_and(|c| !c.passes());
+        let Some(warm) = self.warm.as_mut() else {
+            self.stage = Stage::Done(reason);
+            return;
         };
+        warm.report.evaluations += 1;
+        if !fails || warm.report.cold_fallback {
+            self.stage = Stage::Done(reason);
+            return;
+        }
+        warm.report.cold_fallback = true;
+        warm.report.evaluations += self.selection_polish_evaluations;
+        self.selection_polish_evaluations = 0;
+        self.kept = [true; FAULT_GROUPS.len()];
+        self.untested_groups = 0;
+        (self.best, self.best_cost) = (FaultVector::HEALTHY.0, f32::INFINITY);
+        self.stage = Stage::Global;
     }
 
     /// Where a warm identification goes once model selection and the polish are over: the
     /// probes (the first time), or the end.
     pub(super) fn finish(&mut self, reason: TerminationReason) {
         match self.warm.as_mut() {
+            Some(warm) if warm.report.cold_fallback => self.stage = Stage::Done(reason),
             Some(warm) if !warm.probing && !self.best_cost.is_nan() => {
                 warm.probing = true;
                 self.stage = Stage::Warm(WarmStage::Probe { next: 0, fired: 0 });
             }
-            _ => self.stage = Stage::Done(reason),
+            Some(_) => self.end_warm(reason),
+            None => self.stage = Stage::Done(reason),
         }
     }
 }

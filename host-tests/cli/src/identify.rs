@@ -846,6 +846,8 @@ pub struct WarmJson {
     pub refits: u8,
     /// Evaluations of the warm stages (start, probes, refits).
     pub warm_evaluations: u32,
+    /// `true` when the warm result failed its fit check and the identification went on cold.
+    pub cold_fallback: bool,
     /// `true` when the next identification must be cold (the warm result failed its fit check).
     pub cold_next: bool,
 }
@@ -903,6 +905,7 @@ pub fn json_body(
             probes_fired: w.fired(),
             refits: w.report.refits,
             warm_evaluations: w.report.evaluations,
+            cold_fallback: w.report.cold_fallback,
             cold_next: w.report.needs_cold(r),
         }),
     }
@@ -942,12 +945,13 @@ fn render(
         if let Some(w) = &outcome.warm {
             let fired = w.fired();
             text.push_str(&format!(
-                "\n  warm start from {:?}: probes fired: {} ({} probes, {} refits, {} evaluations of the warm stages){}",
+                "\n  warm start from {:?}: probes fired: {} ({} probes, {} refits, {} evaluations of the warm stages){}{}",
                 w.prior,
                 if fired.is_empty() { "none".to_owned() } else { fired.join(", ") },
                 w.report.probes,
                 w.report.refits,
                 w.report.evaluations,
+                if w.report.cold_fallback { "; the warm result failed its fit check: identified cold" } else { "" },
                 if w.report.needs_cold(&outcome.report) { "; the next identification must be cold" } else { "" }
             ));
         }
