@@ -119,10 +119,10 @@ fn main() -> ! {
     // 4. Flight 1: cold identification (instruction-counted region 1) and its report.
     defmt::info!("flight 1: cold identification");
     ema_identification_start();
-    let report_1 = identify(&trace);
+    let report_1 = identify(&trace, None);
     ema_identification_end();
     let report_1 = match report_1 {
-        Ok(r) => {
+        Ok((r, _)) => {
             let r = r.with_acquisition(&acquired);
             let r = if rate_ok { r } else { r.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
             report_log::log_report(&r);
@@ -141,7 +141,7 @@ fn main() -> ! {
         let prior = report_1.faults;
         defmt::info!("flight 2: warm start from flight 1's diagnosis, on the same recording");
         ema_identification_start();
-        let report_2 = identify_warm(&trace, &prior.0);
+        let report_2 = identify(&trace, Some(&prior.0));
         ema_identification_end();
         log_warm(report_2, &acquired, rate_ok)
     });
@@ -175,7 +175,7 @@ fn log_warm(
 ) -> bool {
     match report {
         Ok((r, warm)) => {
-            let r = r.with_acquisition(&acquired);
+            let r = r.with_acquisition(acquired);
             let r = if rate_ok { r } else { r.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
             report_log::log_report(&r);
             defmt::info!(
@@ -218,26 +218,18 @@ fn log_model_effects() {
 }
 
 /// The on-board identification: monitor model (with [`MODEL_EFFECTS`]) + PSO
-/// (`IdentifyConfig::onboard`), run to its end.
+/// (`IdentifyConfig::onboard`), run to its end; cold without a prior, warm from `prior` (flight
+/// 1's fault vector: model selection, the polish, the new-fault probes and, when one fires, the
+/// targeted refit, [`Identification::warm`]). One function for both flights: the identification's
+/// constructor has one caller and is built in place, in this frame.
 #[inline(never)]
-fn identify(trace: &MeasuredTrace<ONBOARD_WINDOW>) -> Result<HealthReport, monitor::MonitorError> {
-    let config = IdentifyConfig { effects: MODEL_EFFECTS, ..IdentifyConfig::onboard() };
+fn identify(
+    trace: &MeasuredTrace<ONBOARD_WINDOW>,
+    prior: Option<&[f32; 8]>,
+) -> Result<(HealthReport, WarmReport), monitor::MonitorError> {
+    let config = IdentifyConfig { effects: MODEL_EFFECTS, prior: prior.copied(), ..IdentifyConfig::onboard() };
     let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
         Identification::new(trace, PARAMS, Profile::STANDARD, &config)?;
-    id.run(u32::MAX);
-    Ok(id.report())
-}
-
-/// The warm identification from `prior` (flight 1's fault vector): model selection, the polish,
-/// the new-fault probes and, when one fires, the targeted refit ([`Identification::warm`]).
-#[inline(never)]
-fn identify_warm(
-    trace: &MeasuredTrace<ONBOARD_WINDOW>,
-    prior: &[f32; 8],
-) -> Result<(HealthReport, WarmReport), monitor::MonitorError> {
-    let config = IdentifyConfig { effects: MODEL_EFFECTS, ..IdentifyConfig::onboard() };
-    let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
-        Identification::warm(trace, PARAMS, Profile::STANDARD, &config, prior)?;
     id.run(u32::MAX);
     Ok((id.report(), id.warm_report().unwrap_or_default()))
 }

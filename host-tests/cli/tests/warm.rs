@@ -5,7 +5,9 @@
 //!   and the warm Err% stays within 0.2 of the cold one;
 //! - new-fault pairs: flight 2 adds a fault group flight 1 did not have; a probe fires naming it.
 //!
-//! `cargo test --release -p ema-cli --test warm -- --nocapture` prints one line per pair.
+//! The two tests are the bars, measured: they run a cold identification per flight (about
+//! 8 minutes on 2 cores), so they are ignored in the routine run:
+//! `cargo test --release -p ema-cli --test warm -- --ignored --nocapture` prints one line per pair.
 
 use std::path::PathBuf;
 
@@ -167,6 +169,7 @@ fn print(p: &Pair) {
 }
 
 #[test]
+#[ignore = "measurement of the bars, about 5 minutes: --ignored"]
 fn probes_stay_quiet_on_drift_and_warm_err_stays_within_the_bar() {
     let pairs: Vec<Pair> = (0..20u64).into_par_iter().map(|i| run_pair(i, false)).collect();
     let (mut cold_sum, mut warm_sum) = (0.0, 0.0);
@@ -183,6 +186,7 @@ fn probes_stay_quiet_on_drift_and_warm_err_stays_within_the_bar() {
 }
 
 #[test]
+#[ignore = "measurement of the bars, about 3 minutes: --ignored"]
 fn a_probe_fires_on_a_new_fault_and_names_its_group() {
     let pairs: Vec<Pair> = (0..10u64).into_par_iter().map(|i| run_pair(i, true)).collect();
     let (mut named, mut caught) = (0, 0);
@@ -190,9 +194,9 @@ fn a_probe_fires_on_a_new_fault_and_names_its_group() {
         print(p);
         let hit = p.new_group.is_some_and(|g| p.warm.fired_group(g));
         named += usize::from(hit);
-        // a miss the fit check catches sends the next flight cold
-        caught += usize::from(hit || p.cold_next);
+        // a miss the fit check catches goes on cold (in the same call, or on the next flight)
+        caught += usize::from(hit || p.warm.cold_fallback || p.cold_next);
     }
-    println!("new-fault pairs: {named} of {} named by a probe, {caught} named or sent cold", pairs.len());
+    println!("new-fault pairs: {named} of {} named by a probe, {caught} named or caught by the fit check", pairs.len());
     assert!(named * 2 >= pairs.len(), "the probes name most new faults");
 }
