@@ -71,7 +71,7 @@ fn inject(k: &mut FaultVector, group: usize, severity: f32, rng: &mut Mix) {
             k.0[5] = severity;
             k.0[6] = rng.unit();
         }
-        _ => k.0[7] = if rng.next() % 2 == 0 { 0.5 - 0.5 * severity } else { 0.5 + 0.5 * severity },
+        _ => k.0[7] = if rng.next().is_multiple_of(2) { 0.5 - 0.5 * severity } else { 0.5 + 0.5 * severity },
     }
 }
 
