@@ -18,10 +18,12 @@
 //!    instructions between them, `identification (cold): N instructions`), and log its health
 //!    report, the fault vector's bits and the one-line summary of the host/target parity check
 //!    ([`log_summary`]);
-//! 5. flight 2: identify **warm** from flight 1's diagnosis (the prior a persisted health record
-//!    holds across power cycles), on the same recording, between a second pair of markers
-//!    (`identification (warm): N instructions`), and log its report and what the warm stages did
-//!    (probes fired, evaluations);
+//! 5. add flight 1 to the health record (`ema_monitor::persist`) and save it to flash (RAM in
+//!    QEMU, [`RecordFlash`]), read it back as the next power-up does, and plan flight 2 from it
+//!    (`monitor::plan_start`): **warm** from the record's diagnosis unless a cold identification
+//!    is due, on the same recording, between a second pair of markers
+//!    (`identification (warm): N instructions`); log its report and what the warm stages did
+//!    (probes fired, evaluations), and add it to the record;
 //! 6. log static RAM and peak stack over defmt, then exit through semihosting: status 0 when the
 //!    monitor gives a report (a diagnosis, or an honest `INCONCLUSIVE` / `SENSOR_FAULT`), 1 when it
 //!    refuses the trace (a malformed packed trace, too few frames: [`log_refusal`] logs the summary
@@ -40,6 +42,7 @@ use ema_monitor::acquisition::{manoeuvre_frames, Sampler, SamplerConfig, SAMPLER
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::health::{Abstain, HealthReport, Status};
 use ema_monitor::monitor::{self, Identification, IdentifyConfig, WarmReport, ONBOARD_POPULATION, ONBOARD_WINDOW};
+use ema_monitor::persist::{HealthRecord, HealthStore, RamFlash};
 use ema_monitor::trace::PackedTrace;
 use ema_monitor::{report_log, EmaParams, ModelEffects, Profile};
 
@@ -135,15 +138,31 @@ fn main() -> ! {
         }
     };
 
-    // 5. Flight 2: warm from flight 1's diagnosis (instruction-counted region 2). The seam of the
-    //    persisted health record: the prior is what the record read at power-up holds.
-    let ok = report_1.is_some_and(|report_1| {
-        let prior = report_1.faults;
-        defmt::info!("flight 2: warm start from flight 1's diagnosis, on the same recording");
+    // 5. The health record: flight 1 joins it and it is saved to flash, then read back as at the
+    //    next power-up; flight 2 starts as the record says (warm from its diagnosis, unless a cold
+    //    identification is due) and joins it too. QEMU's flash is RAM ([`RecordFlash`]).
+    let Some(flash) = cortex_m::singleton!(: RecordFlash = RecordFlash::new()) else { exit(false) };
+    let stored = report_1.and_then(|r| record_flight(flash, &r, true));
+    let ok = stored.is_some_and(|record| {
+        let prior = record.k();
+        let last_needs_cold = record.status().is_some_and(|s| matches!(s, Status::Inconclusive(_)));
+        let start = monitor::plan_start(
+            Some(&prior.0),
+            record.flights_since_cold(),
+            last_needs_cold,
+            &IdentifyConfig::onboard(),
+        );
+        let warm = start == monitor::Start::Warm;
+        if warm {
+            defmt::info!("flight 2: warm start from the health record's diagnosis, on the same recording");
+        } else {
+            defmt::info!("flight 2: {}", start);
+        }
         ema_identification_start();
-        let report_2 = identify(&trace, Some(&prior.0));
+        let report_2 = identify(&trace, warm.then_some(&prior.0));
         ema_identification_end();
-        log_warm(report_2, &acquired, rate_ok)
+        let report_2 = log_warm(report_2, &acquired, rate_ok);
+        report_2.is_some_and(|r| record_flight(flash, &r, !warm).is_some())
     });
 
     // 6. Memory figures and exit.
@@ -164,15 +183,66 @@ fn main() -> ! {
     exit(ok)
 }
 
+/// The health record's flash in QEMU: four 2 KiB pages of RAM (`mps2-an386` has no writable
+/// flash model), alive for the run, so that both flights go through the record's save and load
+/// path as on a board (`docs/persistence.md`).
+type RecordFlash = RamFlash<4, 2048>;
+
+/// Adds a flight's report to the health record in `flash` (a fresh record when none is stored or
+/// the stored one is unreadable), saves it, and reads it back as the next power-up does; the
+/// record read back, `None` (logged) when the flash refuses. Not inlined: the store's buffers
+/// stay out of `main`'s frame.
+#[inline(never)]
+fn record_flight(flash: &mut RecordFlash, report: &HealthReport, cold: bool) -> Option<HealthRecord> {
+    let mut store = match HealthStore::new(flash, 0..RecordFlash::CAPACITY as u32) {
+        Ok(s) => s,
+        Err(e) => {
+            defmt::error!("health record unavailable: {}", e);
+            return None;
+        }
+    };
+    let mut record = match store.load() {
+        Ok(Some(r)) => r,
+        Ok(None) => HealthRecord::new(),
+        Err(e) => {
+            defmt::warn!("health record unreadable ({}): a new record", e);
+            HealthRecord::new()
+        }
+    };
+    record.new_flight(report, cold);
+    if let Err(e) = store.save(&record) {
+        defmt::error!("health record not saved: {}", e);
+        return None;
+    }
+    match store.load() {
+        Ok(Some(r)) => {
+            defmt::info!(
+                "health record saved and read back: flight {=u32}, {=u32} since the last cold identification",
+                r.flights(),
+                r.flights_since_cold()
+            );
+            Some(r)
+        }
+        Ok(None) => {
+            defmt::error!("health record not found after its save");
+            None
+        }
+        Err(e) => {
+            defmt::error!("health record unreadable after its save: {}", e);
+            None
+        }
+    }
+}
+
 /// Logs flight 2's report (with the acquisition's counts and the rate check, as flight 1's) and
-/// what the warm stages did; `true` when there is a report. Not inlined: its formatting locals
+/// what the warm stages did; the report, `None` when refused. Not inlined: its formatting locals
 /// stay out of `main`'s frame.
 #[inline(never)]
 fn log_warm(
     report: Result<(HealthReport, WarmReport), monitor::MonitorError>,
     acquired: &monitor::AcquisitionSummary,
     rate_ok: bool,
-) -> bool {
+) -> Option<HealthReport> {
     match report {
         Ok((r, warm)) => {
             let r = r.with_acquisition(acquired);
@@ -186,11 +256,11 @@ fn log_warm(
                 warm.evaluations,
                 warm.needs_cold(&r)
             );
-            true
+            Some(r)
         }
         Err(e) => {
-            defmt::error!("warm identification refused: {}", e);
-            false
+            defmt::error!("flight 2's identification refused: {}", e);
+            None
         }
     }
 }
