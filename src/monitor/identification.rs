@@ -231,17 +231,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                 };
                 if let Status::Done(reason) = status {
                     (self.best, self.best_cost) = self.solver.best();
-                    let budget_left = selection_polish_left(&self.config, self.selection_polish_evaluations);
-                    if self.config.model_selection && budget_left > 0 {
-                        self.stage = Stage::Select(Selection::EffectiveSamples);
-                    } else if self.config.model_selection {
-                        self.untested_groups = self.present_groups_from(0);
-                        self.start_polish(reason);
-                    } else if self.config.polish.is_some() {
-                        self.start_polish(reason);
-                    } else {
-                        self.stage = Stage::Done(reason); // the paper: the global search's best as is
-                    }
+                    self.after_global_search(reason);
                 }
             }
             Stage::Select(_) => self.selection_step(),
@@ -264,6 +254,39 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             }
         }
         self.status()
+    }
+
+    /// Moves on from the global search's best (`self.best`, `self.best_cost`): model selection,
+    /// the polish, or the end, as the configuration asks.
+    fn after_global_search(&mut self, reason: TerminationReason) {
+        let budget_left = selection_polish_left(&self.config, self.selection_polish_evaluations);
+        if self.config.model_selection && budget_left > 0 {
+            self.stage = Stage::Select(Selection::EffectiveSamples);
+        } else if self.config.model_selection {
+            self.untested_groups = self.present_groups_from(0);
+            self.start_polish(reason);
+        } else if self.config.polish.is_some() {
+            self.start_polish(reason);
+        } else {
+            self.stage = Stage::Done(reason); // the paper: the global search's best as is
+        }
+    }
+
+    /// Ends the global search at `k`, found by another optimizer, before it has stepped: one
+    /// evaluation scores `k` (counted with selection and polish), then model selection and the
+    /// polish run from it as they do after the core's own search. This lets an outside optimizer
+    /// be compared with ours through the same later stages. Does nothing once the global search
+    /// has stepped.
+    pub fn skip_global_search(&mut self, k: &FaultVector) {
+        if !matches!(self.stage, Stage::Global) || self.solver.evaluations() > 0 {
+            return;
+        }
+        let mut start = k.0;
+        fault_bounds().enforce_point(&mut start);
+        self.best = start;
+        self.best_cost = self.fit.error(&FaultVector(start));
+        self.selection_polish_evaluations += 1;
+        self.after_global_search(TerminationReason::MaxIterations);
     }
 
     /// Starts the polish over the present and kept groups' parameters (or finishes with `reason`).
