@@ -18,7 +18,9 @@
 //!    frames and feeding the watchdog at each wake-up): the frames before the trigger are dropped,
 //!    then exactly the manoeuvre's frame count is recorded (8500 frames = 0.85 s); no trigger
 //!    within [`TRIGGER_TIMEOUT_FRAMES`] or a full queue (overrun) refuses the run;
-//! 5. identify the faults with the on-board PSO, one objective evaluation per
+//! 5. identify the faults, warm from the health record's diagnosis when it holds one and no cold
+//!    identification is due (`monitor::plan_start`), otherwise cold with the on-board PSO; one
+//!    objective evaluation per
 //!    [`Identification::step`], feeding the watchdog between steps and timing each step with the
 //!    DWT cycle counter;
 //! 6. log the health report and the fault vector's bits, append the flight to the health record
@@ -189,8 +191,15 @@ fn main() -> ! {
     let rate_hz = (1_000_000 / FRAME_PERIOD_US) as f32;
     let rate_ok = late == 0 && monitor::rate_matches(rate_hz, &EmaParams::NOMINAL);
 
-    // 5. Identification, the watchdog fed between evaluations.
-    let (report, timing) = match identify(&trace, &mut watchdog) {
+    // 5. Identification, the watchdog fed between evaluations: warm from the record's diagnosis
+    //    unless a cold one is due (no record, after maintenance, periodically, after a poor fit).
+    let prior = record.has_prior().then(|| record.k().0);
+    let last_needs_cold = record.status().is_some_and(|s| matches!(s, Status::Inconclusive(_)));
+    let start =
+        monitor::plan_start(prior.as_ref(), record.flights_since_cold(), last_needs_cold, &IdentifyConfig::onboard());
+    let warm = start == monitor::Start::Warm;
+    defmt::info!("identification start: {}", start);
+    let (report, timing) = match identify(&trace, &mut watchdog, if warm { prior.as_ref() } else { None }) {
         Ok(done) => done,
         Err(e) => {
             defmt::error!("identification refused: {}", e);
@@ -210,7 +219,7 @@ fn main() -> ! {
     let report = report.with_acquisition(&acquired);
     let report = if rate_ok { report } else { report.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
     report_log::log_report(&report);
-    health_flash::save(&mut flash, &mut watchdog, &mut record, &report, true);
+    health_flash::save(&mut flash, &mut watchdog, &mut record, &report, !warm);
     defmt::info!("ema-monitor: OK");
     loop {
         wait_tick(&mut timer);
@@ -270,8 +279,9 @@ struct StepTiming {
 fn identify(
     trace: &MeasuredTrace<ONBOARD_WINDOW>,
     watchdog: &mut IndependentWatchdog,
+    prior: Option<&[f32; 8]>,
 ) -> Result<(HealthReport, StepTiming), monitor::MonitorError> {
-    let config = IdentifyConfig::onboard();
+    let config = IdentifyConfig { prior: prior.copied(), ..IdentifyConfig::onboard() };
     let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
         Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &config)?;
     let mut timing = StepTiming { total_cycles: 0, longest_step_cycles: 0 };
