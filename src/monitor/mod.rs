@@ -31,6 +31,7 @@ pub use verdict::{
 
 use crate::acquisition::{AcquisitionError, PhaseCurrents};
 use crate::conditioning::{ConditioningError, MeasuredTrace};
+use crate::fitness::PoolError;
 use crate::optimizer::ConfigError;
 
 /// Why an identification could not start.
@@ -48,6 +49,8 @@ pub enum MonitorError {
     TraceLongerThanProfile,
     /// The fast-regime weight is not in `(0, 1]`.
     FastRegimeWeight,
+    /// The recordings to pool were refused.
+    Pool(PoolError),
 }
 
 impl core::fmt::Display for MonitorError {
@@ -60,6 +63,7 @@ impl core::fmt::Display for MonitorError {
                 f.write_str("the trace is longer than the command that drives the model")
             }
             MonitorError::FastRegimeWeight => f.write_str("the fast-regime weight is not in (0, 1]"),
+            MonitorError::Pool(e) => write!(f, "recordings refused: {e}"),
         }
     }
 }
