@@ -8,9 +8,11 @@
 //!
 //! The stages: the global search (PSO, GA or DE from [`starting_guesses`] and random points), model
 //! selection (`selection.rs`: each fault group must pay for its parameters), and the polish of the
-//! groups kept by a compass search (`identification.rs`).
+//! groups kept by a compass search (`identification.rs`). Over flights, [`evidence`] sums each fault
+//! mode's log-likelihood ratio in a sequential test.
 
 mod config;
+pub mod evidence;
 mod identification;
 mod selection;
 mod verdict;
