@@ -712,6 +712,47 @@ mod tests {
     }
 
     #[test]
+    fn pooled_recordings_weigh_by_samples_and_one_recording_is_unchanged() {
+        let (a, b) =
+            (self_trace(&FaultVector::HEALTHY), self_trace(&FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5])));
+        let k = FaultVector([0.1, 0.0, 0.0, 0.1, 0.0, 0.0, 0.5, 0.45]);
+        let single =
+            CurrentFit::new(&a, EmaParams::NOMINAL, Profile::STANDARD).unwrap().with_fast_regime_weight(0.1).unwrap();
+        let none: [PooledTrace<'_, 2200>; 0] = [];
+        let same = single.clone().pooled_with(&none).unwrap();
+        assert_eq!(same.error(&k).to_bits(), single.error(&k).to_bits());
+        assert_eq!(same.window_errors(&k), single.window_errors(&k));
+        assert_eq!(same.effective_samples(&k).to_bits(), single.effective_samples(&k).to_bits());
+        // two recordings: E is the sample-weighted mean of the two, n_eff their sum
+        let fit_b =
+            CurrentFit::new(&b, EmaParams::NOMINAL, Profile::STANDARD).unwrap().with_fast_regime_weight(0.1).unwrap();
+        let more = [PooledTrace { trace: &b, command: Command::Profile(Profile::STANDARD) }];
+        let both = single.clone().pooled_with(&more).unwrap();
+        assert_eq!(both.recording_count(), 2);
+        assert_eq!(both.samples(), a.len() + b.len());
+        assert_eq!(both.fast_regime().0.len(), 4, "{:?}", both.fast_regime());
+        let mean = (single.error(&k) + fit_b.error(&k)) / 2.0; // equal lengths
+        assert!((both.error(&k) - mean).abs() <= 1e-5 * mean, "{} vs {mean}", both.error(&k));
+        let n_eff = single.effective_samples(&k) + fit_b.effective_samples(&k);
+        assert!((both.effective_samples(&k) - n_eff).abs() <= 1e-3 * n_eff);
+        let total: f32 = both.window_errors(&k).errors.iter().sum();
+        assert!((total - both.error(&k)).abs() <= 1e-4 * total, "{total}");
+        assert!(
+            (both.mean_sample_weight() - (single.mean_sample_weight() + fit_b.mean_sample_weight()) / 2.0).abs() < 1e-5
+        );
+        // abandoning across recordings: above the bound, or the exact value
+        let exact = both.error(&k);
+        assert!(both.error_abandoning(&k, exact * 0.3) > exact * 0.3);
+        assert_eq!(both.error_abandoning(&k, exact * 2.0), exact);
+        // an unfinished recording or too many are refused
+        let unfinished = MeasuredTrace::<2200>::new();
+        let bad = [PooledTrace { trace: &unfinished, command: Command::Profile(Profile::STANDARD) }];
+        assert_eq!(single.clone().pooled_with(&bad).err(), Some(PoolError::Unfinished { index: 0 }));
+        let many = [more[0]; MAX_POOLED_RECORDINGS];
+        assert_eq!(single.clone().pooled_with(&many).err(), Some(PoolError::TooMany));
+    }
+
+    #[test]
     fn abandoning_returns_above_the_bound_or_the_exact_value() {
         let trace = self_trace(&FaultVector::HEALTHY);
         let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
