@@ -413,7 +413,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
                 sum += rho.at(offset + i) * w_i * r * r;
                 sum <= limit
             });
-            if !(sum <= limit) {
+            if sum.is_nan() || sum > limit {
                 break;
             }
             offset += y.len();

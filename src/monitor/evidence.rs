@@ -225,7 +225,7 @@ fn quadratic_min(e0: f32, (a, ea): (f32, f32), (b, eb): (f32, f32), lo: f32, hi:
     }
     let g = ((ea - e0) * b * b - (eb - e0) * a * a) / det;
     let q = ((eb - e0) * a - (ea - e0) * b) / det;
-    if !(q > 0.0) {
+    if q.is_nan() || q <= 0.0 {
         return measured;
     }
     let s = (-g / (2.0 * q)).clamp(lo, hi);

@@ -3,11 +3,13 @@
 //!
 //! ```text
 //! cd host-tests && cargo run --release -p ema-cli --example flights-to-detection -- \
-//!     [--seeds 4] [--flights 10] [--healthy 20] [--pool 3,10] [--pool-seeds 2] [--verbose]
+//!     [--seeds 4] [--flights 10] [--healthy 20] [--healthy-flights 10] [--pool 3,10]
+//!     [--pool-cases 0,1,…] [--pool-seeds 2] [--verbose]
 //! ```
 //!
 //! Each series is one actuator flown `--flights` times (reference model, standard manoeuvre, sensor
-//! noise with a new seed every flight), identified with the on-board settings. Prints a Markdown
+//! noise with a new seed every flight), identified with the on-board settings; a series stops at
+//! its detection. Each series is reported on stderr as it ends. Prints a Markdown
 //! table: per case, the flights whose own diagnosis holds the fault, the series the sequential
 //! test finds it in and after how many flights, and the pooled fits over the first N flights.
 
@@ -46,13 +48,24 @@ struct Options {
     seeds: u64,
     flights: usize,
     healthy: u64,
+    healthy_flights: usize,
+    pool_cases: Vec<usize>,
     pool: Vec<usize>,
     pool_seeds: u64,
     verbose: bool,
 }
 
 fn parse() -> Result<Options, String> {
-    let mut o = Options { seeds: 4, flights: 10, healthy: 20, pool: vec![3, 10], pool_seeds: 2, verbose: false };
+    let mut o = Options {
+        seeds: 4,
+        flights: 10,
+        healthy: 20,
+        healthy_flights: 10,
+        pool_cases: (0..cases().len()).collect(),
+        pool: vec![3, 10],
+        pool_seeds: 2,
+        verbose: false,
+    };
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         let mut value = || args.next().ok_or(format!("{a} needs a value"));
@@ -60,6 +73,15 @@ fn parse() -> Result<Options, String> {
             "--seeds" => o.seeds = value()?.parse().map_err(|e| format!("--seeds: {e}"))?,
             "--flights" => o.flights = value()?.parse().map_err(|e| format!("--flights: {e}"))?,
             "--healthy" => o.healthy = value()?.parse().map_err(|e| format!("--healthy: {e}"))?,
+            "--healthy-flights" => {
+                o.healthy_flights = value()?.parse().map_err(|e| format!("--healthy-flights: {e}"))?
+            }
+            "--pool-cases" => {
+                o.pool_cases = value()?
+                    .split(',')
+                    .map(|n| n.parse().map_err(|e| format!("--pool-cases: {e}")))
+                    .collect::<Result<_, _>>()?
+            }
             "--pool-seeds" => o.pool_seeds = value()?.parse().map_err(|e| format!("--pool-seeds: {e}"))?,
             "--pool" => {
                 let v = value()?;
@@ -81,18 +103,32 @@ fn parse() -> Result<Options, String> {
 struct Series {
     detected_at: Option<usize>,
     single_hits: usize,
+    flown: usize,
     false_modes: Vec<(usize, usize)>,
     pooled: Vec<(usize, bool, bool)>,
     lines: Vec<String>,
 }
 
-fn series(truth: &FaultVector, mode: Option<usize>, key: u64, o: &Options, pool: bool) -> Series {
-    let traces: Vec<Box<MeasuredTrace<8192>>> =
-        (0..o.flights).map(|f| flight_trace(truth, flight_seed(key, f)).expect("simulation")).collect();
+fn series(truth: &FaultVector, mode: Option<usize>, key: u64, flights: usize, o: &Options, pool: bool) -> Series {
+    let mut traces: Vec<Box<MeasuredTrace<8192>>> = Vec::new();
+    let trace = |traces: &mut Vec<Box<MeasuredTrace<8192>>>, f: usize| {
+        while traces.len() <= f {
+            traces.push(flight_trace(truth, flight_seed(key, traces.len())).expect("simulation"));
+        }
+    };
     let mut evidence = Evidence::NONE;
-    let mut s = Series { detected_at: None, single_hits: 0, false_modes: Vec::new(), pooled: Vec::new(), lines: Vec::new() };
-    for (f, trace) in traces.iter().enumerate() {
-        let r = fly(trace, flight_seed(key, f) ^ 0x55, &mut evidence).expect("identification");
+    let mut s = Series {
+        detected_at: None,
+        single_hits: 0,
+        flown: 0,
+        false_modes: Vec::new(),
+        pooled: Vec::new(),
+        lines: Vec::new(),
+    };
+    for f in 0..flights {
+        trace(&mut traces, f);
+        let r = fly(&traces[f], flight_seed(key, f) ^ 0x55, &mut evidence).expect("identification");
+        s.flown += 1;
         if let Some(m) = mode {
             s.single_hits += usize::from(r.single[m]);
         }
@@ -114,13 +150,15 @@ fn series(truth: &FaultVector, mode: Option<usize>, key: u64, o: &Options, pool:
             ));
         }
         if let Some(m) = mode {
-            if s.detected_at.is_none() && r.decisions[m] == Decision::Present {
+            if r.decisions[m] == Decision::Present {
                 s.detected_at = Some(f + 1);
+                break; // flights-to-detection: the series stops at its detection
             }
         }
     }
     if pool {
         for &n in &o.pool {
+            trace(&mut traces, n - 1);
             let refs: Vec<&MeasuredTrace<8192>> = traces.iter().take(n).map(|t| &**t).collect();
             let report = pooled(&refs, key ^ 0x77).expect("pooled identification");
             let hit = mode.is_some_and(|m| mode_present(&report.faults, m));
@@ -131,6 +169,12 @@ fn series(truth: &FaultVector, mode: Option<usize>, key: u64, o: &Options, pool:
             s.pooled.push((n, hit, false_hit));
         }
     }
+    let label = mode.map_or("healthy", mode_name);
+    eprintln!(
+        "done: {label} key {key}: detected at {:?}, own diagnosis {}/{}, false {:?}, pooled {:?}",
+        s.detected_at, s.single_hits, s.flown, s.false_modes, s.pooled
+    );
+    s.lines.iter().for_each(|l| eprintln!("{l}"));
     s
 }
 
@@ -154,12 +198,15 @@ fn main() -> ExitCode {
         .par_iter()
         .map(|&(c, seed)| {
             let (_, truth, mode) = &all[c];
-            ((c, seed), series(truth, *mode, 1000 * c as u64 + seed, &o, seed < o.pool_seeds))
+            let pool = seed < o.pool_seeds && o.pool_cases.contains(&c);
+            ((c, seed), series(truth, *mode, 1000 * c as u64 + seed, o.flights, &o, pool))
         })
         .collect();
     let healthy: Vec<(u64, Series)> = healthy_jobs
         .par_iter()
-        .map(|&seed| (seed, series(&FaultVector::HEALTHY, None, 900_000 + seed, &o, seed < o.pool_seeds.max(5))))
+        .map(|&seed| {
+            (seed, series(&FaultVector::HEALTHY, None, 900_000 + seed, o.healthy_flights, &o, seed < o.pool_seeds))
+        })
         .collect();
     println!(
         "| case | flights whose own diagnosis has it | series detected by the sequential test (flights to detection) | false modes | {} |",
@@ -175,13 +222,14 @@ fn main() -> ExitCode {
             .pool
             .iter()
             .map(|&n| {
-                let hits: Vec<bool> = rs.iter().flat_map(|s| s.pooled.iter().filter(|p| p.0 == n).map(|p| p.1)).collect();
+                let hits: Vec<bool> =
+                    rs.iter().flat_map(|s| s.pooled.iter().filter(|p| p.0 == n).map(|p| p.1)).collect();
                 format!("{}/{}", hits.iter().filter(|h| **h).count(), hits.len())
             })
             .collect();
         println!(
             "| {label} | {single}/{} | {}/{} ({:?}) | {falses} | {} |",
-            rs.len() * o.flights,
+            rs.iter().map(|s| s.flown).sum::<usize>(),
             detected.len(),
             rs.len(),
             detected,
@@ -193,13 +241,16 @@ fn main() -> ExitCode {
         .pool
         .iter()
         .map(|&n| {
-            let f: Vec<bool> = healthy.iter().flat_map(|(_, s)| s.pooled.iter().filter(|p| p.0 == n).map(|p| p.2)).collect();
+            let f: Vec<bool> =
+                healthy.iter().flat_map(|(_, s)| s.pooled.iter().filter(|p| p.0 == n).map(|p| p.2)).collect();
             format!("{}/{} false", f.iter().filter(|h| **h).count(), f.len())
         })
         .collect();
     let which: Vec<String> = healthy
         .iter()
-        .flat_map(|(seed, s)| s.false_modes.iter().map(move |(m, f)| format!("series {seed}: {} at flight {f}", mode_name(*m))))
+        .flat_map(|(seed, s)| {
+            s.false_modes.iter().map(move |(m, f)| format!("series {seed}: {} at flight {f}", mode_name(*m)))
+        })
         .collect();
     println!(
         "| healthy ({} series) | – | {false_series}/{} series with a false detection {which:?} | – | {} |",
@@ -207,15 +258,5 @@ fn main() -> ExitCode {
         healthy.len(),
         pooled_false.join(" | ")
     );
-    if o.verbose {
-        for ((c, seed), s) in &results {
-            println!("{} seed {seed}:", all[*c].0);
-            s.lines.iter().for_each(|l| println!("{l}"));
-        }
-        for (seed, s) in &healthy {
-            println!("healthy seed {seed}:");
-            s.lines.iter().for_each(|l| println!("{l}"));
-        }
-    }
     ExitCode::SUCCESS
 }

@@ -865,7 +865,13 @@ pub(crate) fn render(
     args: &IdentifyArgs,
 ) -> String {
     let mut out = if args.json {
-        to_json(outcome, effects, command, loaded, args.firmware_trace.as_deref().or(args.files.first().map(PathBuf::as_path)))
+        to_json(
+            outcome,
+            effects,
+            command,
+            loaded,
+            args.firmware_trace.as_deref().or(args.files.first().map(PathBuf::as_path)),
+        )
     } else {
         let mut text = format!(
             "{}\n  command: {}\n  identification took {:.3} s",

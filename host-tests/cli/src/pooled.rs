@@ -14,13 +14,13 @@ use ema_monitor::monitor::{AcquisitionSummary, Identification, IdentifyConfig, M
 use ema_monitor::{Command, EmaParams};
 
 use crate::error::CliError;
-use crate::identify::{command_for, condition_recording_checked_for, resolve_command, IdentifyArgs, ModelCommand};
 use crate::identify::{bits_line, json_body, summary_line, IdentifyJson, Outcome, HOST_WINDOW};
+use crate::identify::{command_for, condition_recording_checked_for, resolve_command, IdentifyArgs, ModelCommand};
+use crate::progress;
+use crate::recording::LoadSummary;
 use crate::schema::Document;
 use ema_monitor::effects::ModelEffects;
 use serde::Serialize;
-use crate::progress;
-use crate::recording::LoadSummary;
 
 /// Identifies one fault vector from several conditioned traces of the actuator `params`, trace
 /// `i` measured under `commands[i]`: the pipeline of [`IdentifyConfig`] on the pooled fitness.
@@ -95,8 +95,7 @@ pub fn run(args: &IdentifyArgs, config: &IdentifyConfig, params: &EmaParams) -> 
     let config = IdentifyConfig { independent_frames_per_block: frames_per_block, ..*config };
     let refs: Vec<&MeasuredTrace<HOST_WINDOW>> = traces.iter().map(|t| &**t).collect();
     let cores: Vec<Command<'_>> = commands.iter().map(ModelCommand::command).collect();
-    let spinner =
-        progress::spinner(format!("identifying {} recordings", files.len()), args.progress.visible());
+    let spinner = progress::spinner(format!("identifying {} recordings", files.len()), args.progress.visible());
     let outcome = identify_pooled(&refs, &cores, params, &config).map_err(|e| pooled_error(first_path, &e));
     spinner.finish_and_clear();
     let mut outcome = outcome?;
