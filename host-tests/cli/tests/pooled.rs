@@ -57,7 +57,7 @@ fn several_recordings_give_one_report_that_says_so() {
     assert_eq!(v["input_file"], s(&a), "{v}");
     schema::check_json("`ema identify --json`", &[&v]);
     // more than ten: refused before anything is read
-    let many: Vec<&str> = std::iter::repeat(s(&a)).take(11).collect();
+    let many: Vec<&str> = std::iter::repeat_n(s(&a), 11).collect();
     let mut args = vec!["identify"];
     args.extend(many);
     common::refused(&args, &["at most 10"]);
