@@ -21,7 +21,7 @@
 //! **Over flights** ([`Evidence::update`]): a CUSUM-type sum with a floor,
 //!
 //! ```text
-//! S_F = max(S_{F−1} + λ_F − c_m, −h_m),   h_m = P_m − c_m,   P_m = (p_m/2)·ln n
+//! S_F = max(S_{F−1} + λ_F − c_m, −h_m),   h_m = max(P_m − c_m, P_m/2),   P_m = (p_m/2)·ln n
 //! ```
 //!
 //! `P_m` is model selection's price of the mode's `p_m` parameters (half the BIC's
