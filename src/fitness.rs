@@ -64,6 +64,12 @@ pub const MAX_FAST_INTERVALS: usize = 8;
 /// `MAX_POOLED_RECORDINGS − 1` more.
 pub const MAX_POOLED_RECORDINGS: usize = 10;
 
+/// Most fast-regime intervals a fitness keeps in all: [`MAX_FAST_INTERVALS`] for the first
+/// recording and two (the standard manoeuvre's) for each pooled one; intervals beyond weigh 1.
+/// Sized for the pooled recordings without growing the on-board fitness' stack by more than a
+/// few hundred bytes.
+pub const MAX_POOLED_FAST_INTERVALS: usize = MAX_FAST_INTERVALS + 2 * (MAX_POOLED_RECORDINGS - 1);
+
 /// One more recording of the same actuator for a pooled fitness ([`CurrentFit::pooled_with`]):
 /// a finished measured trace and the command it was measured under.
 #[derive(Clone, Copy, Debug)]
@@ -212,7 +218,7 @@ pub struct CurrentFit<'a, const W: usize> {
     more: &'a [PooledTrace<'a, W>],
     /// Window-sample intervals `[start, end)` of the fast regime, in order, indexed over the
     /// recordings in turn (the first one's samples, then the next one's, …).
-    fast_intervals: Vec<(u32, u32), { MAX_FAST_INTERVALS * MAX_POOLED_RECORDINGS }>,
+    fast_intervals: Vec<(u32, u32), MAX_POOLED_FAST_INTERVALS>,
     /// Their weight `ρ` (1: the paper's fitness).
     fast_weight: f32,
 }
@@ -279,14 +285,15 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
     }
 
     /// Finds the fast-regime intervals of every recording (none at weight 1): one run of the
-    /// healthy model per recording, at most [`MAX_FAST_INTERVALS`] per recording.
+    /// healthy model per recording, at most [`MAX_FAST_INTERVALS`] per recording and
+    /// [`MAX_POOLED_FAST_INTERVALS`] in all.
     fn find_fast_intervals(&mut self) {
         self.fast_intervals.clear();
         if self.fast_weight == 1.0 {
             return;
         }
         let mut offset = 0u32;
-        for (trace, command) in recordings(self.trace, self.command, self.more) {
+        for (trace, command) in recordings(self.trace, &self.command, self.more) {
             let mut start: Option<u32> = None;
             let mut kept = 0usize;
             let intervals = &mut self.fast_intervals;
@@ -350,7 +357,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
 
     /// `true` when every recording covers its whole command ([`crate::monitor::covers`]).
     pub fn covers_commands(&self) -> bool {
-        recordings(self.trace, self.command, self.more)
+        recordings(self.trace, &self.command, self.more)
             .all(|(t, c)| crate::monitor::covers(t.len(), c.duration_s(&self.params), &self.params))
     }
 
@@ -403,7 +410,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
         let mut sum = 0.0f32;
         let mut rho = self.regime_weights();
         let mut offset = 0usize;
-        for (trace, command) in recordings(self.trace, self.command, self.more) {
+        for (trace, command) in recordings(self.trace, &self.command, self.more) {
             let (y, w) = (trace.current_a(), trace.weight());
             simulate_window_with_effects(&self.params, command, k, &self.effects, y.len(), |i, model_a, _| {
                 // i < n and a finished trace has one weight per sample: `get` never misses (a miss
@@ -460,10 +467,10 @@ impl core::fmt::Display for PoolError {
 /// The recordings of a fitness in turn: the first (`trace` under `command`), then `more`.
 fn recordings<'s, 'a: 's, const W: usize>(
     trace: &'a MeasuredTrace<W>,
-    command: Command<'a>,
+    command: &'s Command<'a>,
     more: &'s [PooledTrace<'a, W>],
-) -> impl Iterator<Item = (&'a MeasuredTrace<W>, Command<'a>)> + 's {
-    core::iter::once((trace, command)).chain(more.iter().map(|p| (p.trace, p.command)))
+) -> impl Iterator<Item = (&'a MeasuredTrace<W>, &'s Command<'a>)> + 's {
+    core::iter::once((trace, command)).chain(more.iter().map(|p| (p.trace, &p.command)))
 }
 
 impl<const W: usize> CurrentFit<'_, W> {
@@ -484,7 +491,7 @@ impl<const W: usize> CurrentFit<'_, W> {
         // the loop is compiled (the sampled command's loop is out of line)
         let per_window = NonZeroUsize::new(window_samples).unwrap_or(NonZeroUsize::MIN);
         let mut offset = 0usize;
-        for (trace, command) in recordings(self.trace, self.command, self.more) {
+        for (trace, command) in recordings(self.trace, &self.command, self.more) {
             let (y, w) = (trace.current_a(), trace.weight());
             simulate_window_with_effects(&self.params, command, k, &self.effects, y.len(), |i, model_a, _| {
                 let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
@@ -511,7 +518,7 @@ impl<const W: usize> CurrentFit<'_, W> {
         let mut rho = self.regime_weights();
         let mut sum = 0.0f32;
         let mut offset = 0usize;
-        for (trace, _) in recordings(self.trace, self.command, self.more) {
+        for (trace, _) in recordings(self.trace, &self.command, self.more) {
             let w = trace.weight();
             sum += w.iter().enumerate().map(|(i, wi)| rho.at(offset + i) * wi).sum::<f32>();
             offset += w.len();
@@ -538,7 +545,7 @@ impl<const W: usize> CurrentFit<'_, W> {
         let window_samples = EVIDENCE_WINDOW_SAMPLES.max(self.samples().div_ceil(MAX_EVIDENCE_WINDOWS));
         let (mut n_eff, mut windows, mut offset) = (0.0f32, 0usize, 0usize);
         let mut rho = self.regime_weights();
-        for (trace, command) in recordings(self.trace, self.command, self.more) {
+        for (trace, command) in recordings(self.trace, &self.command, self.more) {
             let (y, w) = (trace.current_a(), trace.weight());
             let n = y.len();
             let (mut sum_sq, mut sum_lag, mut previous) = (0.0f32, 0.0f32, 0.0f32);
