@@ -21,6 +21,13 @@
 //! rest lets the mismatch pull the estimate (a short circuit drawing a spurious eccentricity).
 //! Their terms are multiplied by `ρ` ([`FAST_REGIME_WEIGHT`] in the monitor's configuration):
 //! `E(k) = (1/n)·Σ_i ρ_i·w_i·r_i²`, `ρ_i = ρ` in the fast regime, 1 elsewhere.
+//!
+//! **Pooled recordings** ([`CurrentFit::pooled_with`]): one fault vector fitted to several
+//! recordings of one actuator (several flights). Each recording is simulated from rest under its
+//! own command, and the terms of all of them are summed and divided by their total sample count
+//! `n = Σ_r n_r`, so `E` stays a sample-weighted mean in A² and one recording gives exactly the
+//! single-trace value. The effective samples, the mean sample weight and the evidence windows see
+//! every recording (`docs/decisions/0020-evidence-over-flights.md`).
 
 use crate::command::{Command, CommandCursor, CommandSource, SampledCursor};
 use crate::conditioning::{ConditioningError, MeasuredEnvelope, MeasuredTrace, SensorErrorEnvelope, DECIMATION};
@@ -49,8 +56,29 @@ pub fn fast_regime_weight_is_valid(weight: f32) -> bool {
     weight > 0.0 && weight <= 1.0
 }
 
-/// Most fast-regime intervals a fitness keeps (the standard manoeuvre has 2; later ones weigh 1).
+/// Most fast-regime intervals a fitness keeps per recording (the standard manoeuvre has 2; later
+/// ones weigh 1).
 pub const MAX_FAST_INTERVALS: usize = 8;
+
+/// Most recordings one fitness pools ([`CurrentFit::pooled_with`]): the first one and up to
+/// `MAX_POOLED_RECORDINGS − 1` more.
+pub const MAX_POOLED_RECORDINGS: usize = 10;
+
+/// Most fast-regime intervals a fitness keeps in all: [`MAX_FAST_INTERVALS`] for the first
+/// recording and two (the standard manoeuvre's) for each pooled one; intervals beyond weigh 1.
+/// Sized for the pooled recordings without growing the on-board fitness' stack by more than a
+/// few hundred bytes.
+pub const MAX_POOLED_FAST_INTERVALS: usize = MAX_FAST_INTERVALS + 2 * (MAX_POOLED_RECORDINGS - 1);
+
+/// One more recording of the same actuator for a pooled fitness ([`CurrentFit::pooled_with`]):
+/// a finished measured trace and the command it was measured under.
+#[derive(Clone, Copy, Debug)]
+pub struct PooledTrace<'a, const W: usize> {
+    /// The measured trace ([`MeasuredTrace::finish`]ed).
+    pub trace: &'a MeasuredTrace<W>,
+    /// The command (a [`crate::Profile`] or a sampled command) the trace was measured under.
+    pub command: Command<'a>,
+}
 
 /// Window samples per evidence window ([`CurrentFit::window_errors`]): 100, i.e. 40 ms, about
 /// one reversal's transient. Longer traces get longer windows so that there are at most
@@ -60,15 +88,15 @@ pub const EVIDENCE_WINDOW_SAMPLES: usize = 100;
 /// Most evidence windows a trace is split into.
 pub const MAX_EVIDENCE_WINDOWS: usize = 96;
 
-/// `E(k)` split over consecutive windows of the trace: `errors[j]` holds the terms
-/// `(1/n)·ρ_i·w_i·r_i²` of window `j`, so the windows sum to `E(k)`.
+/// `E(k)` split over consecutive windows of the trace (of the recordings in turn, when pooled):
+/// `errors[j]` holds the terms `(1/n)·ρ_i·w_i·r_i²` of window `j`, so the windows sum to `E(k)`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WindowErrors {
     /// Per-window parts of `E(k)` (A²), the unused tail zero.
     pub errors: [f32; MAX_EVIDENCE_WINDOWS],
     /// Window samples per window (the last one may be shorter).
     pub window_samples: usize,
-    /// Window samples of the whole trace.
+    /// Window samples of the whole trace (of every recording, when pooled).
     pub samples: usize,
 }
 
@@ -186,8 +214,11 @@ pub struct CurrentFit<'a, const W: usize> {
     params: EmaParams,
     command: Command<'a>,
     effects: ModelEffects,
-    /// Window-sample intervals `[start, end)` of the fast regime, in order.
-    fast_intervals: Vec<(u32, u32), MAX_FAST_INTERVALS>,
+    /// The recordings pooled after the first ([`CurrentFit::pooled_with`]; empty: one recording).
+    more: &'a [PooledTrace<'a, W>],
+    /// Window-sample intervals `[start, end)` of the fast regime, in order, indexed over the
+    /// recordings in turn (the first one's samples, then the next one's, …).
+    fast_intervals: Vec<(u32, u32), MAX_POOLED_FAST_INTERVALS>,
     /// Their weight `ρ` (1: the paper's fitness).
     fast_weight: f32,
 }
@@ -235,6 +266,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
             params,
             command: command.into(),
             effects: ModelEffects::NONE,
+            more: &[],
             fast_intervals: Vec::new(),
             fast_weight: 1.0,
         })
@@ -247,31 +279,86 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
         if !fast_regime_weight_is_valid(weight) {
             return None;
         }
-        self.fast_intervals.clear();
         self.fast_weight = weight;
-        if weight == 1.0 {
-            return Some(self);
-        }
-        let mut start: Option<u32> = None;
-        let intervals = &mut self.fast_intervals;
-        let n = self.trace.len();
-        simulate_window(&self.params, self.command, &FaultVector::HEALTHY, n, |i, _, state| {
-            let fast = libm::fabsf(state.motor_speed_rad_s) > FAST_REGIME_SPEED_RAD_S;
-            match (fast, start) {
-                (true, None) => start = Some(i as u32),
-                (false, Some(s)) => {
-                    start = None;
-                    // more than MAX_FAST_INTERVALS: the rest keep weight 1
-                    let _ = intervals.push((s, i as u32));
-                }
-                _ => {}
-            }
-            true
-        });
-        if let Some(s) = start {
-            let _ = intervals.push((s, n as u32));
-        }
+        self.find_fast_intervals();
         Some(self)
+    }
+
+    /// Finds the fast-regime intervals of every recording (none at weight 1): one run of the
+    /// healthy model per recording, at most [`MAX_FAST_INTERVALS`] per recording and
+    /// [`MAX_POOLED_FAST_INTERVALS`] in all.
+    fn find_fast_intervals(&mut self) {
+        self.fast_intervals.clear();
+        if self.fast_weight == 1.0 {
+            return;
+        }
+        let mut offset = 0u32;
+        for (trace, command) in recordings(self.trace, &self.command, self.more) {
+            let mut start: Option<u32> = None;
+            let mut kept = 0usize;
+            let intervals = &mut self.fast_intervals;
+            let n = trace.len();
+            let mut keep = |interval: (u32, u32)| {
+                // more than MAX_FAST_INTERVALS in one recording: the rest keep weight 1
+                if kept < MAX_FAST_INTERVALS && intervals.push(interval).is_ok() {
+                    kept += 1;
+                }
+            };
+            simulate_window(&self.params, command, &FaultVector::HEALTHY, n, |i, _, state| {
+                let fast = libm::fabsf(state.motor_speed_rad_s) > FAST_REGIME_SPEED_RAD_S;
+                match (fast, start) {
+                    (true, None) => start = Some(offset + i as u32),
+                    (false, Some(s)) => {
+                        start = None;
+                        keep((s, offset + i as u32));
+                    }
+                    _ => {}
+                }
+                true
+            });
+            if let Some(s) = start {
+                keep((s, offset + n as u32));
+            }
+            offset += n as u32;
+        }
+    }
+
+    /// The same fitness pooled over `more` recordings of the same actuator besides the first
+    /// (module doc): `E(k)` over all of them, each simulated from rest under its own command. At
+    /// most [`MAX_POOLED_RECORDINGS`] in all; a recording not finished, or longer than its command
+    /// by more than one control period, is refused.
+    pub fn pooled_with(mut self, more: &'a [PooledTrace<'a, W>]) -> Result<Self, PoolError> {
+        if more.len() + 1 > MAX_POOLED_RECORDINGS {
+            return Err(PoolError::TooMany);
+        }
+        for (index, p) in more.iter().enumerate() {
+            if !p.trace.is_finished() {
+                return Err(PoolError::Unfinished { index });
+            }
+            let trace_s = (p.trace.len() * DECIMATION) as f32 * self.params.control_period_s;
+            if trace_s > p.command.duration_s(&self.params) + self.params.control_period_s {
+                return Err(PoolError::LongerThanCommand { index });
+            }
+        }
+        self.more = more;
+        self.find_fast_intervals();
+        Ok(self)
+    }
+
+    /// Recordings in the fitness: 1, or 1 + the pooled ones.
+    pub fn recording_count(&self) -> usize {
+        1 + self.more.len()
+    }
+
+    /// Window samples of every recording together (`n` of `E(k)`).
+    pub fn samples(&self) -> usize {
+        self.trace.len() + self.more.iter().map(|p| p.trace.len()).sum::<usize>()
+    }
+
+    /// `true` when every recording covers its whole command ([`crate::monitor::covers`]).
+    pub fn covers_commands(&self) -> bool {
+        recordings(self.trace, &self.command, self.more)
+            .all(|(t, c)| crate::monitor::covers(t.len(), c.duration_s(&self.params), &self.params))
     }
 
     /// The fast-regime intervals `[start, end)` in window samples, and their weight.
@@ -295,12 +382,12 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
         &self.effects
     }
 
-    /// The command that drives the model.
+    /// The command that drives the model (on the first recording).
     pub fn command(&self) -> &Command<'a> {
         &self.command
     }
 
-    /// The measured trace.
+    /// The (first) measured trace.
     pub fn trace(&self) -> &'a MeasuredTrace<W> {
         self.trace
     }
@@ -313,9 +400,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
     /// `E(k)`, or any value above `abandon_above` as soon as the partial sum exceeds it.
     /// A non-finite result is returned as `f32::INFINITY`.
     pub fn error_abandoning(&self, k: &FaultVector, abandon_above: f32) -> f32 {
-        let y = self.trace.current_a();
-        let w = self.trace.weight();
-        let n = y.len();
+        let n = self.samples();
         if n == 0 {
             return f32::INFINITY;
         }
@@ -324,14 +409,22 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
         let limit = if abandon_above.is_finite() { abandon_above * n as f32 } else { f32::INFINITY };
         let mut sum = 0.0f32;
         let mut rho = self.regime_weights();
-        simulate_window_with_effects(&self.params, self.command, k, &self.effects, n, |i, model_a, _| {
-            // i < n and a finished trace has one weight per sample: `get` never misses (a miss
-            // would end the sum; it exists so that no panic path does).
-            let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
-            let r = y_i - model_a;
-            sum += rho.at(i) * w_i * r * r;
-            sum <= limit
-        });
+        let mut offset = 0usize;
+        for (trace, command) in recordings(self.trace, &self.command, self.more) {
+            let (y, w) = (trace.current_a(), trace.weight());
+            simulate_window_with_effects(&self.params, command, k, &self.effects, y.len(), |i, model_a, _| {
+                // i < n and a finished trace has one weight per sample: `get` never misses (a miss
+                // would end the sum; it exists so that no panic path does).
+                let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
+                let r = y_i - model_a;
+                sum += rho.at(offset + i) * w_i * r * r;
+                sum <= limit
+            });
+            if sum.is_nan() || sum > limit {
+                break;
+            }
+            offset += y.len();
+        }
         let e = sum * inv_n;
         if e.is_finite() {
             e
@@ -341,13 +434,51 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
     }
 }
 
+/// Why [`CurrentFit::pooled_with`] refused the recordings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PoolError {
+    /// More than [`MAX_POOLED_RECORDINGS`] recordings.
+    TooMany,
+    /// The pooled recording `index` is not finished ([`MeasuredTrace::finish`]).
+    Unfinished {
+        /// Its index among the pooled ones (0: the second recording).
+        index: usize,
+    },
+    /// The pooled recording `index` is longer than its command.
+    LongerThanCommand {
+        /// Its index among the pooled ones (0: the second recording).
+        index: usize,
+    },
+}
+
+impl core::fmt::Display for PoolError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            PoolError::TooMany => write!(f, "more than {MAX_POOLED_RECORDINGS} recordings to pool"),
+            PoolError::Unfinished { index } => write!(f, "pooled recording {} is not finished", index + 2),
+            PoolError::LongerThanCommand { index } => {
+                write!(f, "pooled recording {} is longer than its command", index + 2)
+            }
+        }
+    }
+}
+
+/// The recordings of a fitness in turn: the first (`trace` under `command`), then `more`.
+fn recordings<'s, 'a: 's, const W: usize>(
+    trace: &'a MeasuredTrace<W>,
+    command: &'s Command<'a>,
+    more: &'s [PooledTrace<'a, W>],
+) -> impl Iterator<Item = (&'a MeasuredTrace<W>, &'s Command<'a>)> + 's {
+    core::iter::once((trace, command)).chain(more.iter().map(|p| (p.trace, &p.command)))
+}
+
 impl<const W: usize> CurrentFit<'_, W> {
     /// `E(k)` split over windows of [`EVIDENCE_WINDOW_SAMPLES`] (more when the trace would need
-    /// more than [`MAX_EVIDENCE_WINDOWS`]): one model run.
+    /// more than [`MAX_EVIDENCE_WINDOWS`]): one model run per recording. Pooled recordings are
+    /// windowed in turn, as one long trace.
     pub fn window_errors(&self, k: &FaultVector) -> WindowErrors {
-        let y = self.trace.current_a();
-        let w = self.trace.weight();
-        let n = y.len();
+        let n = self.samples();
         let window_samples = EVIDENCE_WINDOW_SAMPLES.max(n.div_ceil(MAX_EVIDENCE_WINDOWS));
         let mut out = WindowErrors { errors: [0.0; MAX_EVIDENCE_WINDOWS], window_samples, samples: n };
         if n == 0 {
@@ -359,89 +490,94 @@ impl<const W: usize> CurrentFit<'_, W> {
         // ≥ EVIDENCE_WINDOW_SAMPLES; as a non-zero type the division has no panic path wherever
         // the loop is compiled (the sampled command's loop is out of line)
         let per_window = NonZeroUsize::new(window_samples).unwrap_or(NonZeroUsize::MIN);
-        simulate_window_with_effects(&self.params, self.command, k, &self.effects, n, |i, model_a, _| {
-            let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
-            let r = y_i - model_a;
-            if let Some(e) = errors.get_mut(i / per_window) {
-                *e += rho.at(i) * w_i * r * r * inv_n;
-            }
-            true
-        });
+        let mut offset = 0usize;
+        for (trace, command) in recordings(self.trace, &self.command, self.more) {
+            let (y, w) = (trace.current_a(), trace.weight());
+            simulate_window_with_effects(&self.params, command, k, &self.effects, y.len(), |i, model_a, _| {
+                let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
+                let r = y_i - model_a;
+                let at = offset + i;
+                if let Some(e) = errors.get_mut(at / per_window) {
+                    *e += rho.at(at) * w_i * r * r * inv_n;
+                }
+                true
+            });
+            offset += y.len();
+        }
         out
     }
 
-    /// Mean weight `w̄ = (1/n)·Σ_i ρ_i·w_i` of the samples in `E(k)`: a residual of variance `s²`
-    /// per sample gives `E ≈ w̄·s²` (the goodness-of-fit test, [`crate::health::FitCheck`]).
+    /// Mean weight `w̄ = (1/n)·Σ_i ρ_i·w_i` of the samples in `E(k)` (of every recording): a
+    /// residual of variance `s²` per sample gives `E ≈ w̄·s²` (the goodness-of-fit test,
+    /// [`crate::health::FitCheck`]).
     pub fn mean_sample_weight(&self) -> f32 {
-        let w = self.trace.weight();
-        if w.is_empty() {
+        let n = self.samples();
+        if n == 0 {
             return 0.0;
         }
         let mut rho = self.regime_weights();
-        let sum: f32 = w.iter().enumerate().map(|(i, wi)| rho.at(i) * wi).sum();
-        sum / w.len() as f32
+        let mut sum = 0.0f32;
+        let mut offset = 0usize;
+        for (trace, _) in recordings(self.trace, &self.command, self.more) {
+            let w = trace.weight();
+            sum += w.iter().enumerate().map(|(i, wi)| rho.at(offset + i) * wi).sum::<f32>();
+            offset += w.len();
+        }
+        sum / n as f32
     }
 
     /// Effective number of independent samples in the weighted residual `u_i = √w_i·r_i` of `k`:
     /// `n_eff = n·(1 − ρ)/(1 + ρ)` with `ρ = Σu_i u_{i−1} / Σu_i²` the lag-1 autocorrelation
     /// (clamped to `[0, 0.99]`), the usual AR(1) correction of the sample count (Bartlett 1946):
     /// the block means of a filtered noise are not independent, and an information criterion
-    /// that counted every sample would keep parameters that only fit noise.
+    /// that counted every sample would keep parameters that only fit noise. Pooled recordings are
+    /// independent of each other: their counts add, each with its own `ρ`.
     pub fn effective_samples(&self, k: &FaultVector) -> f32 {
-        let y = self.trace.current_a();
-        let w = self.trace.weight();
-        let (mut sum_sq, mut sum_lag, mut previous) = (0.0f32, 0.0f32, 0.0f32);
-        let mut rho = self.regime_weights();
-        simulate_window_with_effects(&self.params, self.command, k, &self.effects, y.len(), |i, model_a, _| {
-            let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
-            let u = libm::sqrtf(rho.at(i) * w_i) * (y_i - model_a);
-            sum_sq += u * u;
-            sum_lag += u * previous;
-            previous = u;
-            true
-        });
-        let rho = if sum_sq > 0.0 && sum_lag.is_finite() { sum_lag / sum_sq } else { 0.0 };
-        let rho = clamp_unit(rho, 0.99);
-        y.len() as f32 * (1.0 - rho) / (1.0 + rho)
+        self.residual_windows(k, |_, _| {}).0
     }
 
     /// [`CurrentFit::effective_samples`] of `k` and, from the same model run, the residual sums of
-    /// each evidence window (the windows of [`CurrentFit::window_errors`]) handed to
-    /// `sink(window, sums)` at the window's end: the goodness-of-fit test's two statistics
-    /// ([`crate::health::FitCheck`]). Returns `n_eff` and the number of windows handed to `sink`.
+    /// each evidence window (the windows of [`CurrentFit::window_errors`], which also end at the
+    /// end of each pooled recording) handed to `sink(window, sums)` at the window's end: the
+    /// goodness-of-fit test's two statistics ([`crate::health::FitCheck`]). Returns `n_eff` and
+    /// the number of windows handed to `sink`.
     pub fn residual_windows(&self, k: &FaultVector, mut sink: impl FnMut(usize, &WindowResidual)) -> (f32, usize) {
-        let y = self.trace.current_a();
-        let w = self.trace.weight();
-        let n = y.len();
-        let window_samples = EVIDENCE_WINDOW_SAMPLES.max(n.div_ceil(MAX_EVIDENCE_WINDOWS));
-        let (mut sum_sq, mut sum_lag, mut previous) = (0.0f32, 0.0f32, 0.0f32);
-        let (mut window, mut windows) = (WindowResidual::default(), 0usize);
+        let window_samples = EVIDENCE_WINDOW_SAMPLES.max(self.samples().div_ceil(MAX_EVIDENCE_WINDOWS));
+        let (mut n_eff, mut windows, mut offset) = (0.0f32, 0usize, 0usize);
         let mut rho = self.regime_weights();
-        simulate_window_with_effects(&self.params, self.command, k, &self.effects, n, |i, model_a, _| {
-            let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
-            let v = rho.at(i) * w_i;
-            let r = y_i - model_a;
-            let u = libm::sqrtf(v) * r;
-            sum_sq += u * u;
-            sum_lag += u * previous;
-            if window.samples > 0 {
-                window.lag += u * previous;
-            }
-            previous = u;
-            window.samples += 1;
-            window.weighted_sq += u * u;
-            window.weight += v;
-            // counted, not divided: no division by the window length on the on-board path
-            if window.samples as usize >= window_samples || i + 1 == n {
-                sink(windows, &window);
-                windows += 1;
-                window = WindowResidual::default();
-            }
-            true
-        });
-        let rho = if sum_sq > 0.0 && sum_lag.is_finite() { sum_lag / sum_sq } else { 0.0 };
-        let rho = clamp_unit(rho, 0.99);
-        (n as f32 * (1.0 - rho) / (1.0 + rho), windows)
+        for (trace, command) in recordings(self.trace, &self.command, self.more) {
+            let (y, w) = (trace.current_a(), trace.weight());
+            let n = y.len();
+            let (mut sum_sq, mut sum_lag, mut previous) = (0.0f32, 0.0f32, 0.0f32);
+            let mut window = WindowResidual::default();
+            simulate_window_with_effects(&self.params, command, k, &self.effects, n, |i, model_a, _| {
+                let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
+                let v = rho.at(offset + i) * w_i;
+                let r = y_i - model_a;
+                let u = libm::sqrtf(v) * r;
+                sum_sq += u * u;
+                sum_lag += u * previous;
+                if window.samples > 0 {
+                    window.lag += u * previous;
+                }
+                previous = u;
+                window.samples += 1;
+                window.weighted_sq += u * u;
+                window.weight += v;
+                // counted, not divided: no division by the window length on the on-board path
+                if window.samples as usize >= window_samples || i + 1 == n {
+                    sink(windows, &window);
+                    windows += 1;
+                    window = WindowResidual::default();
+                }
+                true
+            });
+            let r = if sum_sq > 0.0 && sum_lag.is_finite() { sum_lag / sum_sq } else { 0.0 };
+            let r = clamp_unit(r, 0.99);
+            n_eff += n as f32 * (1.0 - r) / (1.0 + r);
+            offset += n;
+        }
+        (n_eff, windows)
     }
 }
 
@@ -580,6 +716,47 @@ mod tests {
         let total: f32 = w.errors.iter().sum();
         let e = fit.error(&k);
         assert!((total - e).abs() <= 1e-5 * e, "{total} vs {e}");
+    }
+
+    #[test]
+    fn pooled_recordings_weigh_by_samples_and_one_recording_is_unchanged() {
+        let (a, b) =
+            (self_trace(&FaultVector::HEALTHY), self_trace(&FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5])));
+        let k = FaultVector([0.1, 0.0, 0.0, 0.1, 0.0, 0.0, 0.5, 0.45]);
+        let single =
+            CurrentFit::new(&a, EmaParams::NOMINAL, Profile::STANDARD).unwrap().with_fast_regime_weight(0.1).unwrap();
+        let none: [PooledTrace<'_, 2200>; 0] = [];
+        let same = single.clone().pooled_with(&none).unwrap();
+        assert_eq!(same.error(&k).to_bits(), single.error(&k).to_bits());
+        assert_eq!(same.window_errors(&k), single.window_errors(&k));
+        assert_eq!(same.effective_samples(&k).to_bits(), single.effective_samples(&k).to_bits());
+        // two recordings: E is the sample-weighted mean of the two, n_eff their sum
+        let fit_b =
+            CurrentFit::new(&b, EmaParams::NOMINAL, Profile::STANDARD).unwrap().with_fast_regime_weight(0.1).unwrap();
+        let more = [PooledTrace { trace: &b, command: Command::Profile(Profile::STANDARD) }];
+        let both = single.clone().pooled_with(&more).unwrap();
+        assert_eq!(both.recording_count(), 2);
+        assert_eq!(both.samples(), a.len() + b.len());
+        assert_eq!(both.fast_regime().0.len(), 4, "{:?}", both.fast_regime());
+        let mean = (single.error(&k) + fit_b.error(&k)) / 2.0; // equal lengths
+        assert!((both.error(&k) - mean).abs() <= 1e-5 * mean, "{} vs {mean}", both.error(&k));
+        let n_eff = single.effective_samples(&k) + fit_b.effective_samples(&k);
+        assert!((both.effective_samples(&k) - n_eff).abs() <= 1e-3 * n_eff);
+        let total: f32 = both.window_errors(&k).errors.iter().sum();
+        assert!((total - both.error(&k)).abs() <= 1e-4 * total, "{total}");
+        assert!(
+            (both.mean_sample_weight() - (single.mean_sample_weight() + fit_b.mean_sample_weight()) / 2.0).abs() < 1e-5
+        );
+        // abandoning across recordings: above the bound, or the exact value
+        let exact = both.error(&k);
+        assert!(both.error_abandoning(&k, exact * 0.3) > exact * 0.3);
+        assert_eq!(both.error_abandoning(&k, exact * 2.0), exact);
+        // an unfinished recording or too many are refused
+        let unfinished = MeasuredTrace::<2200>::new();
+        let bad = [PooledTrace { trace: &unfinished, command: Command::Profile(Profile::STANDARD) }];
+        assert_eq!(single.clone().pooled_with(&bad).err(), Some(PoolError::Unfinished { index: 0 }));
+        let many = [more[0]; MAX_POOLED_RECORDINGS];
+        assert_eq!(single.clone().pooled_with(&many).err(), Some(PoolError::TooMany));
     }
 
     #[test]

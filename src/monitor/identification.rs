@@ -13,7 +13,7 @@ use super::MODEL_MISMATCH_A;
 use crate::command::Command;
 use crate::conditioning::{ConditioningError, MeasuredTrace, DECIMATION};
 use crate::faults::{FaultVector, FAULT_COUNT};
-use crate::fitness::CurrentFit;
+use crate::fitness::{CurrentFit, PooledTrace};
 use crate::health::{window_score, Abstain, FitCheck, HealthReport, Status as HealthStatus};
 use crate::optimizer::de::{DeConfig, DifferentialEvolution};
 use crate::optimizer::ga::{GaConfig, Genetic};
@@ -219,6 +219,14 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         self.warm.map(|w| w.report)
     }
 
+    /// The same identification with `more` recordings of the same actuator pooled after the
+    /// first: one fault vector fitted to all of them ([`CurrentFit::pooled_with`]). Call it before
+    /// the first [`Identification::step`].
+    pub fn pooled_with(mut self, more: &'a [PooledTrace<'a, W>]) -> Result<Self, MonitorError> {
+        self.fit = self.fit.pooled_with(more).map_err(MonitorError::Pool)?;
+        Ok(self)
+    }
+
     /// One objective evaluation (one monitor-model run over the trace, possibly abandoned early).
     pub fn step(&mut self) -> Status {
         match &mut self.stage {
@@ -422,7 +430,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         let report = HealthReport { fit_check: Some(check), ..report };
         let report =
             if check.passes() { report } else { report.abstaining(HealthStatus::Inconclusive(Abstain::PoorFit)) };
-        if super::covers(self.fit.trace().len(), self.fit.command().duration_s(&self.params), &self.params) {
+        if self.fit.covers_commands() {
             report
         } else {
             report.abstaining(HealthStatus::Inconclusive(Abstain::PartialCoverage))

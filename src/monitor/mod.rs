@@ -10,9 +10,11 @@
 //! selection (`selection.rs`: each fault group must pay for its parameters), and the polish of the
 //! groups kept by a compass search (`identification.rs`). A warm start from the previous flight's
 //! diagnosis replaces the global search by the prior and adds new-fault probes (`warm.rs`,
-//! [`Identification::warm`]).
+//! [`Identification::warm`]). Over flights, [`evidence`] sums each fault mode's log-likelihood
+//! ratio in a sequential test.
 
 mod config;
+pub mod evidence;
 mod identification;
 mod selection;
 mod verdict;
@@ -38,6 +40,7 @@ pub use warm::{
 
 use crate::acquisition::{AcquisitionError, PhaseCurrents};
 use crate::conditioning::{ConditioningError, MeasuredTrace};
+use crate::fitness::PoolError;
 use crate::optimizer::ConfigError;
 
 /// Why an identification could not start.
@@ -58,6 +61,8 @@ pub enum MonitorError {
     /// The prior of a warm start is not a fault vector (a non-finite element, or one outside
     /// `[0, 1]`).
     Prior,
+    /// The recordings to pool were refused.
+    Pool(PoolError),
 }
 
 impl core::fmt::Display for MonitorError {
@@ -71,6 +76,7 @@ impl core::fmt::Display for MonitorError {
             }
             MonitorError::FastRegimeWeight => f.write_str("the fast-regime weight is not in (0, 1]"),
             MonitorError::Prior => f.write_str("the prior of a warm start is not a fault vector in [0, 1]"),
+            MonitorError::Pool(e) => write!(f, "recordings refused: {e}"),
         }
     }
 }

@@ -260,9 +260,11 @@ pub fn recorded_command(
 /// Arguments of `ema identify`.
 #[derive(Args, Debug, Clone)]
 pub struct IdentifyArgs {
-    /// Recording CSV to identify (docs/recordings.md: columns, delimiter, 5-100 kHz, trimming).
-    #[arg(required_unless_present = "firmware_trace", conflicts_with = "firmware_trace")]
-    pub file: Option<PathBuf>,
+    /// Recording CSV to identify (docs/recordings.md: columns, delimiter, 5-100 kHz, trimming);
+    /// several recordings of one actuator (at most 10) are fitted by one fault vector
+    /// (`pooled over N recordings`), each read with the same flags.
+    #[arg(value_name = "FILE", required_unless_present = "firmware_trace", conflicts_with = "firmware_trace")]
+    pub files: Vec<PathBuf>,
     /// How to read the recording.
     #[command(flatten)]
     pub recording: RecordingArgs,
@@ -376,7 +378,11 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
     let config = method_flags(config, args.paper_only, args.fast_regime_weight);
     let mut loaded = None;
     let params = args.params.load()?;
-    let (outcome, command) = match (&args.firmware_trace, &args.file) {
+    if args.files.len() > 1 && args.firmware_trace.is_none() {
+        let pooled = crate::pooled::run(args, &config, &params)?;
+        return Ok(crate::pooled::render(&pooled, &config.effects, args));
+    }
+    let (outcome, command) = match (&args.firmware_trace, args.files.first()) {
         (Some(path), _) => match firmware_trace_outcome(&read_firmware_trace(path)?, &params, &config) {
             Ok(outcome) => (outcome, ModelCommand::Profile { profile: Profile::STANDARD, name: "standard".to_owned() }),
             Err(refusal) => {
@@ -923,7 +929,7 @@ pub fn to_json(
     Document::new(input_file, json_body(outcome, effects, command, loaded)).to_json()
 }
 
-fn render(
+pub(crate) fn render(
     outcome: &Outcome,
     effects: &ModelEffects,
     command: &ModelCommand,
@@ -931,7 +937,13 @@ fn render(
     args: &IdentifyArgs,
 ) -> String {
     let mut out = if args.json {
-        to_json(outcome, effects, command, loaded, args.firmware_trace.as_deref().or(args.file.as_deref()))
+        to_json(
+            outcome,
+            effects,
+            command,
+            loaded,
+            args.firmware_trace.as_deref().or(args.files.first().map(PathBuf::as_path)),
+        )
     } else {
         let mut text = format!(
             "{}\n  command: {}\n  identification took {:.3} s",
