@@ -52,6 +52,7 @@ pub mod monitor;
 pub mod optimizer;
 pub mod params;
 pub mod profile;
+pub mod prognosis;
 #[cfg(feature = "defmt")]
 pub mod report_log;
 mod six_step;

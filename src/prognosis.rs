@@ -1,0 +1,525 @@
+//! Trend and remaining useful life (RUL) per fault mode, from the diagnoses of past flights.
+//!
+//! The monitor identifies the fault vector once per flight; its purpose is prognostics, the
+//! flights left before a fault mode reaches [`FAILING_AT`] (Dalla Vedova, Berri, Re, ICSRS 2018,
+//! §I: fault detection and identification is the first step toward the RUL). This module keeps a
+//! short history of the per-mode severities ([`History`], a ring buffer of
+//! [`HISTORY_CAPACITY`] flights, the part of the health record that survives power cycles) and
+//! fits a trend to each mode ([`Trend`]) from which it reads the crossing of the failing
+//! threshold with an interval ([`Crossing`]). No allocation, no panic, no `unsafe`.
+//!
+//! **Trend law.** A straight line in the flight number, `s(f) = a + b·(f − f̄)`, fitted by
+//! (weighted) least squares. The faults the monitor tracks (wear of bearings and gears, insulation
+//! ageing, gain drift) grow slowly against the span of the history: over 16 flights a linear law
+//! is the first-order expansion of any smooth growth, it has the fewest parameters (two: the
+//! history holds few points and each carries the identification's scatter), and its interval has
+//! an exact form. A curved growth makes the line late on an accelerating fault, which the refit
+//! after each flight corrects as the history slides (`docs/decisions/0021-trend-and-rul.md`).
+//!
+//! **Weights.** A point may carry the identification's 1σ of its severity; when every point of a
+//! mode has one, the fit weighs each by `w = 1/σ²`, otherwise every weight is 1. The residual
+//! scale is estimated from the fit in both cases, `s² = Σ w·r²/(n − 2)`, so weights need only be
+//! right relative to each other: `SE(b) = s/√S_xx`, `S_xx = Σ w·(f − f̄)²`, `f̄ = Σ w·f / Σ w`.
+//!
+//! **Interval.** The flight `f*` at which the line reaches the threshold `T` is a ratio,
+//! `f* = f̄ + (T − a)/b`, of the two fitted coefficients, which are independent under the
+//! centred parametrisation. Fieller's theorem (Fieller 1954; the calibration interval of inverse
+//! regression, Draper and Smith, *Applied Regression Analysis*, §3.2) gives its confidence set as
+//! the flights at which the line's confidence band contains `T`:
+//! `(a − T + b·d)² ≤ t²·s²·(1/Σw + d²/S_xx)`, `d = f − f̄`, `t` Student's quantile with `n − 2`
+//! degrees of freedom at [`RUL_CONFIDENCE`]. Its ends are the roots of a quadratic: when the
+//! slope is significant (`b > t·SE(b)`) the set is the bounded interval between them; otherwise
+//! the line's lower band never reaches `T` and the interval has no upper end
+//! ([`Crossing::upper`] is `None`). The lower end is a one-sided 95 % bound on the crossing
+//! flight: the earliest flight the data do not rule out, the one maintenance plans against.
+//!
+//! **When there is no RUL.** Fewer than [`MIN_POINTS`] points (two coefficients and one degree
+//! of freedom for the scatter), a slope that is not positive, or non-finite inputs give `None`.
+
+use crate::health::{FaultMode, HealthReport, FAILING_AT};
+
+/// Flights the history holds: the oldest is dropped when a new one comes.
+pub const HISTORY_CAPACITY: usize = 16;
+
+/// Fewest points a trend is fitted to: two coefficients and one degree of freedom for the scatter.
+pub const MIN_POINTS: usize = 3;
+
+/// Two-sided confidence of the interval on the crossing flight (its lower end is a one-sided
+/// 95 % bound).
+pub const RUL_CONFIDENCE: f32 = 0.90;
+
+/// Number of fault modes a history entry holds ([`FaultMode::ALL`]).
+pub const MODES: usize = FaultMode::ALL.len();
+
+/// One flight's severity of one mode.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Point {
+    /// The flight number.
+    pub flight: u32,
+    /// The mode's severity in `[0, 1]` ([`crate::health::ModeReport::severity`]).
+    pub severity: f32,
+    /// The severity's 1σ; not finite or not positive when unknown.
+    pub sigma: f32,
+}
+
+impl Point {
+    /// `true` when the point carries a usable 1σ (finite and positive).
+    pub fn has_sigma(&self) -> bool {
+        self.sigma.is_finite() && self.sigma > 0.0
+    }
+}
+
+/// One flight of the history: its number and, per mode in [`FaultMode::ALL`] order, the severity
+/// and its 1σ (`NaN` when unknown).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Entry {
+    /// The flight number (increasing along the history).
+    pub flight: u32,
+    /// Severity per mode.
+    pub severity: [f32; MODES],
+    /// 1σ of each severity; `NaN` when unknown.
+    pub sigma: [f32; MODES],
+}
+
+impl Entry {
+    /// An entry without 1σ values.
+    pub const fn new(flight: u32, severity: [f32; MODES]) -> Self {
+        Self { flight, severity, sigma: [f32::NAN; MODES] }
+    }
+
+    /// The severities of `report` for flight `flight`, without 1σ values. Only a report whose
+    /// status is a diagnosis belongs in a history ([`crate::health::Status::is_diagnosis`]).
+    pub fn from_report(flight: u32, report: &HealthReport) -> Self {
+        let mut severity = [0.0; MODES];
+        for (s, m) in severity.iter_mut().zip(&report.modes) {
+            *s = m.severity;
+        }
+        Self::new(flight, severity)
+    }
+
+    /// The entry with `sigma` as the 1σ of each severity.
+    pub const fn with_sigma(self, sigma: [f32; MODES]) -> Self {
+        Self { sigma, ..self }
+    }
+
+    /// The point of mode `mode`.
+    pub fn point(&self, mode: FaultMode) -> Point {
+        let i = mode_index(mode);
+        Point {
+            flight: self.flight,
+            severity: self.severity.get(i).copied().unwrap_or(f32::NAN),
+            sigma: self.sigma.get(i).copied().unwrap_or(f32::NAN),
+        }
+    }
+}
+
+/// The index of `mode` in [`FaultMode::ALL`].
+pub const fn mode_index(mode: FaultMode) -> usize {
+    match mode {
+        FaultMode::Friction => 0,
+        FaultMode::Backlash => 1,
+        FaultMode::ShortCircuit => 2,
+        FaultMode::Eccentricity => 3,
+        FaultMode::GainDrift => 4,
+    }
+}
+
+/// The last [`HISTORY_CAPACITY`] flights' severities, oldest first: a ring buffer of fixed size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct History {
+    entries: [Entry; HISTORY_CAPACITY],
+    /// Entries held.
+    len: u8,
+    /// Slot of the next entry.
+    next: u8,
+}
+
+impl Default for History {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl History {
+    /// An empty history.
+    pub const fn new() -> Self {
+        Self { entries: [Entry::new(0, [0.0; MODES]); HISTORY_CAPACITY], len: 0, next: 0 }
+    }
+
+    /// Adds `entry`, dropping the oldest when the history is full.
+    pub fn push(&mut self, entry: Entry) {
+        let slot = usize::from(self.next) % HISTORY_CAPACITY;
+        if let Some(e) = self.entries.get_mut(slot) {
+            *e = entry;
+        }
+        self.next = ((slot + 1) % HISTORY_CAPACITY) as u8;
+        if usize::from(self.len) < HISTORY_CAPACITY {
+            self.len += 1;
+        }
+    }
+
+    /// Entries held.
+    pub const fn len(&self) -> usize {
+        self.len as usize
+    }
+
+    /// `true` when no flight is held.
+    pub const fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Forgets every flight (after a maintenance action that repairs the actuator).
+    pub fn clear(&mut self) {
+        *self = Self::new();
+    }
+
+    /// The entries, oldest first.
+    pub fn iter(&self) -> impl Iterator<Item = &Entry> + Clone + '_ {
+        let len = self.len();
+        let start = (usize::from(self.next) + HISTORY_CAPACITY - len) % HISTORY_CAPACITY;
+        (0..len).filter_map(move |i| self.entries.get((start + i) % HISTORY_CAPACITY))
+    }
+
+    /// The newest entry.
+    pub fn last(&self) -> Option<&Entry> {
+        self.iter().last()
+    }
+
+    /// The points of mode `mode`, oldest first.
+    pub fn points(&self, mode: FaultMode) -> impl Iterator<Item = Point> + Clone + '_ {
+        self.iter().map(move |e| e.point(mode))
+    }
+
+    /// The trend and crossing of mode `mode` ([`Prognosis::of`]).
+    pub fn prognosis(&self, mode: FaultMode) -> Option<Prognosis> {
+        let now = self.last()?.flight;
+        Prognosis::of(self.points(mode), now)
+    }
+}
+
+/// A straight line fitted to a mode's severities against the flight number (module doc).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Trend {
+    /// Points fitted.
+    pub points: u16,
+    /// `true` when the points' 1σ weighed the fit.
+    pub weighted: bool,
+    /// The weighted mean flight `f̄`.
+    pub mean_flight: f32,
+    /// The line's value at `f̄`, `a`.
+    pub level: f32,
+    /// The slope `b`, severity per flight.
+    pub slope: f32,
+    /// The slope's standard error `s/√S_xx`.
+    pub slope_se: f32,
+    /// The residual scale `s` (in units of a weight-1 point's severity).
+    pub residual_scale: f32,
+    /// `Σ w`.
+    pub weight_sum: f32,
+    /// `S_xx = Σ w·(f − f̄)²`.
+    pub sxx: f32,
+}
+
+impl Trend {
+    /// The least-squares line through `points` (weighted by `1/σ²` when every point has a 1σ);
+    /// `None` for fewer than [`MIN_POINTS`] points, points all at one flight, or a non-finite
+    /// severity.
+    pub fn fit<I>(points: I) -> Option<Self>
+    where
+        I: IntoIterator<Item = Point>,
+        I::IntoIter: Clone,
+    {
+        let points = points.into_iter();
+        let weighted = points.clone().all(|p| p.has_sigma());
+        let weight = |p: &Point| if weighted { 1.0 / (p.sigma * p.sigma) } else { 1.0 };
+        // sums in f64 would cost a soft-float routine per operation on the MCU; the flights are
+        // centred on the first one so that f32 keeps the precision of small differences
+        let origin = points.clone().next()?.flight;
+        let x = |p: &Point| p.flight.wrapping_sub(origin) as i32 as f32;
+        let (mut n, mut w_sum, mut wx, mut wy) = (0usize, 0.0f32, 0.0f32, 0.0f32);
+        for p in points.clone() {
+            if !p.severity.is_finite() {
+                return None;
+            }
+            let w = weight(&p);
+            n += 1;
+            w_sum += w;
+            wx += w * x(&p);
+            wy += w * p.severity;
+        }
+        if n < MIN_POINTS || !(w_sum > 0.0 && w_sum.is_finite()) {
+            return None;
+        }
+        let (x_bar, y_bar) = (wx / w_sum, wy / w_sum);
+        let (mut sxx, mut sxy) = (0.0f32, 0.0f32);
+        for p in points.clone() {
+            let (w, dx) = (weight(&p), x(&p) - x_bar);
+            sxx += w * dx * dx;
+            sxy += w * dx * (p.severity - y_bar);
+        }
+        if !(sxx > 0.0) {
+            return None;
+        }
+        let slope = sxy / sxx;
+        let mut rss = 0.0f32;
+        for p in points {
+            let r = p.severity - y_bar - slope * (x(&p) - x_bar);
+            rss += weight(&p) * r * r;
+        }
+        let residual_scale = libm::sqrtf(rss / (n - 2) as f32);
+        Some(Self {
+            points: n.min(usize::from(u16::MAX)) as u16,
+            weighted,
+            mean_flight: origin as f32 + x_bar,
+            level: y_bar,
+            slope,
+            slope_se: residual_scale / libm::sqrtf(sxx),
+            residual_scale,
+            weight_sum: w_sum,
+            sxx,
+        })
+    }
+
+    /// The line's severity at flight `flight`.
+    pub fn at(&self, flight: f32) -> f32 {
+        self.level + self.slope * (flight - self.mean_flight)
+    }
+
+    /// Degrees of freedom of the residual scale, `n − 2`.
+    pub const fn degrees_of_freedom(&self) -> u32 {
+        (self.points as u32).saturating_sub(2)
+    }
+
+    /// The half-width of the line's confidence band at flight `flight`,
+    /// `t·s·√(1/Σw + (f − f̄)²/S_xx)`.
+    pub fn band(&self, flight: f32) -> f32 {
+        let d = flight - self.mean_flight;
+        let t = student_t_95(self.degrees_of_freedom());
+        t * self.residual_scale * libm::sqrtf(1.0 / self.weight_sum + d * d / self.sxx)
+    }
+
+    /// The flight at which the line reaches `threshold`, with Fieller's interval (module doc);
+    /// `None` when the slope is not positive or the inputs are not finite.
+    pub fn crossing(&self, threshold: f32) -> Option<Crossing> {
+        let b = self.slope;
+        if !(b > 0.0) || !threshold.is_finite() || !self.level.is_finite() || !self.residual_scale.is_finite() {
+            return None;
+        }
+        let c = self.level - threshold;
+        let flight = self.mean_flight - c / b;
+        let t = student_t_95(self.degrees_of_freedom());
+        let ts2 = t * t * self.residual_scale * self.residual_scale;
+        // (c + b·d)² ≤ t²s²(1/W + d²/S_xx)  ⇔  A·d² + 2bc·d + C ≤ 0
+        let qa = b * b - ts2 / self.sxx;
+        let qb = b * c;
+        let qc = c * c - ts2 / self.weight_sum;
+        let disc = qb * qb - qa * qc;
+        let root = |sign: f32| (-qb + sign * libm::sqrtf(disc.max(0.0))) / qa;
+        let (lower, upper) = if qa > 0.0 {
+            // significant slope: the bounded interval between the roots (disc ≥ 0 since the
+            // point estimate d = −c/b satisfies the inequality)
+            (self.mean_flight + root(-1.0), Some(self.mean_flight + root(1.0)))
+        } else if disc > 0.0 && qa < 0.0 {
+            // the upper band reaches T at the larger root; the lower band never does
+            (self.mean_flight + root(-1.0).max(root(1.0)), None)
+        } else {
+            // the band contains T at every flight: no bound either way before now
+            (f32::NEG_INFINITY, None)
+        };
+        Some(Crossing { flight, lower: lower.min(flight), upper: upper.map(|u| u.max(flight)) })
+    }
+}
+
+/// The flight at which a trend reaches a threshold, and its confidence interval at
+/// [`RUL_CONFIDENCE`] (flight numbers, not rounded).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Crossing {
+    /// The line's crossing flight.
+    pub flight: f32,
+    /// The interval's lower end (`−∞` when the data bound it nowhere).
+    pub lower: f32,
+    /// The interval's upper end; `None` when the slope is not significant at the confidence and
+    /// the crossing may lie arbitrarily late.
+    pub upper: Option<f32>,
+}
+
+impl Crossing {
+    /// `true` when `flight` lies in the interval.
+    pub fn contains(&self, flight: f32) -> bool {
+        flight >= self.lower && self.upper.is_none_or(|u| flight <= u)
+    }
+}
+
+/// A mode's trend and, when it rises, the flights remaining until [`FAILING_AT`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Prognosis {
+    /// The fitted line.
+    pub trend: Trend,
+    /// The last flight of the history.
+    pub now: u32,
+    /// The crossing of [`FAILING_AT`]; `None` when the trend does not rise.
+    pub failing: Option<Crossing>,
+}
+
+impl Prognosis {
+    /// The trend of `points` and its crossing of [`FAILING_AT`] seen from flight `now`; `None`
+    /// when no trend can be fitted ([`Trend::fit`]).
+    pub fn of<I>(points: I, now: u32) -> Option<Self>
+    where
+        I: IntoIterator<Item = Point>,
+        I::IntoIter: Clone,
+    {
+        let trend = Trend::fit(points)?;
+        Some(Self { trend, now, failing: trend.crossing(FAILING_AT) })
+    }
+
+    /// Flights remaining from `now` to the crossing: the point estimate and the interval
+    /// `(estimate, lower, upper)`, each at least 0 (a crossing in the past is due now), the
+    /// upper `None` when unbounded.
+    pub fn remaining(&self) -> Option<(f32, f32, Option<f32>)> {
+        let c = self.failing?;
+        let now = self.now as f32;
+        let left = |f: f32| (f - now).max(0.0);
+        Some((left(c.flight), left(c.lower), c.upper.map(left)))
+    }
+}
+
+/// Student's t quantile `t_{0.95, ν}` (two-sided 90 %, [`RUL_CONFIDENCE`]): tabulated for
+/// `ν ≤ 30` (three decimals), beyond it the Cornish–Fisher expansion
+/// `z + (z³ + z)/(4ν) + (5z⁵ + 16z³ + 3z)/(96ν²)` (Abramowitz and Stegun 26.7.5), `z = 1.6449`.
+/// `ν = 0` gives `+∞`.
+pub fn student_t_95(nu: u32) -> f32 {
+    const TABLE: [f32; 30] = [
+        6.314, 2.920, 2.353, 2.132, 2.015, 1.943, 1.895, 1.860, 1.833, 1.812, 1.796, 1.782, 1.771, 1.761, 1.753,
+        1.746, 1.740, 1.734, 1.729, 1.725, 1.721, 1.717, 1.714, 1.711, 1.708, 1.706, 1.703, 1.701, 1.699, 1.697,
+    ];
+    if nu == 0 {
+        return f32::INFINITY;
+    }
+    if let Some(&t) = TABLE.get(nu as usize - 1) {
+        return t;
+    }
+    let (z, v) = (1.644_854f32, nu as f32);
+    let z3 = z * z * z;
+    z + (z3 + z) / (4.0 * v) + (5.0 * z3 * z * z + 16.0 * z3 + 3.0 * z) / (96.0 * v * v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn line(a: f32, b: f32, flights: core::ops::RangeInclusive<u32>) -> impl Iterator<Item = Point> + Clone {
+        flights.map(move |f| Point { flight: f, severity: a + b * f as f32, sigma: f32::NAN })
+    }
+
+    #[test]
+    fn an_exact_line_gives_the_exact_crossing() {
+        // 0.05 + 0.03·f reaches 0.5 at flight 15
+        let p = Prognosis::of(line(0.05, 0.03, 1..=8), 8).expect("a trend");
+        assert!((p.trend.slope - 0.03).abs() < 1e-6 && p.trend.slope_se < 1e-5, "{p:?}");
+        let c = p.failing.expect("rising");
+        assert!((c.flight - 15.0).abs() < 1e-3, "{c:?}");
+        assert!((c.lower - 15.0).abs() < 1e-2 && (c.upper.unwrap() - 15.0).abs() < 1e-2, "{c:?}");
+        let (left, lo, hi) = p.remaining().unwrap();
+        assert!((left - 7.0).abs() < 1e-3 && (lo - 7.0).abs() < 1e-2 && (hi.unwrap() - 7.0).abs() < 1e-2);
+        // past the threshold: due now
+        let late = Prognosis::of(line(0.3, 0.05, 1..=8), 8).unwrap();
+        assert_eq!(late.remaining().unwrap().0, 0.0);
+    }
+
+    #[test]
+    fn no_rul_when_flat_falling_or_too_short() {
+        assert!(Prognosis::of(line(0.2, 0.0, 1..=6), 6).unwrap().failing.is_none());
+        assert!(Prognosis::of(line(0.4, -0.01, 1..=6), 6).unwrap().failing.is_none());
+        assert!(Prognosis::of(line(0.1, 0.05, 1..=2), 2).is_none());
+        let same_flight = [Point { flight: 3, severity: 0.1, sigma: f32::NAN }; 4];
+        assert!(Trend::fit(same_flight).is_none());
+        let nan = [0.1, f32::NAN, 0.3].map(|s| Point { flight: 1, severity: s, sigma: f32::NAN });
+        assert!(Trend::fit(nan).is_none());
+    }
+
+    #[test]
+    fn the_history_is_a_ring_of_sixteen() {
+        let mut h = History::new();
+        assert!(h.is_empty() && h.prognosis(FaultMode::Friction).is_none());
+        for f in 1..=20u32 {
+            h.push(Entry::new(f, [0.01 * f as f32, 0.0, 0.0, 0.0, 0.0]));
+        }
+        assert_eq!(h.len(), HISTORY_CAPACITY);
+        let flights: std::vec::Vec<u32> = h.iter().map(|e| e.flight).collect();
+        assert_eq!(flights, (5..=20).collect::<std::vec::Vec<_>>());
+        assert_eq!(h.last().unwrap().flight, 20);
+        let p = h.prognosis(FaultMode::Friction).unwrap();
+        assert!((p.failing.unwrap().flight - 50.0).abs() < 1e-2, "{p:?}");
+        assert!(h.prognosis(FaultMode::Backlash).unwrap().failing.is_none());
+        h.clear();
+        assert!(h.is_empty());
+    }
+
+    #[test]
+    fn weights_follow_the_sigma_of_every_point() {
+        // an outlier with a large 1σ barely moves a weighted fit
+        let mut pts: std::vec::Vec<Point> =
+            line(0.0, 0.04, 1..=6).map(|p| Point { sigma: 0.01, ..p }).collect();
+        pts[2].severity += 0.2;
+        pts[2].sigma = 1.0;
+        let weighted = Trend::fit(pts.iter().copied()).unwrap();
+        assert!(weighted.weighted && (weighted.slope - 0.04).abs() < 1e-3, "{weighted:?}");
+        // one point without 1σ: every weight is 1, and the outlier pulls the slope
+        pts[0].sigma = f32::NAN;
+        let plain = Trend::fit(pts.iter().copied()).unwrap();
+        assert!(!plain.weighted && (plain.slope - 0.04).abs() > 5e-3, "{plain:?}");
+    }
+
+    #[test]
+    fn student_quantiles() {
+        assert_eq!(student_t_95(0), f32::INFINITY);
+        assert_eq!(student_t_95(1), 6.314);
+        assert_eq!(student_t_95(30), 1.697);
+        // textbook: t(0.95, 40) = 1.684, t(0.95, 120) = 1.658
+        assert!((student_t_95(40) - 1.684).abs() < 2e-3, "{}", student_t_95(40));
+        assert!((student_t_95(120) - 1.658).abs() < 1e-3, "{}", student_t_95(120));
+    }
+
+    /// SplitMix64 and Box–Muller: Gaussian noise for the coverage test.
+    struct Rng(u64);
+    impl Rng {
+        fn unit(&mut self) -> f64 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        }
+        fn normal(&mut self) -> f32 {
+            let (u, v) = (self.unit().max(1e-300), self.unit());
+            ((-2.0 * u.ln()).sqrt() * (2.0 * core::f64::consts::PI * v).cos()) as f32
+        }
+    }
+
+    #[test]
+    fn the_interval_covers_the_true_crossing_at_its_confidence() {
+        // 0.05 + 0.03·f (true crossing at flight 15), 10 flights, identification scatter 1σ = 0.03
+        let (seeds, mut covered, mut bounded) = (400u32, 0u32, 0u32);
+        for seed in 0..seeds {
+            let mut rng = Rng(u64::from(seed) * 7919 + 1);
+            let pts: std::vec::Vec<Point> = line(0.05, 0.03, 1..=10)
+                .map(|p| Point { severity: p.severity + 0.03 * rng.normal(), ..p })
+                .collect();
+            let Some(c) = Prognosis::of(pts.iter().copied(), 10).and_then(|p| p.failing) else {
+                continue;
+            };
+            covered += u32::from(c.contains(15.0));
+            bounded += u32::from(c.upper.is_some());
+        }
+        let rate = covered as f32 / seeds as f32;
+        assert!((0.85..=0.95).contains(&rate), "coverage {rate}");
+        assert!(bounded > seeds * 9 / 10, "bounded {bounded}");
+    }
+}
