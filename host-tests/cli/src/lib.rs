@@ -21,6 +21,7 @@ pub mod compare;
 pub mod discover;
 pub mod error;
 pub mod firmware_trace;
+pub mod history;
 pub mod identify;
 pub mod input;
 pub mod output;
