@@ -290,6 +290,10 @@ pub struct ModeJson {
     /// The true crossing flight (under `--simulate`; null: never).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub true_crossing_flight: Option<Option<f64>>,
+    /// The predicted crossing minus the true one, in flights (under `--simulate`; null when
+    /// either is missing).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub crossing_error_flights: Option<Option<f64>>,
     /// First faulty flight (under `--simulate`; null: never faulty).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub onset_flight: Option<Option<u32>>,
@@ -460,6 +464,7 @@ fn modes_json(series: &Series, laws: &[Law], params: &EmaParams) -> Vec<ModeJson
             let reported = |f: &FlightJson| f.status_is_diagnosis() && f.severity[i] > PRESENT_SEVERITY;
             let detected = onset.and_then(|o| series.flights.iter().find(|f| f.flight >= o && reported(f)))
                 .map(|f| f.flight);
+            let truth = true_crossing(laws, i, f64::from(FAILING_AT));
             let false_reports =
                 series.flights.iter().filter(|f| reported(f) && onset.is_none_or(|o| f.flight < o)).count() as u32;
             ModeJson {
@@ -473,7 +478,9 @@ fn modes_json(series: &Series, laws: &[Law], params: &EmaParams) -> Vec<ModeJson
                 remaining_flights: rem.map(|r| r.0),
                 remaining_lower_flights: rem.map(|r| r.1),
                 remaining_upper_flights: rem.and_then(|r| r.2),
-                true_crossing_flight: simulated.then(|| true_crossing(laws, i, f64::from(FAILING_AT))),
+                true_crossing_flight: simulated.then_some(truth),
+                crossing_error_flights: simulated
+                    .then(|| c.zip(truth).map(|(c, t)| (f64::from(c.flight) - t) * 100.0).map(|e| e.round() / 100.0)),
                 onset_flight: simulated.then_some(onset),
                 detected_flight: simulated.then_some(detected),
                 false_reports: simulated.then_some(false_reports),
@@ -544,17 +551,17 @@ pub fn text(doc: &HistoryJson) -> String {
         100.0 * doc.confidence
     );
     if simulated {
-        let _ = write!(out, " true crossing | onset | detected | false reports |");
+        let _ = write!(out, " true crossing | crossing error | onset | detected | false reports |");
     }
-    let _ = writeln!(out, "\n|{}", "---|".repeat(if simulated { 9 } else { 5 }));
+    let _ = writeln!(out, "\n|{}", "---|".repeat(if simulated { 10 } else { 5 }));
     for m in &doc.modes {
         let interval = match (m.crossing_flight, m.crossing_lower_flight, m.crossing_upper_flight) {
             (None, ..) => "–".to_owned(),
-            (Some(_), lo, hi) => format!("[{}, {}]", opt(lo, 1), hi.map_or("∞".to_owned(), |h| format!("{h:.1}"))),
+            (Some(_), lo, hi) => format!("[{}, {}]", opt(lo, 2), hi.map_or("∞".to_owned(), |h| format!("{h:.2}"))),
         };
         let left = match (m.remaining_flights, m.remaining_lower_flights, m.remaining_upper_flights) {
             (Some(r), Some(lo), hi) => {
-                format!("{r:.1} [{lo:.1}, {}]", hi.map_or("∞".to_owned(), |h| format!("{h:.1}")))
+                format!("{r:.2} [{lo:.2}, {}]", hi.map_or("∞".to_owned(), |h| format!("{h:.2}")))
             }
             _ => "–".to_owned(),
         };
@@ -562,13 +569,14 @@ pub fn text(doc: &HistoryJson) -> String {
             (Some(b), Some(se)) => format!("{b:.4} ± {se:.4}"),
             _ => "–".to_owned(),
         };
-        let _ = write!(out, "| {} | {slope} | {} | {interval} | {left} |", m.mode, opt(m.crossing_flight, 1));
+        let _ = write!(out, "| {} | {slope} | {} | {interval} | {left} |", m.mode, opt(m.crossing_flight, 2));
         if simulated {
             let flight = |v: Option<Option<u32>>| v.flatten().map_or("–".to_owned(), |f| f.to_string());
             let _ = write!(
                 out,
-                " {} | {} | {} | {} |",
-                m.true_crossing_flight.flatten().map_or("–".to_owned(), |f| format!("{f:.1}")),
+                " {} | {} | {} | {} | {} |",
+                m.true_crossing_flight.flatten().map_or("–".to_owned(), |f| format!("{f:.2}")),
+                m.crossing_error_flights.flatten().map_or("–".to_owned(), |e| format!("{e:+.2}")),
                 flight(m.onset_flight),
                 flight(m.detected_flight),
                 m.false_reports.unwrap_or(0)
