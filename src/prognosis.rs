@@ -261,7 +261,7 @@ impl Trend {
             sxx += w * dx * dx;
             sxy += w * dx * (p.severity - y_bar);
         }
-        if !(sxx > 0.0) {
+        if sxx.is_nan() || sxx <= 0.0 {
             return None;
         }
         let slope = sxy / sxx;
@@ -306,7 +306,12 @@ impl Trend {
     /// `None` when the slope is not positive or the inputs are not finite.
     pub fn crossing(&self, threshold: f32) -> Option<Crossing> {
         let b = self.slope;
-        if !(b > 0.0) || !threshold.is_finite() || !self.level.is_finite() || !self.residual_scale.is_finite() {
+        if b.is_nan()
+            || b <= 0.0
+            || !threshold.is_finite()
+            || !self.level.is_finite()
+            || !self.residual_scale.is_finite()
+        {
             return None;
         }
         let c = self.level - threshold;
@@ -396,8 +401,8 @@ impl Prognosis {
 /// `ν = 0` gives `+∞`.
 pub fn student_t_95(nu: u32) -> f32 {
     const TABLE: [f32; 30] = [
-        6.314, 2.920, 2.353, 2.132, 2.015, 1.943, 1.895, 1.860, 1.833, 1.812, 1.796, 1.782, 1.771, 1.761, 1.753,
-        1.746, 1.740, 1.734, 1.729, 1.725, 1.721, 1.717, 1.714, 1.711, 1.708, 1.706, 1.703, 1.701, 1.699, 1.697,
+        6.314, 2.920, 2.353, 2.132, 2.015, 1.943, 1.895, 1.860, 1.833, 1.812, 1.796, 1.782, 1.771, 1.761, 1.753, 1.746,
+        1.740, 1.734, 1.729, 1.725, 1.721, 1.717, 1.714, 1.711, 1.708, 1.706, 1.703, 1.701, 1.699, 1.697,
     ];
     if nu == 0 {
         return f32::INFINITY;
@@ -465,8 +470,7 @@ mod tests {
     #[test]
     fn weights_follow_the_sigma_of_every_point() {
         // an outlier with a large 1σ barely moves a weighted fit
-        let mut pts: std::vec::Vec<Point> =
-            line(0.0, 0.04, 1..=6).map(|p| Point { sigma: 0.01, ..p }).collect();
+        let mut pts: std::vec::Vec<Point> = line(0.0, 0.04, 1..=6).map(|p| Point { sigma: 0.01, ..p }).collect();
         pts[2].severity += 0.2;
         pts[2].sigma = 1.0;
         let weighted = Trend::fit(pts.iter().copied()).unwrap();
@@ -511,9 +515,8 @@ mod tests {
         let (seeds, mut covered, mut bounded, mut slope_only) = (400u32, 0u32, 0u32, 0u32);
         for seed in 0..seeds {
             let mut rng = Rng(u64::from(seed) * 7919 + 1);
-            let pts: std::vec::Vec<Point> = line(0.05, 0.03, 1..=10)
-                .map(|p| Point { severity: p.severity + 0.03 * rng.normal(), ..p })
-                .collect();
+            let pts: std::vec::Vec<Point> =
+                line(0.05, 0.03, 1..=10).map(|p| Point { severity: p.severity + 0.03 * rng.normal(), ..p }).collect();
             let Some(p) = Prognosis::of(pts.iter().copied(), 10) else { continue };
             let Some(c) = p.failing else { continue };
             covered += u32::from(c.contains(15.0));

@@ -462,8 +462,8 @@ fn modes_json(series: &Series, laws: &[Law], params: &EmaParams) -> Vec<ModeJson
             };
             let onset = series.flights.iter().find(|f| truth_severity(f) > 0.0).map(|f| f.flight);
             let reported = |f: &FlightJson| f.status_is_diagnosis() && f.severity[i] > PRESENT_SEVERITY;
-            let detected = onset.and_then(|o| series.flights.iter().find(|f| f.flight >= o && reported(f)))
-                .map(|f| f.flight);
+            let detected =
+                onset.and_then(|o| series.flights.iter().find(|f| f.flight >= o && reported(f))).map(|f| f.flight);
             let truth = true_crossing(laws, i, f64::from(FAILING_AT));
             let false_reports =
                 series.flights.iter().filter(|f| reported(f) && onset.is_none_or(|o| f.flight < o)).count() as u32;
@@ -498,8 +498,7 @@ impl FlightJson {
 /// The document of a finished series.
 pub fn document(series: &Series, laws: &[Law], args: &HistoryArgs, params: &EmaParams) -> HistoryJson {
     let mean = |start: Start| {
-        let errs: Vec<f32> =
-            series.flights.iter().filter(|f| f.start == start).filter_map(|f| f.err_percent).collect();
+        let errs: Vec<f32> = series.flights.iter().filter(|f| f.start == start).filter_map(|f| f.err_percent).collect();
         (!errs.is_empty()).then(|| errs.iter().sum::<f32>() / errs.len() as f32)
     };
     HistoryJson {
@@ -617,9 +616,7 @@ pub fn plot(doc: &HistoryJson, series: &Series) -> std::io::Result<String> {
     let last = doc.flights.last().map_or(1.0, |f| f64::from(f.flight));
     let mut x_max = last + 1.0;
     let points: Vec<Vec<(f64, f64)>> = (0..5)
-        .map(|i| {
-            series.history.iter().map(|e| (f64::from(e.flight), f64::from(e.severity[i]))).collect::<Vec<_>>()
-        })
+        .map(|i| series.history.iter().map(|e| (f64::from(e.flight), f64::from(e.severity[i]))).collect::<Vec<_>>())
         .collect();
     let mut shown = Vec::new();
     for (i, mode) in FaultMode::ALL.iter().enumerate() {

@@ -294,12 +294,7 @@ pub struct SeveritySeries<'a> {
 /// Severity against flight: per mode its diagnoses (points joined by a line), its trend and the
 /// interval on the flight at which it reaches `threshold` (a shaded band), the threshold as a
 /// horizontal line; the flight axis runs to `last_flight`.
-pub fn severity_plot(
-    title: &str,
-    series: &[SeveritySeries],
-    threshold: f64,
-    last_flight: f64,
-) -> io::Result<String> {
+pub fn severity_plot(title: &str, series: &[SeveritySeries], threshold: f64, last_flight: f64) -> io::Result<String> {
     render_svg((960, 460), |root| draw_severity(root, title, series, threshold, last_flight))
 }
 
