@@ -43,7 +43,7 @@ fn six_flights_of_growing_friction_bracket_the_true_rul() {
     let friction = &v["modes"][0];
     assert_eq!(friction["mode"], "friction");
     let truth = friction["true_crossing_flight"].as_f64().unwrap();
-    assert!((truth - 12.25).abs() < 0.011, "{friction}");
+    assert!((truth - 12.25).abs() < 1e-4, "{friction}");
     let (lo, hi) = (friction["crossing_lower_flight"].as_f64().unwrap(), friction["crossing_upper_flight"].as_f64());
     let hi = hi.expect("a significant slope bounds the interval");
     assert!(lo <= truth && truth <= hi, "true crossing {truth} outside [{lo}, {hi}]");
