@@ -11,7 +11,9 @@
 //! for any of them (the solver, the polish, model selection and the effect terms included), not
 //! only for the on-board defaults. The command that drives the model is the profile or, chosen
 //! through `black_box`, a sampled command built from it at any stride (its checked constructor
-//! and the interpolating cursor included).
+//! and the interpolating cursor included). The health record (decoded from bytes of any content,
+//! the flight appended, encoded) and the RAM flash it is written to are covered as well; the
+//! flash store over `sequential-storage` is not (see `persist` below).
 #![no_std]
 #![no_main]
 
@@ -27,6 +29,7 @@ use ema_monitor::acquisition::{
 use ema_monitor::command::ONBOARD_COMMAND_SAMPLES;
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
+use ema_monitor::persist::{HealthRecord, RamFlash};
 use ema_monitor::trace::PackedTrace;
 use ema_monitor::{Command, EmaParams, Profile, SampledCommand};
 
@@ -69,10 +72,40 @@ fn main() -> ! {
         id.step();
         Some((early, id.report()))
     });
-    black_box(report);
+    black_box(&report);
+    persist(report.map(|(_, r)| r));
     loop {
         cortex_m::asm::wfi();
     }
+}
+
+/// The health record's path: load a record from bytes of any content, record the flight, encode
+/// it, and write, read and erase it on a RAM flash whose power may be cut at any byte. The
+/// `HealthStore` itself stays out of the proof: `sequential-storage`'s async state machines and
+/// flash-data-dependent slicing keep panic calls the optimizer cannot remove
+/// (`docs/persistence.md`, "Panic paths").
+#[inline(never)]
+fn persist(report: Option<ema_monitor::health::HealthReport>) {
+    use embedded_storage::nor_flash::{NorFlash, ReadNorFlash};
+    let mut bytes = [0u8; HealthRecord::ENCODED_LEN];
+    black_box(&mut bytes);
+    let mut record = HealthRecord::decode(&bytes).unwrap_or_default();
+    if let Some(r) = report {
+        record.new_flight(&r, black_box(true));
+    }
+    record.set_evidence(black_box([0.0; 5]), black_box(1));
+    black_box(record.history(black_box(ema_monitor::health::FaultMode::Backlash)).iter().count());
+    let mut flash = RamFlash::<4, 2048>::new();
+    flash.cut_power_after(black_box(1234));
+    let (offset, len) = black_box((0u32, HealthRecord::ENCODED_LEN));
+    if let Ok(n) = record.encode(&mut bytes) {
+        let _ = flash.write(offset, bytes.get(..n.min(len)).unwrap_or(&[]));
+    }
+    flash.power_on();
+    let _ = flash.read(black_box(8), &mut bytes);
+    let _ = flash.erase(black_box(0), black_box(4096));
+    black_box(flash.flip(black_box(17), 0x10));
+    black_box((&bytes, flash.erase_counts()));
 }
 
 #[panic_handler]

@@ -24,7 +24,7 @@
 //! the discrepancy workflow adds to the model. Shared definitions: [`params`] (nominal
 //! actuator), [`faults`] (the fault vector and its physical mapping), [`profile`] (the test
 //! manoeuvre), [`command`] (what drives the model: a profile or a sampled command), [`trace`]
-//! (the ADC format).
+//! (the ADC format). [`persist`] keeps the health state across power cycles.
 //!
 //! **Inlining.** The non-generic helpers the fitness loop calls every model step carry
 //! `#[inline]` on hosted targets only (the firmware's fat LTO inlines on its own), which changes
@@ -51,6 +51,7 @@ pub mod model;
 pub mod monitor;
 pub mod optimizer;
 pub mod params;
+pub mod persist;
 pub mod profile;
 pub mod prognosis;
 #[cfg(feature = "defmt")]

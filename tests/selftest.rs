@@ -30,6 +30,7 @@ use ema_monitor::model::{ModelState, MonitorModel};
 use ema_monitor::monitor::{self, Identification, IdentifyConfig, MonitorError, ONBOARD_WINDOW};
 use ema_monitor::optimizer::pso::{ParticleSwarm, PsoConfig};
 use ema_monitor::optimizer::{run, Bounds, Objective, Optimizer};
+use ema_monitor::persist::{FlashFault, HealthRecord, HealthStore, RamFlash, StoreError};
 use ema_monitor::trace::{self, pack, packed_len, PackedTrace, TraceError, ADC_MAX, ADC_MIDSCALE};
 use ema_monitor::{Command, EmaParams, FaultVector, Profile, SampledCommand};
 use embedded_hal::adc::{Channel, OneShot};
@@ -62,6 +63,10 @@ const TESTS: &[(&str, Test)] = &[
     ("pso_minimises_a_sphere", pso_minimises_a_sphere),
     ("identification_refuses_impossible_config", identification_refuses_impossible_config),
     ("identification_under_the_sampled_standard_profile", identification_under_the_sampled_standard_profile),
+    ("persist_save_load_reset", persist_save_load_reset),
+    ("persist_power_cut_keeps_a_record", persist_power_cut_keeps_a_record),
+    ("persist_corrupt_byte_is_detected", persist_corrupt_byte_is_detected),
+    ("persist_dead_flash_is_an_error", persist_dead_flash_is_an_error),
 ];
 
 #[entry]
@@ -540,4 +545,112 @@ fn short_identification(
         .map_err(|_| "identification refused")?;
     id.run(u32::MAX);
     Ok(id.report())
+}
+
+// ---- persisted health record -------------------------------------------------------------------
+
+/// The self-test's flash: 4 pages of 2 KiB in RAM (two records per page).
+type TestFlash = RamFlash<4, 2048>;
+const TEST_RANGE: core::ops::Range<u32> = 0..TestFlash::CAPACITY as u32;
+
+/// A record after `flights` flights of growing friction.
+fn record_after(flights: u32) -> HealthRecord {
+    let mut r = HealthRecord::new();
+    for f in 0..flights {
+        let x = 0.02 * f as f32;
+        let k = FaultVector([x, 0.5 * x, 0.0, 0.0, 0.0, 0.01, 0.5, 0.5]);
+        r.new_flight(&HealthReport::new(k, &EmaParams::NOMINAL, 0.01, 100, 10, None), f == 0);
+    }
+    r
+}
+
+fn test_store(flash: TestFlash) -> Result<HealthStore<TestFlash>, &'static str> {
+    HealthStore::new(flash, TEST_RANGE).map_err(|_| "range refused")
+}
+
+/// `true` when `loaded` is `Ok(Some(r))` with `r` bit-equal to `expected`, or `Ok(None)` for `None`.
+fn loads(loaded: Result<Option<HealthRecord>, StoreError>, expected: Option<&HealthRecord>) -> bool {
+    match (loaded, expected) {
+        (Ok(Some(a)), Some(b)) => a.same_bits(b),
+        (Ok(None), None) => true,
+        _ => false,
+    }
+}
+
+/// A flash holding the saves of `record_after(1..=n)`.
+fn flash_with(n: u32) -> Result<TestFlash, &'static str> {
+    let mut s = test_store(TestFlash::new())?;
+    for i in 1..=n {
+        s.save(&record_after(i)).map_err(|_| "save")?;
+    }
+    Ok(s.into_flash())
+}
+
+fn persist_save_load_reset() -> Result<(), &'static str> {
+    let mut s = test_store(TestFlash::new())?;
+    ensure(loads(s.load(), None), "a fresh flash holds a record")?;
+    for i in 1..=5 {
+        s.save(&record_after(i)).map_err(|_| "save")?;
+        ensure(loads(s.load(), Some(&record_after(i))), "load differs from save")?;
+    }
+    let mut s = test_store(s.into_flash())?; // power cycle
+    ensure(loads(s.load(), Some(&record_after(5))), "record lost across a power cycle")?;
+    s.reset().map_err(|_| "reset")?;
+    ensure(loads(s.load(), None), "record survives the maintenance reset")
+}
+
+/// A power cut at every byte of a save that changes page (two earlier saves fill page 0): the
+/// old record or the new one loads after power returns, and the store works again.
+fn persist_power_cut_keeps_a_record() -> Result<(), &'static str> {
+    let base = flash_with(2)?;
+    let (old, new, next) = (record_after(2), record_after(3), record_after(4));
+    let cost = {
+        let mut s = test_store(base.clone())?;
+        s.save(&new).map_err(|_| "save")?;
+        s.into_flash().touched_bytes() - base.touched_bytes()
+    };
+    ensure(cost > HealthRecord::ENCODED_LEN as u32, "save cost")?;
+    for cut in 0..cost {
+        let mut flash = base.clone();
+        flash.cut_power_after(cut);
+        let mut s = test_store(flash)?;
+        ensure(s.save(&new).is_err(), "a cut save succeeded")?;
+        let mut flash = s.into_flash();
+        flash.power_on();
+        let mut s = test_store(flash)?;
+        let loaded = s.load();
+        ensure(loads(loaded, Some(&old)) || loads(loaded, Some(&new)), "neither the old nor the new record")?;
+        s.save(&next).map_err(|_| "save after the cut")?;
+        ensure(loads(s.load(), Some(&next)), "load after the repair")?;
+    }
+    Ok(())
+}
+
+/// Each byte of the newest record's data corrupted in turn: the load never returns it (it gives
+/// the previous record).
+fn persist_corrupt_byte_is_detected() -> Result<(), &'static str> {
+    let base = flash_with(3)?;
+    let mut encoded = [0u8; HealthRecord::ENCODED_LEN];
+    record_after(3).encode(&mut encoded).map_err(|_| "encode")?;
+    let at = (0..TestFlash::CAPACITY - encoded.len())
+        .find(|&a| (0..encoded.len()).all(|i| base.byte(a + i) == Some(encoded[i])))
+        .ok_or("newest copy not in flash")?;
+    for offset in at..at + encoded.len() {
+        let mut flash = base.clone();
+        flash.flip(offset, 0x10);
+        let loaded = test_store(flash)?.load();
+        ensure(!loads(loaded, Some(&record_after(3))), "corrupted record returned")?;
+        ensure(loads(loaded, Some(&record_after(2))) || loaded.is_err(), "not the previous record")?;
+    }
+    Ok(())
+}
+
+/// A flash that no longer writes: save and reset are error values, the stored record still loads.
+fn persist_dead_flash_is_an_error() -> Result<(), &'static str> {
+    let mut flash = flash_with(1)?;
+    flash.cut_power_after(0);
+    let mut s = test_store(flash)?;
+    ensure(s.save(&record_after(2)) == Err(StoreError::Flash(FlashFault::Other)), "save on a dead flash")?;
+    ensure(s.reset() == Err(StoreError::Flash(FlashFault::Other)), "reset on a dead flash")?;
+    ensure(loads(s.load(), Some(&record_after(1))), "record lost")
 }

@@ -7,6 +7,8 @@
 //! 1. start the independent watchdog ([`WATCHDOG_MS`]) first, so that every later hang resets,
 //!    and log when the last reset came from it (the previous run ended in the safe state);
 //! 2. clocks: 180 MHz from the 8 MHz HSE input, which the NUCLEO's ST-LINK drives (MCO, bypass);
+//!    then the health record from flash sectors 6–7 ([`health_flash`]), erased first when the
+//!    user button B1 (PC13) is held at start-up: the maintenance reset;
 //! 3. ADC1 on PA0, PA1, PA4 (Arduino A0, A1, A2) for phases A, B, C behind the core's
 //!    [`PhaseCurrentReader`], the start trigger on PA10 (Arduino D2, pulled down), and a
 //!    [`Sampler`] over them: TIM2 interrupts every [`FRAME_PERIOD_US`] µs (10 kHz, the control rate
@@ -19,8 +21,8 @@
 //! 5. identify the faults with the on-board PSO, one objective evaluation per
 //!    [`Identification::step`], feeding the watchdog between steps and timing each step with the
 //!    DWT cycle counter;
-//! 6. log the health report and the fault vector's bits, then idle with the watchdog fed (a new
-//!    run needs a reset).
+//! 6. log the health report and the fault vector's bits, append the flight to the health record
+//!    and save it, then idle with the watchdog fed (a new run needs a reset).
 //!
 //! Safe state: a panic (panic-probe logs it, then `udf`) and any fault end in [`HardFault`], which
 //! logs `FAILSAFE` and parks without feeding the watchdog, so the IWDG resets the chip within
@@ -48,12 +50,16 @@ use ema_monitor::optimizer::Status as SearchStatus;
 use ema_monitor::{report_log, EmaParams, Profile};
 use stm32f4xx_hal::adc::config::{AdcConfig, Clock, SampleTime};
 use stm32f4xx_hal::adc::Adc;
+use stm32f4xx_hal::flash::LockedFlash;
 use stm32f4xx_hal::gpio::{Analog, Input, PA0, PA1, PA10, PA4};
 use stm32f4xx_hal::pac::{self, interrupt, ADC1, TIM2};
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Config;
 use stm32f4xx_hal::timer::{CounterUs, Event, Flag};
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
+
+/// The health record in flash sectors 6–7.
+mod health_flash;
 
 /// Independent-watchdog timeout. The longest thing done between two feeds is one objective
 /// evaluation: 8.73e9 instructions over 1823 evaluations on the built-in trace is 4.8e6 on
@@ -98,6 +104,11 @@ fn main() -> ! {
     );
     cp.DCB.enable_trace();
     cp.DWT.enable_cycle_counter();
+
+    // 2b. Health record; B1 (PC13, low when pressed) held at start-up is the maintenance reset.
+    let maintenance = dp.GPIOC.split(&mut rcc).pc13.into_floating_input().is_low();
+    let mut flash = LockedFlash::new(dp.FLASH);
+    let mut record = health_flash::start(&mut flash, &mut watchdog, maintenance);
 
     // 3. ADC1 on PA0/PA1/PA4, ADC clock 90/4 = 22.5 MHz (≤ 36 MHz); 56 + 12 cycles = 3 µs per
     //    conversion, 9 µs per frame, well inside the 100 µs period.
@@ -199,6 +210,7 @@ fn main() -> ! {
     let report = report.with_acquisition(&acquired);
     let report = if rate_ok { report } else { report.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
     report_log::log_report(&report);
+    health_flash::save(&mut flash, &mut watchdog, &mut record, &report, true);
     defmt::info!("ema-monitor: OK");
     loop {
         wait_tick(&mut timer);

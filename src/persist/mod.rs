@@ -1,0 +1,26 @@
+//! Health state that survives power cycles: the fixed-size [`HealthRecord`] (last diagnosis,
+//! history per fault mode, pooled evidence) and the [`HealthStore`] that keeps it in NOR flash
+//! through the `embedded-storage` traits and `sequential-storage`'s wear-levelled, CRC-checked map.
+//!
+//! ```text
+//!  HealthReport ─► HealthRecord::new_flight ─► HealthStore::save ─► sequential-storage map
+//!                                                                      │ (async NorFlash)
+//!  next flight ◄── HealthStore::load ◄──────────────────────────── Blocking<F: NorFlash>
+//! ```
+//!
+//! [`HealthStore::load`] gives the newest intact record, `Ok(None)` when there is none; any error
+//! or `None` means a cold start, and the firmware keeps running. [`HealthStore::reset`] is the
+//! maintenance reset. [`RamFlash`] is the flash of the QEMU firmware and of the tests (power cuts
+//! at any byte, bit flips, erase counts). Layout, guarantees, power-loss behaviour and wear:
+//! `docs/persistence.md`; the choice of `sequential-storage`:
+//! `docs/decisions/0019-health-record-storage.md`.
+
+pub mod flash;
+pub mod record;
+pub mod store;
+#[cfg(test)]
+mod tests;
+
+pub use flash::{block_on, Blocking, RamFlash, RamFlashError};
+pub use record::{HealthRecord, HistoryEntry, ModeHistory, RecordError, HISTORY_LEN, RECORD_VERSION};
+pub use store::{FlashFault, HealthStore, StoreError};

@@ -1,0 +1,391 @@
+//! The health record: what the monitor keeps from one flight to the next, fixed-size and without
+//! allocation, with an explicit little-endian encoding of [`HealthRecord::ENCODED_LEN`] bytes.
+//!
+//! It holds the flight count, the flights since the last cold identification, the last diagnosis
+//! (fault vector `k`, its 1σ uncertainty `sigma`, the status), a short history per fault mode (the
+//! last [`HISTORY_LEN`] `(flight, severity)` pairs of each of the five [`FaultMode`]s, a ring
+//! buffer) and the evidence accumulators of pooling over flights (one summed log-likelihood ratio
+//! per fault mode and the number of flights pooled; their meaning belongs to the pooling test,
+//! the record only keeps them).
+//!
+//! **Layout** (offsets in bytes, every multi-byte field little-endian, `f32` as its IEEE-754 bits):
+//!
+//! | offset | size | field |
+//! |---|---|---|
+//! | 0 | 1 | format version, [`RECORD_VERSION`] |
+//! | 1 | 1 | status of the last report ([`status_code`]; [`NO_STATUS`] before the first flight) |
+//! | 2 | 2 | reserved, 0 |
+//! | 4 | 4 | flight count (`u32`) |
+//! | 8 | 4 | flights since the last cold identification (`u32`) |
+//! | 12 | 32 | last `k`, 8 × `f32` (normalized fault vector, [`crate::faults`]) |
+//! | 44 | 32 | last `sigma`, 8 × `f32` (NaN where unknown) |
+//! | 76 | 20 | evidence: summed log-likelihood ratio per mode, 5 × `f32`, [`FaultMode::ALL`] order |
+//! | 96 | 4 | flights pooled into the evidence (`u32`) |
+//! | 100 | 5 | history length per mode (`u8`, ≤ [`HISTORY_LEN`]) |
+//! | 105 | 5 | history ring head per mode (`u8`, the slot the next entry goes to) |
+//! | 110 | 2 | reserved, 0 |
+//! | 112 | 640 | history: per mode, [`HISTORY_LEN`] × (flight `u32`, severity `f32`) |
+//!
+//! A record whose version byte is not [`RECORD_VERSION`], whose status code is unknown or whose
+//! ring indices are out of range does not decode ([`RecordError`]): the monitor then starts cold.
+//! Integrity against bit errors is the store's (CRC-32 per stored item, `docs/persistence.md`).
+
+use crate::faults::{FaultVector, FAULT_COUNT};
+use crate::health::{Abstain, FaultMode, HealthReport, Status};
+
+/// Format version of the encoding; a change of layout takes the next number.
+pub const RECORD_VERSION: u8 = 1;
+
+/// Entries of history kept per fault mode.
+pub const HISTORY_LEN: usize = 16;
+
+/// Number of fault modes ([`FaultMode::ALL`]).
+pub const MODES: usize = 5;
+
+const OFF_STATUS: usize = 1;
+const OFF_FLIGHTS: usize = 4;
+const OFF_SINCE_COLD: usize = 8;
+const OFF_K: usize = 12;
+const OFF_SIGMA: usize = OFF_K + 4 * FAULT_COUNT;
+const OFF_EVIDENCE: usize = OFF_SIGMA + 4 * FAULT_COUNT;
+const OFF_POOLED: usize = OFF_EVIDENCE + 4 * MODES;
+const OFF_HIST_LEN: usize = OFF_POOLED + 4;
+const OFF_HIST_HEAD: usize = OFF_HIST_LEN + MODES;
+const OFF_HISTORY: usize = 112;
+/// Bytes of one history entry: flight `u32` + severity `f32`.
+const ENTRY_LEN: usize = 8;
+
+/// Why bytes do not decode as a [`HealthRecord`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RecordError {
+    /// Not [`HealthRecord::ENCODED_LEN`] bytes.
+    Length,
+    /// The version byte is not [`RECORD_VERSION`] (the record of another firmware version).
+    Version(u8),
+    /// Unknown status code.
+    Status(u8),
+    /// A history length or ring head out of range.
+    History,
+    /// The output buffer is shorter than [`HealthRecord::ENCODED_LEN`].
+    BufferTooSmall,
+}
+
+/// One history entry: the flight and a fault mode's severity in it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct HistoryEntry {
+    /// Flight number (1 for the first flight recorded).
+    pub flight: u32,
+    /// Severity in `[0, 1]` ([`crate::health`]).
+    pub severity: f32,
+}
+
+/// The last [`HISTORY_LEN`] entries of one fault mode, a ring buffer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModeHistory {
+    entries: [HistoryEntry; HISTORY_LEN],
+    len: u8,
+    head: u8,
+}
+
+impl ModeHistory {
+    /// No entry.
+    pub const EMPTY: Self = Self { entries: [HistoryEntry { flight: 0, severity: 0.0 }; HISTORY_LEN], len: 0, head: 0 };
+
+    /// Entries held, at most [`HISTORY_LEN`].
+    pub fn len(&self) -> usize {
+        usize::from(self.len)
+    }
+
+    /// `true` when no entry is held.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Appends an entry, dropping the oldest when full.
+    pub fn push(&mut self, entry: HistoryEntry) {
+        let head = usize::from(self.head) % HISTORY_LEN;
+        self.entries[head] = entry;
+        self.head = ((head + 1) % HISTORY_LEN) as u8;
+        if usize::from(self.len) < HISTORY_LEN {
+            self.len += 1;
+        }
+    }
+
+    /// The `i`-th entry from the oldest (`0`) to the newest (`len() − 1`).
+    pub fn get(&self, i: usize) -> Option<HistoryEntry> {
+        if i >= self.len() {
+            return None;
+        }
+        let oldest = (usize::from(self.head) + HISTORY_LEN - self.len()) % HISTORY_LEN;
+        self.entries.get((oldest + i) % HISTORY_LEN).copied()
+    }
+
+    /// The newest entry.
+    pub fn latest(&self) -> Option<HistoryEntry> {
+        self.len().checked_sub(1).and_then(|i| self.get(i))
+    }
+
+    /// The entries from the oldest to the newest.
+    pub fn iter(&self) -> impl Iterator<Item = HistoryEntry> + '_ {
+        (0..self.len()).filter_map(move |i| self.get(i))
+    }
+}
+
+/// The persisted health state of one actuator (module documentation: contents and layout).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HealthRecord {
+    flights: u32,
+    flights_since_cold: u32,
+    k: [f32; FAULT_COUNT],
+    sigma: [f32; FAULT_COUNT],
+    status: Option<Status>,
+    history: [ModeHistory; MODES],
+    evidence: [f32; MODES],
+    pooled_flights: u32,
+}
+
+impl Default for HealthRecord {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The one-byte code of a [`Status`] in the record: 0 healthy, 1 degraded, 2 failing,
+/// 3 inconclusive (poor fit), 4 inconclusive (partial coverage), 5 inconclusive (rate mismatch),
+/// 6 sensor fault.
+pub const fn status_code(status: Status) -> u8 {
+    match status {
+        Status::Healthy => 0,
+        Status::Degraded => 1,
+        Status::Failing => 2,
+        Status::Inconclusive(Abstain::PoorFit) => 3,
+        Status::Inconclusive(Abstain::PartialCoverage) => 4,
+        Status::Inconclusive(Abstain::RateMismatch) => 5,
+        Status::SensorFault => 6,
+    }
+}
+
+/// The status code of a record that holds no report yet.
+pub const NO_STATUS: u8 = 0xFF;
+
+/// The [`Status`] of a code of [`status_code`] (`Ok(None)` for [`NO_STATUS`]); `Err` for an
+/// unknown code.
+pub const fn status_of_code(code: u8) -> Result<Option<Status>, RecordError> {
+    Ok(Some(match code {
+        0 => Status::Healthy,
+        1 => Status::Degraded,
+        2 => Status::Failing,
+        3 => Status::Inconclusive(Abstain::PoorFit),
+        4 => Status::Inconclusive(Abstain::PartialCoverage),
+        5 => Status::Inconclusive(Abstain::RateMismatch),
+        6 => Status::SensorFault,
+        NO_STATUS => return Ok(None),
+        _ => return Err(RecordError::Status(code)),
+    }))
+}
+
+impl HealthRecord {
+    /// Bytes of the encoding ([`HealthRecord::encode`]).
+    pub const ENCODED_LEN: usize = OFF_HISTORY + MODES * HISTORY_LEN * ENTRY_LEN;
+
+    /// The record before the first flight: no flight, the healthy vector
+    /// ([`FaultVector::HEALTHY`]), `sigma` unknown (NaN), no history, no evidence, no status.
+    pub const fn new() -> Self {
+        Self {
+            flights: 0,
+            flights_since_cold: 0,
+            k: FaultVector::HEALTHY.0,
+            sigma: [f32::NAN; FAULT_COUNT],
+            status: None,
+            history: [ModeHistory::EMPTY; MODES],
+            evidence: [0.0; MODES],
+            pooled_flights: 0,
+        }
+    }
+
+    /// Appends one flight's report: the flight count goes up by one; the flights since the last
+    /// cold identification restart at 0 when `cold` (this flight ran the cold identification) and
+    /// go up by one otherwise; the report's fault vector and status become the last diagnosis
+    /// (`sigma` back to unknown until [`HealthRecord::set_sigma`]); and, when the status is a
+    /// diagnosis ([`Status::is_diagnosis`]), each mode's severity joins its history. An
+    /// abstention (`INCONCLUSIVE`, `SENSOR_FAULT`) adds nothing to the history: its values are not
+    /// a diagnosis.
+    pub fn new_flight(&mut self, report: &HealthReport, cold: bool) {
+        self.flights = self.flights.saturating_add(1);
+        self.flights_since_cold = if cold { 0 } else { self.flights_since_cold.saturating_add(1) };
+        self.k = report.faults.0;
+        self.sigma = [f32::NAN; FAULT_COUNT];
+        self.status = Some(report.status);
+        if report.status.is_diagnosis() {
+            for (history, mode) in self.history.iter_mut().zip(report.modes.iter()) {
+                history.push(HistoryEntry { flight: self.flights, severity: mode.severity });
+            }
+        }
+    }
+
+    /// Flights recorded ([`HealthRecord::new_flight`] calls).
+    pub fn flights(&self) -> u32 {
+        self.flights
+    }
+
+    /// Flights since the last cold identification (0 right after one).
+    pub fn flights_since_cold(&self) -> u32 {
+        self.flights_since_cold
+    }
+
+    /// The last fault vector (normalized, [`crate::faults`]).
+    pub fn k(&self) -> FaultVector {
+        FaultVector(self.k)
+    }
+
+    /// The last fault vector's 1σ uncertainty per parameter, NaN where unknown.
+    pub fn sigma(&self) -> &[f32; FAULT_COUNT] {
+        &self.sigma
+    }
+
+    /// Sets the last fault vector's 1σ uncertainty.
+    pub fn set_sigma(&mut self, sigma: [f32; FAULT_COUNT]) {
+        self.sigma = sigma;
+    }
+
+    /// The status of the last report; `None` before the first flight.
+    pub fn status(&self) -> Option<Status> {
+        self.status
+    }
+
+    /// `true` when the last report is a diagnosis a warm start can start from: at least one
+    /// flight, a diagnosis status and a valid fault vector.
+    pub fn has_prior(&self) -> bool {
+        self.flights > 0 && self.status.is_some_and(Status::is_diagnosis) && self.k().is_valid()
+    }
+
+    /// The history of `mode`.
+    pub fn history(&self, mode: FaultMode) -> &ModeHistory {
+        &self.history[mode_index(mode)]
+    }
+
+    /// The summed log-likelihood ratio per mode ([`FaultMode::ALL`] order).
+    pub fn evidence(&self) -> &[f32; MODES] {
+        &self.evidence
+    }
+
+    /// Flights pooled into the evidence.
+    pub fn pooled_flights(&self) -> u32 {
+        self.pooled_flights
+    }
+
+    /// Sets the evidence accumulators and the flights pooled into them.
+    pub fn set_evidence(&mut self, evidence: [f32; MODES], pooled_flights: u32) {
+        self.evidence = evidence;
+        self.pooled_flights = pooled_flights;
+    }
+
+    /// Writes the encoding (module documentation: layout) into `out[..ENCODED_LEN]`.
+    pub fn encode(&self, out: &mut [u8]) -> Result<usize, RecordError> {
+        let out = out.get_mut(..Self::ENCODED_LEN).ok_or(RecordError::BufferTooSmall)?;
+        out.fill(0);
+        out[0] = RECORD_VERSION;
+        out[OFF_STATUS] = self.status.map_or(NO_STATUS, status_code);
+        put_u32(out, OFF_FLIGHTS, self.flights);
+        put_u32(out, OFF_SINCE_COLD, self.flights_since_cold);
+        for (i, v) in self.k.iter().enumerate() {
+            put_f32(out, OFF_K + 4 * i, *v);
+        }
+        for (i, v) in self.sigma.iter().enumerate() {
+            put_f32(out, OFF_SIGMA + 4 * i, *v);
+        }
+        for (i, v) in self.evidence.iter().enumerate() {
+            put_f32(out, OFF_EVIDENCE + 4 * i, *v);
+        }
+        put_u32(out, OFF_POOLED, self.pooled_flights);
+        for (m, h) in self.history.iter().enumerate() {
+            out[OFF_HIST_LEN + m] = h.len;
+            out[OFF_HIST_HEAD + m] = h.head;
+            for (j, e) in h.entries.iter().enumerate() {
+                let at = OFF_HISTORY + (m * HISTORY_LEN + j) * ENTRY_LEN;
+                put_u32(out, at, e.flight);
+                put_f32(out, at + 4, e.severity);
+            }
+        }
+        Ok(Self::ENCODED_LEN)
+    }
+
+    /// Reads an encoding of [`HealthRecord::encode`]; every check of the module documentation.
+    pub fn decode(bytes: &[u8]) -> Result<Self, RecordError> {
+        if bytes.len() != Self::ENCODED_LEN {
+            return Err(RecordError::Length);
+        }
+        if bytes[0] != RECORD_VERSION {
+            return Err(RecordError::Version(bytes[0]));
+        }
+        let status = status_of_code(bytes[OFF_STATUS])?;
+        let mut record = Self::new();
+        record.status = status;
+        record.flights = get_u32(bytes, OFF_FLIGHTS);
+        record.flights_since_cold = get_u32(bytes, OFF_SINCE_COLD);
+        for (i, v) in record.k.iter_mut().enumerate() {
+            *v = get_f32(bytes, OFF_K + 4 * i);
+        }
+        for (i, v) in record.sigma.iter_mut().enumerate() {
+            *v = get_f32(bytes, OFF_SIGMA + 4 * i);
+        }
+        for (i, v) in record.evidence.iter_mut().enumerate() {
+            *v = get_f32(bytes, OFF_EVIDENCE + 4 * i);
+        }
+        record.pooled_flights = get_u32(bytes, OFF_POOLED);
+        for (m, h) in record.history.iter_mut().enumerate() {
+            h.len = bytes[OFF_HIST_LEN + m];
+            h.head = bytes[OFF_HIST_HEAD + m];
+            if usize::from(h.len) > HISTORY_LEN || usize::from(h.head) >= HISTORY_LEN {
+                return Err(RecordError::History);
+            }
+            for (j, e) in h.entries.iter_mut().enumerate() {
+                let at = OFF_HISTORY + (m * HISTORY_LEN + j) * ENTRY_LEN;
+                *e = HistoryEntry { flight: get_u32(bytes, at), severity: get_f32(bytes, at + 4) };
+            }
+        }
+        Ok(record)
+    }
+
+    /// Bitwise equality: as `==`, but NaN fields (an unknown `sigma`) equal themselves. What a
+    /// store round trip must preserve.
+    pub fn same_bits(&self, other: &Self) -> bool {
+        let mut a = [0u8; Self::ENCODED_LEN];
+        let mut b = [0u8; Self::ENCODED_LEN];
+        self.encode(&mut a).is_ok() && other.encode(&mut b).is_ok() && a == b
+    }
+}
+
+/// Index of `mode` in [`FaultMode::ALL`].
+const fn mode_index(mode: FaultMode) -> usize {
+    match mode {
+        FaultMode::Friction => 0,
+        FaultMode::Backlash => 1,
+        FaultMode::ShortCircuit => 2,
+        FaultMode::Eccentricity => 3,
+        FaultMode::GainDrift => 4,
+    }
+}
+
+fn put_u32(out: &mut [u8], at: usize, v: u32) {
+    if let Some(dst) = out.get_mut(at..at + 4) {
+        dst.copy_from_slice(&v.to_le_bytes());
+    }
+}
+
+fn put_f32(out: &mut [u8], at: usize, v: f32) {
+    put_u32(out, at, v.to_bits());
+}
+
+fn get_u32(bytes: &[u8], at: usize) -> u32 {
+    match bytes.get(at..at + 4) {
+        Some(&[a, b, c, d]) => u32::from_le_bytes([a, b, c, d]),
+        _ => 0,
+    }
+}
+
+fn get_f32(bytes: &[u8], at: usize) -> f32 {
+    f32::from_bits(get_u32(bytes, at))
+}

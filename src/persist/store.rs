@@ -1,0 +1,163 @@
+//! [`HealthStore`]: the [`HealthRecord`] in a NOR-flash range, through `sequential-storage`'s map.
+//!
+//! The record is one map item under the key [`RECORD_KEY`]; a save appends a new copy, a load
+//! finds the newest intact one. `sequential-storage` gives the guarantees this module relies on
+//! (its documentation, "Inner workings"; `docs/persistence.md` for what the tests show):
+//! - **CRC.** Each item carries a CRC-32 of its data and a CRC-16 of its length. An item whose
+//!   CRC fails is skipped, so a load returns the newest copy that is intact (an older record, or
+//!   nothing), never the damaged bytes. A CRC-32 detects every error burst of up to 32 bits, so
+//!   any single corrupted byte is caught; no record-level CRC is added on top.
+//! - **Power loss.** A save only appends; the previous copy is left in place until its page is
+//!   recycled, which happens only after a newer copy is complete. A save cut at any byte leaves
+//!   the old record readable, and the next operation repairs a half-written or half-erased page.
+//! - **Wear.** Pages are filled in turn and erased cyclically, so N saves spread their erases
+//!   evenly over the pages of the range.
+//!
+//! Every failure is a [`StoreError`] value; nothing here panics on a flash error, and the
+//! firmware runs a cold identification when [`HealthStore::load`] gives `Ok(None)` or an error.
+
+use core::ops::Range;
+
+use embedded_storage::nor_flash::{NorFlash, NorFlashError, NorFlashErrorKind};
+use sequential_storage::cache::{Cache, Uncached};
+use sequential_storage::map::{MapConfig, MapStorage, SerializationError, Value};
+use sequential_storage::Error as SsError;
+
+use super::flash::{block_on, Blocking};
+use super::record::{HealthRecord, RecordError};
+
+/// The map key of the health record.
+pub const RECORD_KEY: u8 = 0x48; // 'H'
+
+/// Bytes of the store's work buffer: key (1 byte) + record, rounded up to the largest flash
+/// word `sequential-storage` supports (32 bytes).
+pub const BUFFER_LEN: usize = (1 + HealthRecord::ENCODED_LEN).div_ceil(32) * 32;
+
+/// Why a store operation failed. The firmware logs it and runs cold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StoreError {
+    /// The flash range does not start and end on erase-page boundaries, spans fewer than two
+    /// pages, or its pages cannot hold the record.
+    Range,
+    /// The flash driver failed (for the fakes: a power cut, [`super::RamFlashError::PowerLoss`],
+    /// reads as `Other`).
+    Flash(FlashFault),
+    /// `sequential-storage` found corruption that its repair could not undo; a
+    /// [`HealthStore::reset`] erases the range.
+    Corrupt,
+    /// The intact stored item is not a record of this format (another version, an unknown
+    /// status code): [`RecordError`].
+    Record(RecordError),
+    /// The item does not fit in a page, or the storage is full (one key cannot fill it).
+    Full,
+    /// The flash future did not complete ([`super::block_on`] gave up).
+    Stalled,
+    /// `sequential-storage` reported an internal error (buffer, serialization, logic).
+    Internal,
+}
+
+/// The kind of a flash driver error (`embedded_storage::nor_flash::NorFlashErrorKind`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FlashFault {
+    /// Misaligned offset or length.
+    NotAligned,
+    /// Out of the flash's bounds.
+    OutOfBounds,
+    /// Any other driver error (a write or erase that failed, a power cut).
+    Other,
+}
+
+impl From<NorFlashErrorKind> for FlashFault {
+    fn from(kind: NorFlashErrorKind) -> Self {
+        match kind {
+            NorFlashErrorKind::NotAligned => FlashFault::NotAligned,
+            NorFlashErrorKind::OutOfBounds => FlashFault::OutOfBounds,
+            _ => FlashFault::Other,
+        }
+    }
+}
+
+fn store_error<E: NorFlashError>(e: SsError<E>) -> StoreError {
+    match e {
+        SsError::Storage { value, .. } => StoreError::Flash(value.kind().into()),
+        SsError::Corrupted { .. } => StoreError::Corrupt,
+        SsError::FullStorage | SsError::ItemTooBig => StoreError::Full,
+        _ => StoreError::Internal,
+    }
+}
+
+/// The work buffer, word-aligned for flash drivers that need aligned source buffers.
+#[repr(align(32))]
+#[derive(Debug)]
+struct AlignedBuf([u8; BUFFER_LEN]);
+
+/// The record as a map value: written by [`HealthRecord::encode`] straight into the store's work
+/// buffer (loads read the bytes as `&[u8]` and decode them).
+struct Encoded<'r>(&'r HealthRecord);
+
+impl<'a> Value<'a> for Encoded<'_> {
+    fn serialize_into(&self, buffer: &mut [u8]) -> Result<usize, SerializationError> {
+        self.0.encode(buffer).map_err(|_| SerializationError::BufferTooSmall)
+    }
+
+    fn deserialize_from(_buffer: &'a [u8]) -> Result<(Self, usize), SerializationError> {
+        Err(SerializationError::InvalidFormat)
+    }
+}
+
+/// The health record stored in the flash range `range` of the blocking NOR flash `F`.
+pub struct HealthStore<F: NorFlash> {
+    map: MapStorage<u8, Blocking<F>, Cache<Uncached, Uncached, Uncached, u8>>,
+    buf: AlignedBuf,
+}
+
+impl<F: NorFlash> HealthStore<F> {
+    /// The store over `range` of `flash` (offsets in the flash's own address space). The range
+    /// must start and end on erase-page boundaries and span at least two pages, each large enough
+    /// for one record ([`StoreError::Range`] otherwise). Nothing is read or written yet.
+    pub fn new(flash: F, range: Range<u32>) -> Result<Self, StoreError> {
+        let item = 8 + BUFFER_LEN;
+        if F::ERASE_SIZE < item + 2 * F::WRITE_SIZE.max(F::READ_SIZE) {
+            return Err(StoreError::Range);
+        }
+        let config = MapConfig::<Blocking<F>>::try_new(range).map_err(|_| StoreError::Range)?;
+        Ok(Self {
+            map: MapStorage::new(Blocking(flash), config, Cache::new_uncached()),
+            buf: AlignedBuf([0; BUFFER_LEN]),
+        })
+    }
+
+    /// The newest intact record: `Ok(None)` when none is stored (a fresh or reset range, or every
+    /// stored copy failed its CRC); `Err` when the flash fails, the crate finds corruption it
+    /// cannot repair, or the intact item does not decode ([`StoreError::Record`]). Anything but
+    /// `Ok(Some(_))` means a cold start.
+    pub fn load(&mut self) -> Result<Option<HealthRecord>, StoreError> {
+        let fetched =
+            block_on(self.map.fetch_item::<&[u8]>(&mut self.buf.0, &RECORD_KEY)).ok_or(StoreError::Stalled)?;
+        match fetched.map_err(store_error)? {
+            None => Ok(None),
+            Some(bytes) => HealthRecord::decode(bytes).map(Some).map_err(StoreError::Record),
+        }
+    }
+
+    /// Appends `record` as the newest copy. On `Err` the previous record stays the one a load
+    /// returns (or, for a cut during the write, the new one if it was complete).
+    pub fn save(&mut self, record: &HealthRecord) -> Result<(), StoreError> {
+        let stored =
+            block_on(self.map.store_item(&mut self.buf.0, &RECORD_KEY, &Encoded(record))).ok_or(StoreError::Stalled)?;
+        stored.map_err(store_error)
+    }
+
+    /// Maintenance reset: erases the whole range, so the next load gives `Ok(None)` and the next
+    /// flight runs cold. Only an explicit maintenance command calls it.
+    pub fn reset(&mut self) -> Result<(), StoreError> {
+        block_on(self.map.erase_all()).ok_or(StoreError::Stalled)?.map_err(store_error)
+    }
+
+    /// Gives the flash back (a test's power cycle: a new store over the same flash).
+    pub fn into_flash(self) -> F {
+        self.map.destroy().0.into_inner()
+    }
+}

@@ -1,0 +1,307 @@
+//! Host tests of the health record and store: encoding, history, save/load/reset, a power cut at
+//! every byte of a save (at every position in the page cycle), every single corrupted byte, wear.
+
+use super::*;
+use crate::faults::FaultVector;
+use crate::health::{Abstain, FaultMode, HealthReport, Status};
+use crate::params::EmaParams;
+
+/// The tests' flash: 4 pages of 2 KiB (two records per page, so saves cycle the pages quickly).
+type Flash = RamFlash<4, 2048>;
+const RANGE: core::ops::Range<u32> = 0..Flash::CAPACITY as u32;
+
+fn report(k: [f32; 8]) -> HealthReport {
+    HealthReport::new(FaultVector(k), &EmaParams::NOMINAL, 0.01, 100, 10, None)
+}
+
+/// A record after `flights` flights of slowly growing friction and backlash.
+fn record_after(flights: u32) -> HealthRecord {
+    let mut r = HealthRecord::new();
+    for f in 0..flights {
+        let x = 0.01 * f as f32;
+        r.new_flight(&report([x, 0.5 * x, 0.0, 0.02, 0.0, 0.01, 0.5, 0.5 + 0.1 * x]), f % 5 == 0);
+    }
+    r.set_evidence([0.5 * flights as f32, -1.0, 0.25, 0.0, 3.0], flights);
+    r
+}
+
+fn store(flash: Flash) -> HealthStore<Flash> {
+    HealthStore::new(flash, RANGE).expect("valid range")
+}
+
+/// A flash holding the saves of `record_after(1..=n)`.
+fn flash_with(n: u32) -> Flash {
+    let mut s = store(Flash::new());
+    for i in 1..=n {
+        s.save(&record_after(i)).expect("save");
+    }
+    s.into_flash()
+}
+
+fn is(loaded: &Result<Option<HealthRecord>, StoreError>, expected: Option<&HealthRecord>) -> bool {
+    match (loaded, expected) {
+        (Ok(Some(a)), Some(b)) => a.same_bits(b),
+        (Ok(None), None) => true,
+        _ => false,
+    }
+}
+
+// ---- record ------------------------------------------------------------------------------------
+
+#[test]
+fn record_round_trips_bit_exactly() {
+    let r = record_after(23);
+    let mut buf = [0u8; HealthRecord::ENCODED_LEN];
+    assert_eq!(r.encode(&mut buf), Ok(HealthRecord::ENCODED_LEN));
+    let back = HealthRecord::decode(&buf).unwrap();
+    assert!(back.same_bits(&r));
+    assert!(back.sigma().iter().all(|s| s.is_nan()), "sigma unknown until set");
+    assert_eq!(HealthRecord::ENCODED_LEN, 752);
+    assert_eq!(buf[0], RECORD_VERSION);
+}
+
+#[test]
+fn record_refuses_other_versions_and_bad_fields() {
+    let mut buf = [0u8; HealthRecord::ENCODED_LEN];
+    record_after(3).encode(&mut buf).unwrap();
+    let mut bad = buf;
+    bad[0] = RECORD_VERSION + 1;
+    assert_eq!(HealthRecord::decode(&bad), Err(RecordError::Version(RECORD_VERSION + 1)));
+    let mut bad = buf;
+    bad[1] = 7;
+    assert_eq!(HealthRecord::decode(&bad), Err(RecordError::Status(7)));
+    let mut bad = buf;
+    bad[100] = HISTORY_LEN as u8 + 1;
+    assert_eq!(HealthRecord::decode(&bad), Err(RecordError::History));
+    assert_eq!(HealthRecord::decode(&buf[..10]), Err(RecordError::Length));
+    assert_eq!(record_after(1).encode(&mut [0u8; 10]), Err(RecordError::BufferTooSmall));
+}
+
+#[test]
+fn new_flight_counts_flights_and_keeps_the_last_history() {
+    let r = record_after(40);
+    assert_eq!(r.flights(), 40);
+    assert_eq!(r.flights_since_cold(), 4, "flight 36 (f = 35) was the last cold one");
+    let h = r.history(FaultMode::Friction);
+    assert_eq!(h.len(), HISTORY_LEN);
+    assert_eq!(h.get(0).unwrap().flight, 40 - HISTORY_LEN as u32 + 1);
+    assert_eq!(h.latest().unwrap().flight, 40);
+    assert!((h.latest().unwrap().severity - 0.39).abs() < 1e-6);
+    let flights: Vec<u32> = h.iter().map(|e| e.flight).collect();
+    assert_eq!(flights, (25..=40).collect::<Vec<_>>());
+    assert!(r.has_prior());
+    assert_eq!(r.pooled_flights(), 40);
+    assert!(!HealthRecord::new().has_prior());
+    assert_eq!(HealthRecord::new().status(), None);
+}
+
+#[test]
+fn an_abstention_is_recorded_but_joins_no_history() {
+    let mut r = record_after(2);
+    let inconclusive = report([0.3; 8]).abstaining(Status::Inconclusive(Abstain::PoorFit));
+    r.new_flight(&inconclusive, false);
+    assert_eq!(r.flights(), 3);
+    assert_eq!(r.status(), Some(Status::Inconclusive(Abstain::PoorFit)));
+    assert_eq!(r.history(FaultMode::Backlash).len(), 2);
+    assert!(!r.has_prior());
+    let mut buf = [0u8; HealthRecord::ENCODED_LEN];
+    r.encode(&mut buf).unwrap();
+    assert!(HealthRecord::decode(&buf).unwrap().same_bits(&r));
+}
+
+// ---- store -------------------------------------------------------------------------------------
+
+#[test]
+fn store_saves_loads_and_resets() {
+    let mut s = store(Flash::new());
+    assert_eq!(s.load(), Ok(None), "a fresh range holds nothing");
+    for i in 1..=9 {
+        let r = record_after(i);
+        s.save(&r).unwrap();
+        assert!(is(&s.load(), Some(&r)));
+    }
+    // a power cycle: a new store over the same flash
+    let mut s = store(s.into_flash());
+    assert!(is(&s.load(), Some(&record_after(9))));
+    s.reset().unwrap();
+    assert_eq!(s.load(), Ok(None), "maintenance reset");
+    s.save(&record_after(1)).unwrap();
+    assert!(is(&s.load(), Some(&record_after(1))));
+}
+
+#[test]
+fn store_refuses_a_bad_range() {
+    assert!(HealthStore::new(Flash::new(), 0..2048).is_err(), "one page");
+    assert!(HealthStore::new(Flash::new(), 100..4196).is_err(), "not on page boundaries");
+    assert!(HealthStore::new(RamFlash::<4, 512>::new(), 0..2048).is_err(), "pages smaller than a record");
+}
+
+#[test]
+fn store_reports_a_record_of_another_version() {
+    let mut s = store(Flash::new());
+    s.save(&record_after(2)).unwrap();
+    let mut flash = s.into_flash();
+    // rewrite the stored copy's version byte would break its CRC; store a foreign record instead
+    let mut foreign = [0u8; HealthRecord::ENCODED_LEN];
+    record_after(2).encode(&mut foreign).unwrap();
+    foreign[0] = RECORD_VERSION + 1;
+    {
+        use sequential_storage::cache::Cache;
+        use sequential_storage::map::{MapConfig, MapStorage};
+        let config = MapConfig::try_new(RANGE).unwrap();
+        let mut map = MapStorage::<u8, _, _>::new(Blocking(&mut flash), config, Cache::new_uncached());
+        let mut buf = [0u8; 1024];
+        block_on(map.store_item(&mut buf, &store::RECORD_KEY, &&foreign[..])).unwrap().unwrap();
+    }
+    let mut s = store(flash);
+    assert_eq!(s.load(), Err(StoreError::Record(RecordError::Version(RECORD_VERSION + 1))));
+}
+
+#[test]
+fn a_dead_flash_is_an_error_value() {
+    let mut flash = flash_with(1);
+    flash.cut_power_after(0);
+    let mut s = store(flash);
+    assert_eq!(s.save(&record_after(2)), Err(StoreError::Flash(FlashFault::Other)));
+    assert_eq!(s.reset(), Err(StoreError::Flash(FlashFault::Other)));
+    // reads still work on the fake; the old record is intact
+    assert!(is(&s.load(), Some(&record_after(1))));
+}
+
+/// Bytes a save of `record_after(n + 1)` writes and erases on a flash holding saves 1..=n.
+fn save_cost(n: u32) -> u32 {
+    let mut s = store(flash_with(n));
+    let before = {
+        let f = s.into_flash();
+        let t = f.touched_bytes();
+        s = store(f);
+        t
+    };
+    s.save(&record_after(n + 1)).unwrap();
+    s.into_flash().touched_bytes() - before
+}
+
+/// A power cut at every byte of a save, with the store at each position of its page cycle
+/// (`n` = 0..=9 earlier saves: first save, a page's second record, a page change with its erase,
+/// the wrap-around to page 0): after power comes back the load gives the old record or the new
+/// one, never anything else, and the next save and load work.
+#[test]
+fn power_cut_at_every_byte_of_a_save_keeps_a_record() {
+    let mut cuts = 0u32;
+    let mut new_after_cut = 0u32;
+    for n in 0..=9u32 {
+        let base = flash_with(n);
+        let old = (n > 0).then(|| record_after(n));
+        let new = record_after(n + 1);
+        let cost = save_cost(n);
+        assert!(cost > HealthRecord::ENCODED_LEN as u32, "a save writes at least the record");
+        for cut in 0..cost {
+            let mut flash = base.clone();
+            flash.cut_power_after(cut);
+            let mut s = store(flash);
+            assert!(s.save(&new).is_err(), "n {n}, cut {cut}: a cut save fails");
+            let mut flash = s.into_flash();
+            assert!(flash.is_off());
+            flash.power_on();
+            let mut s = store(flash);
+            let loaded = s.load();
+            if is(&loaded, Some(&new)) {
+                new_after_cut += 1;
+            } else {
+                assert!(is(&loaded, old.as_ref()), "n {n}, cut {cut} of {cost}: loaded {loaded:?}");
+            }
+            let next = record_after(n + 2);
+            s.save(&next).unwrap_or_else(|e| panic!("n {n}, cut {cut}: save after the cut: {e:?}"));
+            assert!(is(&s.load(), Some(&next)), "n {n}, cut {cut}: load after the repair");
+            cuts += 1;
+        }
+    }
+    println!("power-loss sweep: {cuts} cut points, new record complete at {new_after_cut} of them");
+    assert!(cuts > 10 * 760);
+}
+
+/// A power cut at every byte of a maintenance reset: afterwards the range holds the old record
+/// or nothing, and it works again.
+#[test]
+fn power_cut_during_a_reset_leaves_old_or_nothing() {
+    let base = flash_with(3);
+    for cut in (0..Flash::CAPACITY as u32).step_by(7) {
+        let mut flash = base.clone();
+        flash.cut_power_after(cut);
+        let mut s = store(flash);
+        assert!(s.reset().is_err());
+        let mut flash = s.into_flash();
+        flash.power_on();
+        let mut s = store(flash);
+        let loaded = s.load();
+        assert!(is(&loaded, Some(&record_after(3))) || is(&loaded, None), "cut {cut}: {loaded:?}");
+        s.save(&record_after(9)).unwrap();
+        assert!(is(&s.load(), Some(&record_after(9))));
+    }
+}
+
+/// Every byte of the flash corrupted in turn (three masks: one bit, a nibble, the whole byte):
+/// the load gives the newest record, the one before it, nothing, or an error — never a record
+/// that was not saved. A corrupted byte of the newest record's data is always detected.
+#[test]
+fn every_corrupted_byte_is_detected_or_harmless() {
+    let base = flash_with(3);
+    let newest = record_after(3);
+    let previous = record_after(2);
+    let mut encoded = [0u8; HealthRecord::ENCODED_LEN];
+    newest.encode(&mut encoded).unwrap();
+    let image: Vec<u8> = (0..Flash::CAPACITY).map(|i| base.byte(i).unwrap()).collect();
+    let at = image.windows(encoded.len()).position(|w| w == encoded).expect("the newest copy is in flash");
+    let mut detected = 0;
+    for offset in 0..Flash::CAPACITY {
+        for mask in [0x01u8, 0xF0, 0xFF] {
+            let mut flash = base.clone();
+            flash.flip(offset, mask);
+            let mut s = store(flash);
+            let loaded = s.load();
+            let ok = is(&loaded, Some(&newest)) || is(&loaded, Some(&previous)) || is(&loaded, None) || loaded.is_err();
+            assert!(ok, "offset {offset} mask {mask:#x}: {loaded:?}");
+            if (at..at + encoded.len()).contains(&offset) {
+                assert!(!is(&loaded, Some(&newest)), "offset {offset}: corrupted data not detected");
+                detected += 1;
+            }
+        }
+    }
+    assert_eq!(detected, 3 * encoded.len());
+}
+
+/// N saves spread their erases evenly over the pages.
+#[test]
+fn wear_is_spread_over_the_pages() {
+    let mut s = store(Flash::new());
+    for i in 1..=400 {
+        s.save(&record_after(i % 50)).unwrap();
+    }
+    let counts = *s.into_flash().erase_counts();
+    println!("wear: 400 saves, erases per page {counts:?}");
+    let (min, max) = (counts.iter().min().unwrap(), counts.iter().max().unwrap());
+    assert!(max - min <= 1, "erases per page {counts:?}");
+    // two records per page: one erase per two saves, spread over 4 pages
+    assert!((45..=55).contains(min), "erases per page {counts:?}");
+}
+
+#[test]
+fn block_on_gives_up_on_a_future_that_never_completes() {
+    assert_eq!(block_on(core::future::pending::<()>()), None);
+    assert_eq!(block_on(async { 7 }), Some(7));
+}
+
+/// On 128 KiB pages (the STM32F446's sectors, here with 4-byte words) a page holds
+/// `(131 072 − 2 page-state words) / 764 bytes per copy` = 171 copies before the store moves on
+/// and erases: the formula of `docs/persistence.md`, "Wear".
+#[test]
+fn a_large_page_holds_the_computed_number_of_copies() {
+    let mut flash = Box::new(RamFlash::<2, 131_072>::new());
+    let r = record_after(3);
+    let mut saves = 0;
+    while flash.erase_counts().iter().sum::<u32>() == 0 {
+        HealthStore::new(&mut *flash, 0..262_144).unwrap().save(&r).unwrap();
+        saves += 1;
+    }
+    assert_eq!(saves - 1, (131_072 - 2 * 4) / (8 + 756), "copies on the first page");
+}
