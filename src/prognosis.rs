@@ -2,11 +2,12 @@
 //!
 //! The monitor identifies the fault vector once per flight; its purpose is prognostics, the
 //! flights left before a fault mode reaches [`FAILING_AT`] (Dalla Vedova, Berri, Re, ICSRS 2018,
-//! §I: fault detection and identification is the first step toward the RUL). This module keeps a
-//! short history of the per-mode severities ([`History`], a ring buffer of
-//! [`HISTORY_CAPACITY`] flights, the part of the health record that survives power cycles) and
-//! fits a trend to each mode ([`Trend`]) from which it reads the crossing of the failing
-//! threshold with an interval ([`Crossing`]). No allocation, no panic, no `unsafe`.
+//! §I: fault detection and identification is the first step toward the RUL). The health record
+//! keeps the last [`HISTORY_CAPACITY`] `(flight, severity)` pairs of each mode
+//! ([`crate::persist::ModeHistory`]); this module fits a trend to them ([`Trend`]) and reads the
+//! crossing of the failing threshold with an interval ([`Crossing`], [`Prognosis::of_record`]).
+//! It takes any series of [`Point`]s, so a caller with a 1σ per flight weighs the fit by it. No
+//! allocation, no panic, no `unsafe`.
 //!
 //! **Trend law.** A straight line in the flight number, `s(f) = a + b·(f − f̄)`, fitted by
 //! (weighted) least squares. The faults the monitor tracks (wear of bearings and gears, insulation
@@ -33,13 +34,24 @@
 //! ([`Crossing::upper`] is `None`). The lower end is a one-sided 95 % bound on the crossing
 //! flight: the earliest flight the data do not rule out, the one maintenance plans against.
 //!
-//! **When there is no RUL.** Fewer than [`MIN_POINTS`] points (two coefficients and one degree
-//! of freedom for the scatter), a slope that is not positive, or non-finite inputs give `None`.
+//! **Onset.** The trend of a mode starts after the last flight that reported it absent (severity
+//! at most [`ABSENT_AT`]; model selection sets an absent group exactly healthy): a fault that
+//! appears mid-history grows from its onset, and the zeros before it would flatten its line.
+//!
+//! **When there is no RUL.** Fewer than [`MIN_POINTS`] points since the onset (two coefficients
+//! and one degree of freedom for the scatter), a slope that is not positive, or non-finite inputs
+//! give `None`.
 
-use crate::health::{FaultMode, HealthReport, FAILING_AT};
+use crate::health::{FaultMode, FAILING_AT};
+use crate::persist::{HealthRecord, HistoryEntry};
 
-/// Flights the history holds: the oldest is dropped when a new one comes.
-pub const HISTORY_CAPACITY: usize = 16;
+/// Flights the persisted history holds per mode ([`crate::persist::HISTORY_LEN`]): the oldest is
+/// dropped when a new one comes.
+pub const HISTORY_CAPACITY: usize = crate::persist::HISTORY_LEN;
+
+/// Most points one fit takes (a longer series keeps its newest): the stack buffer of
+/// [`Trend::fit`].
+pub const FIT_CAPACITY: usize = 64;
 
 /// Fewest points a trend is fitted to: two coefficients and one degree of freedom for the scatter.
 pub const MIN_POINTS: usize = 3;
@@ -47,9 +59,6 @@ pub const MIN_POINTS: usize = 3;
 /// Two-sided confidence of the interval on the crossing flight (its lower end is a one-sided
 /// 95 % bound).
 pub const RUL_CONFIDENCE: f32 = 0.90;
-
-/// Number of fault modes a history entry holds ([`FaultMode::ALL`]).
-pub const MODES: usize = FaultMode::ALL.len();
 
 /// One flight's severity of one mode.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -70,48 +79,10 @@ impl Point {
     }
 }
 
-/// One flight of the history: its number and, per mode in [`FaultMode::ALL`] order, the severity
-/// and its 1σ (`NaN` when unknown).
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Entry {
-    /// The flight number (increasing along the history).
-    pub flight: u32,
-    /// Severity per mode.
-    pub severity: [f32; MODES],
-    /// 1σ of each severity; `NaN` when unknown.
-    pub sigma: [f32; MODES],
-}
-
-impl Entry {
-    /// An entry without 1σ values.
-    pub const fn new(flight: u32, severity: [f32; MODES]) -> Self {
-        Self { flight, severity, sigma: [f32::NAN; MODES] }
-    }
-
-    /// The severities of `report` for flight `flight`, without 1σ values. Only a report whose
-    /// status is a diagnosis belongs in a history ([`crate::health::Status::is_diagnosis`]).
-    pub fn from_report(flight: u32, report: &HealthReport) -> Self {
-        let mut severity = [0.0; MODES];
-        for (s, m) in severity.iter_mut().zip(&report.modes) {
-            *s = m.severity;
-        }
-        Self::new(flight, severity)
-    }
-
-    /// The entry with `sigma` as the 1σ of each severity.
-    pub const fn with_sigma(self, sigma: [f32; MODES]) -> Self {
-        Self { sigma, ..self }
-    }
-
-    /// The point of mode `mode`.
-    pub fn point(&self, mode: FaultMode) -> Point {
-        let i = mode_index(mode);
-        Point {
-            flight: self.flight,
-            severity: self.severity.get(i).copied().unwrap_or(f32::NAN),
-            sigma: self.sigma.get(i).copied().unwrap_or(f32::NAN),
-        }
+impl From<HistoryEntry> for Point {
+    /// A stored history entry, without 1σ (the record keeps none per flight).
+    fn from(e: HistoryEntry) -> Self {
+        Self { flight: e.flight, severity: e.severity, sigma: f32::NAN }
     }
 }
 
@@ -126,78 +97,33 @@ pub const fn mode_index(mode: FaultMode) -> usize {
     }
 }
 
-/// The last [`HISTORY_CAPACITY`] flights' severities, oldest first: a ring buffer of fixed size.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct History {
-    entries: [Entry; HISTORY_CAPACITY],
-    /// Entries held.
-    len: u8,
-    /// Slot of the next entry.
-    next: u8,
-}
+/// A mode counts as reported absent at or below this severity: model selection sets an absent
+/// group exactly healthy (severity 0).
+pub const ABSENT_AT: f32 = 1e-3;
 
-impl Default for History {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl History {
-    /// An empty history.
-    pub const fn new() -> Self {
-        Self { entries: [Entry::new(0, [0.0; MODES]); HISTORY_CAPACITY], len: 0, next: 0 }
-    }
-
-    /// Adds `entry`, dropping the oldest when the history is full.
-    pub fn push(&mut self, entry: Entry) {
-        let slot = usize::from(self.next) % HISTORY_CAPACITY;
-        if let Some(e) = self.entries.get_mut(slot) {
-            *e = entry;
+/// The newest run of `points` that `keep` accepts, oldest first, at most [`FIT_CAPACITY`] of
+/// them: a point `keep` refuses ends the run before it. Returns the buffer and the run's length.
+fn newest_run(
+    points: impl IntoIterator<Item = Point>,
+    keep: impl Fn(&Point) -> bool,
+) -> ([Point; FIT_CAPACITY], usize) {
+    let mut buffer = [Point { flight: 0, severity: 0.0, sigma: f32::NAN }; FIT_CAPACITY];
+    let mut count = 0usize;
+    for p in points {
+        if !keep(&p) {
+            count = 0;
+            continue;
         }
-        self.next = ((slot + 1) % HISTORY_CAPACITY) as u8;
-        if usize::from(self.len) < HISTORY_CAPACITY {
-            self.len += 1;
+        if let Some(slot) = buffer.get_mut(count % FIT_CAPACITY) {
+            *slot = p;
         }
+        count += 1;
     }
-
-    /// Entries held.
-    pub const fn len(&self) -> usize {
-        self.len as usize
+    if count > FIT_CAPACITY {
+        // oldest first again: the newest points wrapped over the start of the buffer
+        buffer.rotate_left(count % FIT_CAPACITY);
     }
-
-    /// `true` when no flight is held.
-    pub const fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
-    /// Forgets every flight (after a maintenance action that repairs the actuator).
-    pub fn clear(&mut self) {
-        *self = Self::new();
-    }
-
-    /// The entries, oldest first.
-    pub fn iter(&self) -> impl Iterator<Item = &Entry> + Clone + '_ {
-        let len = self.len();
-        let start = (usize::from(self.next) + HISTORY_CAPACITY - len) % HISTORY_CAPACITY;
-        (0..len).filter_map(move |i| self.entries.get((start + i) % HISTORY_CAPACITY))
-    }
-
-    /// The newest entry.
-    pub fn last(&self) -> Option<&Entry> {
-        self.iter().last()
-    }
-
-    /// The points of mode `mode`, oldest first.
-    pub fn points(&self, mode: FaultMode) -> impl Iterator<Item = Point> + Clone + '_ {
-        self.iter().map(move |e| e.point(mode))
-    }
-
-    /// The trend and crossing of mode `mode` ([`Prognosis::of`]).
-    pub fn prognosis(&self, mode: FaultMode) -> Option<Prognosis> {
-        let now = self.last()?.flight;
-        Prognosis::of(self.points(mode), now)
-    }
+    (buffer, count.min(FIT_CAPACITY))
 }
 
 /// A straight line fitted to a mode's severities against the flight number (module doc).
@@ -225,39 +151,40 @@ pub struct Trend {
 }
 
 impl Trend {
-    /// The least-squares line through `points` (weighted by `1/σ²` when every point has a 1σ);
-    /// `None` for fewer than [`MIN_POINTS`] points, points all at one flight, or a non-finite
-    /// severity.
-    pub fn fit<I>(points: I) -> Option<Self>
-    where
-        I: IntoIterator<Item = Point>,
-        I::IntoIter: Clone,
-    {
-        let points = points.into_iter();
-        let weighted = points.clone().all(|p| p.has_sigma());
+    /// The least-squares line through `points` (weighted by `1/σ²` when every point has a 1σ;
+    /// the newest [`FIT_CAPACITY`] points when more come); `None` for fewer than [`MIN_POINTS`]
+    /// points, points all at one flight, or a non-finite severity.
+    pub fn fit(points: impl IntoIterator<Item = Point>) -> Option<Self> {
+        let (buffer, len) = newest_run(points, |_| true);
+        Self::fit_slice(buffer.get(..len).unwrap_or(&[]))
+    }
+
+    /// [`Trend::fit`] over a slice.
+    pub fn fit_slice(points: &[Point]) -> Option<Self> {
+        let weighted = points.iter().all(Point::has_sigma);
         let weight = |p: &Point| if weighted { 1.0 / (p.sigma * p.sigma) } else { 1.0 };
         // sums in f64 would cost a soft-float routine per operation on the MCU; the flights are
-        // centred on the first one so that f32 keeps the precision of small differences
-        let origin = points.clone().next()?.flight;
+        // counted from the first one so that f32 keeps the precision of small differences
+        let origin = points.first()?.flight;
         let x = |p: &Point| p.flight.wrapping_sub(origin) as i32 as f32;
-        let (mut n, mut w_sum, mut wx, mut wy) = (0usize, 0.0f32, 0.0f32, 0.0f32);
-        for p in points.clone() {
+        let (mut w_sum, mut wx, mut wy) = (0.0f32, 0.0f32, 0.0f32);
+        for p in points {
             if !p.severity.is_finite() {
                 return None;
             }
-            let w = weight(&p);
-            n += 1;
+            let w = weight(p);
             w_sum += w;
-            wx += w * x(&p);
+            wx += w * x(p);
             wy += w * p.severity;
         }
+        let n = points.len();
         if n < MIN_POINTS || !(w_sum > 0.0 && w_sum.is_finite()) {
             return None;
         }
         let (x_bar, y_bar) = (wx / w_sum, wy / w_sum);
         let (mut sxx, mut sxy) = (0.0f32, 0.0f32);
-        for p in points.clone() {
-            let (w, dx) = (weight(&p), x(&p) - x_bar);
+        for p in points {
+            let (w, dx) = (weight(p), x(p) - x_bar);
             sxx += w * dx * dx;
             sxy += w * dx * (p.severity - y_bar);
         }
@@ -267,8 +194,8 @@ impl Trend {
         let slope = sxy / sxx;
         let mut rss = 0.0f32;
         for p in points {
-            let r = p.severity - y_bar - slope * (x(&p) - x_bar);
-            rss += weight(&p) * r * r;
+            let r = p.severity - y_bar - slope * (x(p) - x_bar);
+            rss += weight(p) * r * r;
         }
         let residual_scale = libm::sqrtf(rss / (n - 2) as f32);
         Some(Self {
@@ -374,14 +301,19 @@ pub struct Prognosis {
 
 impl Prognosis {
     /// The trend of `points` and its crossing of [`FAILING_AT`] seen from flight `now`; `None`
-    /// when no trend can be fitted ([`Trend::fit`]).
-    pub fn of<I>(points: I, now: u32) -> Option<Self>
-    where
-        I: IntoIterator<Item = Point>,
-        I::IntoIter: Clone,
-    {
-        let trend = Trend::fit(points)?;
+    /// when no trend can be fitted ([`Trend::fit`]). The trend starts after the last point that
+    /// reports the mode absent (severity at most [`ABSENT_AT`]): a fault that appears mid-history
+    /// grows from its onset, and the zeros before it would flatten its line.
+    pub fn of(points: impl IntoIterator<Item = Point>, now: u32) -> Option<Self> {
+        let (buffer, len) = newest_run(points, |p| p.severity > ABSENT_AT || p.severity.is_nan());
+        let trend = Trend::fit_slice(buffer.get(..len).unwrap_or(&[]))?;
         Some(Self { trend, now, failing: trend.crossing(FAILING_AT) })
+    }
+
+    /// The prognosis of mode `mode` from the persisted health record: its history, seen from
+    /// the record's last flight.
+    pub fn of_record(record: &HealthRecord, mode: FaultMode) -> Option<Self> {
+        Self::of(record.history(mode).iter().map(Point::from), record.flights())
     }
 
     /// Flights remaining from `now` to the crossing: the point estimate and the interval
@@ -419,7 +351,7 @@ pub fn student_t_95(nu: u32) -> f32 {
 mod tests {
     use super::*;
 
-    fn line(a: f32, b: f32, flights: core::ops::RangeInclusive<u32>) -> impl Iterator<Item = Point> + Clone {
+    fn line(a: f32, b: f32, flights: core::ops::RangeInclusive<u32>) -> impl Iterator<Item = Point> {
         flights.map(move |f| Point { flight: f, severity: a + b * f as f32, sigma: f32::NAN })
     }
 
@@ -450,21 +382,29 @@ mod tests {
     }
 
     #[test]
-    fn the_history_is_a_ring_of_sixteen() {
-        let mut h = History::new();
-        assert!(h.is_empty() && h.prognosis(FaultMode::Friction).is_none());
+    fn the_record_history_gives_the_prognosis() {
+        use crate::faults::FaultVector;
+        use crate::health::{HealthReport, Status};
+        use crate::params::EmaParams;
+        let mut record = HealthRecord::new();
+        assert!(Prognosis::of_record(&record, FaultMode::Friction).is_none());
         for f in 1..=20u32 {
-            h.push(Entry::new(f, [0.01 * f as f32, 0.0, 0.0, 0.0, 0.0]));
+            let k = FaultVector([0.01 * f as f32, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+            let report = HealthReport::new(k, &EmaParams::NOMINAL, 0.0, 1, 1, None);
+            // an abstaining flight counts but adds no point
+            let report = if f == 7 { report.abstaining(Status::SensorFault) } else { report };
+            record.new_flight(&report, f == 1);
         }
-        assert_eq!(h.len(), HISTORY_CAPACITY);
-        let flights: std::vec::Vec<u32> = h.iter().map(|e| e.flight).collect();
-        assert_eq!(flights, (5..=20).collect::<std::vec::Vec<_>>());
-        assert_eq!(h.last().unwrap().flight, 20);
-        let p = h.prognosis(FaultMode::Friction).unwrap();
+        let p = Prognosis::of_record(&record, FaultMode::Friction).unwrap();
+        assert_eq!((p.now, p.trend.points as usize), (20, HISTORY_CAPACITY));
         assert!((p.failing.unwrap().flight - 50.0).abs() < 1e-2, "{p:?}");
-        assert!(h.prognosis(FaultMode::Backlash).unwrap().failing.is_none());
-        h.clear();
-        assert!(h.is_empty());
+        // a mode reported absent has no trend
+        assert!(Prognosis::of_record(&record, FaultMode::Backlash).is_none());
+        // a series longer than the fit's buffer keeps its newest points
+        let noisy_start = (1..=6u32).map(|f| Point { flight: f, severity: 1.0, sigma: f32::NAN });
+        let t = Trend::fit(noisy_start.chain(line(0.0, 0.01, 7..=70))).unwrap();
+        assert_eq!(t.points as usize, FIT_CAPACITY);
+        assert!((t.slope - 0.01).abs() < 1e-6, "{t:?}");
     }
 
     #[test]
@@ -479,6 +419,18 @@ mod tests {
         pts[0].sigma = f32::NAN;
         let plain = Trend::fit(pts.iter().copied()).unwrap();
         assert!(!plain.weighted && (plain.slope - 0.04).abs() > 5e-3, "{plain:?}");
+    }
+
+    #[test]
+    fn the_trend_starts_after_the_last_absent_flight() {
+        // absent on flights 1–4, then 0.05 + 0.04 per flight from flight 5: crossing at 16.25
+        let zeros = (1..=4u32).map(|f| Point { flight: f, severity: 0.0, sigma: f32::NAN });
+        let p = Prognosis::of(zeros.chain(line(-0.15, 0.04, 5..=9)), 9).unwrap();
+        assert_eq!(p.trend.points, 5);
+        assert!((p.failing.unwrap().flight - 16.25).abs() < 1e-3, "{p:?}");
+        // absent at the last flight: no trend
+        let gone = line(0.1, 0.02, 1..=5).chain([Point { flight: 6, severity: 0.0, sigma: f32::NAN }]);
+        assert!(Prognosis::of(gone, 6).is_none());
     }
 
     #[test]

@@ -10,8 +10,8 @@
 //! through [`identify_flight`]: the core identifies the recording (the first flight cold, a later
 //! flight from the previous diagnosis when a warm start is available) with the on-board settings
 //! ([`IdentifyConfig::onboard`]: the firmware's iteration budget) and, when its status is a
-//! diagnosis, its five mode severities join the core's [`History`] (a ring of the last 16
-//! flights, as on board). After each flight the core fits the trend of every mode and the flight
+//! diagnosis, its five mode severities join the history of the core's [`HealthRecord`] (a ring
+//! of the last 16 flights per mode, the record the firmware persists). After each flight the core fits the trend of every mode and the flight
 //! at which it reaches the failing threshold, with its interval ([`ema_monitor::prognosis`]).
 //!
 //! **Degradation campaign** (`--simulate LAW…`): instead of files, the reference model flies
@@ -34,7 +34,8 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use ema_monitor::health::{FaultMode, HealthReport, DEGRADED_AT, FAILING_AT};
 use ema_monitor::monitor::IdentifyConfig;
-use ema_monitor::prognosis::{mode_index, Entry, History, Prognosis, HISTORY_CAPACITY, RUL_CONFIDENCE};
+use ema_monitor::persist::HealthRecord;
+use ema_monitor::prognosis::{mode_index, Prognosis, HISTORY_CAPACITY, RUL_CONFIDENCE};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 use serde::Serialize;
@@ -406,8 +407,8 @@ fn flight_source(
 pub struct Series {
     /// The flights.
     pub flights: Vec<FlightJson>,
-    /// The core's history after the last flight.
-    pub history: History,
+    /// The health record after the last flight (its history per mode).
+    pub record: HealthRecord,
     /// The prognosis per mode after the last flight.
     pub prognosis: [Option<Prognosis>; 5],
     /// The reports of the flights.
@@ -421,22 +422,20 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
     let command = ModelCommand::Profile { profile, name: args.profile.clone() };
     let count = if laws.is_empty() { args.files.len() } else { args.flights as usize };
     let bar = progress::bar(count as u64, "flights", args.progress.visible());
-    let (mut history, mut prior) = (History::new(), None);
+    let mut record = HealthRecord::new();
     let (mut flights, mut reports) = (Vec::new(), Vec::new());
     let mut prognosis = [None; 5];
     for n in 0..count {
         let f = flight_source(args, laws, params, &profile, n)?;
         let config = IdentifyConfig { seed: f.seed, ..IdentifyConfig::onboard() };
+        let prior = record.has_prior().then(|| record.k().0);
         let result = identify_flight(&f.recording, &f.label, prior, params, &command, &config)?;
         bar.inc(1);
         let number = n as u32 + 1;
         let r = &result.report;
-        if r.status.is_diagnosis() {
-            history.push(Entry::from_report(number, r));
-            prior = Some(r.faults.0);
-        }
+        record.new_flight(r, result.start == Start::Cold);
         for mode in FaultMode::ALL {
-            prognosis[mode_index(mode)] = history.prognosis(mode);
+            prognosis[mode_index(mode)] = Prognosis::of_record(&record, mode);
         }
         flights.push(FlightJson {
             flight: number,
@@ -454,7 +453,7 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
         reports.push(result.report);
     }
     bar.finish_and_clear();
-    Ok(Series { flights, history, prognosis, reports })
+    Ok(Series { flights, record, prognosis, reports })
 }
 
 /// The per-mode block of the document.
@@ -481,7 +480,7 @@ fn modes_json(series: &Series, laws: &[Law], params: &EmaParams) -> Vec<ModeJson
                 series.flights.iter().filter(|f| reported(f) && onset.is_none_or(|o| f.flight < o)).count() as u32;
             ModeJson {
                 mode: mode.name(),
-                points: series.history.len().min(HISTORY_CAPACITY) as u16,
+                points: series.record.history(mode).len() as u16,
                 slope_per_flight: p.map(|p| p.trend.slope),
                 slope_se_per_flight: p.map(|p| p.trend.slope_se),
                 crossing_flight: c.map(|c| c.flight),
@@ -627,8 +626,11 @@ const MODE_COLOURS: [(u8, u8, u8); 5] = [(31, 119, 180), (214, 39, 40), (44, 160
 pub fn plot(doc: &HistoryJson, series: &Series) -> std::io::Result<String> {
     let last = doc.flights.last().map_or(1.0, |f| f64::from(f.flight));
     let mut x_max = last + 1.0;
-    let points: Vec<Vec<(f64, f64)>> = (0..5)
-        .map(|i| series.history.iter().map(|e| (f64::from(e.flight), f64::from(e.severity[i]))).collect::<Vec<_>>())
+    let points: Vec<Vec<(f64, f64)>> = FaultMode::ALL
+        .into_iter()
+        .map(|mode| {
+            series.record.history(mode).iter().map(|e| (f64::from(e.flight), f64::from(e.severity))).collect::<Vec<_>>()
+        })
         .collect();
     let mut shown = Vec::new();
     for (i, mode) in FaultMode::ALL.iter().enumerate() {
