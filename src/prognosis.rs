@@ -18,9 +18,13 @@
 //! after each flight corrects as the history slides (`docs/decisions/0021-trend-and-rul.md`).
 //!
 //! **Weights.** A point may carry the identification's 1σ of its severity; when every point of a
-//! mode has one, the fit weighs each by `w = 1/σ²`, otherwise every weight is 1. The residual
-//! scale is estimated from the fit in both cases, `s² = Σ w·r²/(n − 2)`, so weights need only be
-//! right relative to each other: `SE(b) = s/√S_xx`, `S_xx = Σ w·(f − f̄)²`, `f̄ = Σ w·f / Σ w`.
+//! mode has one, the fit weighs each by `w = 1/σ²` (σ at least [`SEVERITY_FLOOR`]), otherwise
+//! every weight is 1. The residual scale is estimated from the fit in both cases,
+//! `s² = Σ w·r²/(n − 2)`: `SE(b) = s/√S_xx`, `S_xx = Σ w·(f − f̄)²`, `f̄ = Σ w·f / Σ w`. It is
+//! kept at least at the scatter the points are known to have: [`SEVERITY_FLOOR`] unweighted, 1
+//! (the given 1σ) weighted. A line through points with almost no scatter would otherwise claim
+//! a crossing to a hundredth of a flight, while each identification carries a bias of a few
+//! thousandths of severity that repeats from flight to flight.
 //!
 //! **Interval.** The flight `f*` at which the line reaches the threshold `T` is a ratio,
 //! `f* = f̄ + (T − a)/b`, of the two fitted coefficients, which are independent under the
@@ -48,6 +52,12 @@ use crate::persist::{HealthRecord, HistoryEntry};
 /// Flights the persisted history holds per mode ([`crate::persist::HISTORY_LEN`]): the oldest is
 /// dropped when a new one comes.
 pub const HISTORY_CAPACITY: usize = crate::persist::HISTORY_LEN;
+
+/// The least scatter of a severity the interval assumes, `σ₀`: the monitor model's mismatch
+/// biases each identification by a few thousandths of severity, much the same flight after
+/// flight, which the residual scatter of the line cannot see
+/// (`docs/decisions/0021-trend-and-rul.md`).
+pub const SEVERITY_FLOOR: f32 = 0.005;
 
 /// Most points one fit takes (a longer series keeps its newest): the stack buffer of
 /// [`Trend::fit`].
@@ -142,7 +152,8 @@ pub struct Trend {
     pub slope: f32,
     /// The slope's standard error `s/√S_xx`.
     pub slope_se: f32,
-    /// The residual scale `s` (in units of a weight-1 point's severity).
+    /// The residual scale `s` (in units of a weight-1 point's severity), at least
+    /// [`SEVERITY_FLOOR`] unweighted and 1 weighted.
     pub residual_scale: f32,
     /// `Σ w`.
     pub weight_sum: f32,
@@ -162,7 +173,14 @@ impl Trend {
     /// [`Trend::fit`] over a slice.
     pub fn fit_slice(points: &[Point]) -> Option<Self> {
         let weighted = points.iter().all(Point::has_sigma);
-        let weight = |p: &Point| if weighted { 1.0 / (p.sigma * p.sigma) } else { 1.0 };
+        let weight = |p: &Point| {
+            if weighted {
+                let sigma = p.sigma.max(SEVERITY_FLOOR);
+                1.0 / (sigma * sigma)
+            } else {
+                1.0
+            }
+        };
         // sums in f64 would cost a soft-float routine per operation on the MCU; the flights are
         // counted from the first one so that f32 keeps the precision of small differences
         let origin = points.first()?.flight;
@@ -197,7 +215,10 @@ impl Trend {
             let r = p.severity - y_bar - slope * (x(p) - x_bar);
             rss += weight(p) * r * r;
         }
-        let residual_scale = libm::sqrtf(rss / (n - 2) as f32);
+        // at least the scatter the points are known to have: σ₀ unweighted, the given 1σ
+        // (scale 1) weighted
+        let floor = if weighted { 1.0 } else { SEVERITY_FLOOR };
+        let residual_scale = libm::sqrtf(rss / (n - 2) as f32).max(floor);
         Some(Self {
             points: n.min(usize::from(u16::MAX)) as u16,
             weighted,
@@ -359,12 +380,15 @@ mod tests {
     fn an_exact_line_gives_the_exact_crossing() {
         // 0.05 + 0.03·f reaches 0.5 at flight 15
         let p = Prognosis::of(line(0.05, 0.03, 1..=8), 8).expect("a trend");
-        assert!((p.trend.slope - 0.03).abs() < 1e-6 && p.trend.slope_se < 1e-5, "{p:?}");
+        assert!((p.trend.slope - 0.03).abs() < 1e-6, "{p:?}");
         let c = p.failing.expect("rising");
         assert!((c.flight - 15.0).abs() < 1e-3, "{c:?}");
-        assert!((c.lower - 15.0).abs() < 1e-2 && (c.upper.unwrap() - 15.0).abs() < 1e-2, "{c:?}");
-        let (left, lo, hi) = p.remaining().unwrap();
-        assert!((left - 7.0).abs() < 1e-3 && (lo - 7.0).abs() < 1e-2 && (hi.unwrap() - 7.0).abs() < 1e-2);
+        // the interval is the severity floor's: σ₀ = 0.005 over 8 flights, 14.5 to 15.6
+        assert_eq!(p.trend.residual_scale, SEVERITY_FLOOR);
+        let (lo, hi) = (c.lower, c.upper.unwrap());
+        assert!(lo < 15.0 && 15.0 < hi && hi - lo < 1.2 && lo > 14.4, "{c:?}");
+        let (left, lo_left, hi_left) = p.remaining().unwrap();
+        assert!((left - 7.0).abs() < 1e-3 && (lo_left - (lo - 8.0)).abs() < 1e-4 && hi_left == Some(hi - 8.0));
         // past the threshold: due now
         let late = Prognosis::of(line(0.3, 0.05, 1..=8), 8).unwrap();
         assert_eq!(late.remaining().unwrap().0, 0.0);
