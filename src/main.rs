@@ -12,16 +12,21 @@
 //!    `wfi` between frames): a refused frame is held at the last good one and counted; too many
 //!    make the report `SENSOR_FAULT`, a declared sample rate other than the control rate makes it
 //!    `INCONCLUSIVE (rate mismatch)`; a sampler overrun or a missing trigger stops the firmware;
-//! 4. identify the faults with the on-board PSO and the model effects of `EMA_MODEL_CONFIG` (none
-//!    by default; logged first), between the instruction-count markers
+//! 4. flight 1: identify the faults **cold** with the on-board PSO and the model effects of
+//!    `EMA_MODEL_CONFIG` (none by default; logged first), between the instruction-count markers
 //!    [`ema_identification_start`] and [`ema_identification_end`] (`scripts/qemu-run` counts the
-//!    instructions between them);
-//! 5. log the health report, the fault vector's bits and the one-line summary of the host/target
-//!    parity check ([`log_summary`]), static RAM and peak stack over defmt, then exit through
-//!    semihosting: status 0 when the monitor gives a report (a diagnosis, or an honest
-//!    `INCONCLUSIVE` / `SENSOR_FAULT`), 1 when it refuses the trace (a malformed packed trace, too
-//!    few frames: [`log_refusal`] logs the summary `summary: REFUSED <stage> <error>` first); a
-//!    panic or fault also exits with 1, see [`HardFault`].
+//!    instructions between them, `identification (cold): N instructions`), and log its health
+//!    report, the fault vector's bits and the one-line summary of the host/target parity check
+//!    ([`log_summary`]);
+//! 5. flight 2: identify **warm** from flight 1's diagnosis (the prior a persisted health record
+//!    holds across power cycles), on the same recording, between a second pair of markers
+//!    (`identification (warm): N instructions`), and log its report and what the warm stages did
+//!    (probes fired, evaluations);
+//! 6. log static RAM and peak stack over defmt, then exit through semihosting: status 0 when the
+//!    monitor gives a report (a diagnosis, or an honest `INCONCLUSIVE` / `SENSOR_FAULT`), 1 when it
+//!    refuses the trace (a malformed packed trace, too few frames: [`log_refusal`] logs the summary
+//!    `summary: REFUSED <stage> <error>` first); a panic or fault also exits with 1, see
+//!    [`HardFault`].
 #![no_std]
 #![no_main]
 
@@ -34,7 +39,7 @@ use cortex_m_semihosting::debug;
 use ema_monitor::acquisition::{manoeuvre_frames, Sampler, SamplerConfig, SAMPLER_QUEUE};
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::health::{Abstain, HealthReport, Status};
-use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
+use ema_monitor::monitor::{self, Identification, IdentifyConfig, WarmReport, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::trace::PackedTrace;
 use ema_monitor::{report_log, EmaParams, ModelEffects, Profile};
 
@@ -111,25 +116,37 @@ fn main() -> ! {
         acquired.longest_refused_run
     );
 
-    // 4. Identification (instruction-counted region).
+    // 4. Flight 1: cold identification (instruction-counted region 1) and its report.
+    defmt::info!("flight 1: cold identification");
     ema_identification_start();
-    let report = identify(&trace);
+    let report_1 = identify(&trace, None);
     ema_identification_end();
-
-    // 5. Report and exit.
-    let ok = match report {
-        Ok(r) => {
+    let report_1 = match report_1 {
+        Ok((r, _)) => {
             let r = r.with_acquisition(&acquired);
             let r = if rate_ok { r } else { r.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
             report_log::log_report(&r);
-            true
+            Some(r)
         }
         Err(e) => {
             defmt::error!("identification refused: {}", e);
             log_refusal("identification", e);
-            false
+            None
         }
     };
+
+    // 5. Flight 2: warm from flight 1's diagnosis (instruction-counted region 2). The seam of the
+    //    persisted health record: the prior is what the record read at power-up holds.
+    let ok = report_1.is_some_and(|report_1| {
+        let prior = report_1.faults;
+        defmt::info!("flight 2: warm start from flight 1's diagnosis, on the same recording");
+        ema_identification_start();
+        let report_2 = identify(&trace, Some(&prior.0));
+        ema_identification_end();
+        log_warm(report_2, &acquired, rate_ok)
+    });
+
+    // 6. Memory figures and exit.
     let ram = static_ram();
     defmt::info!(
         "static RAM: {=usize} bytes (.data {=usize} + .bss {=usize} + .uninit {=usize})",
@@ -145,6 +162,37 @@ fn main() -> ! {
         defmt::error!("ema-monitor: FAILED");
     }
     exit(ok)
+}
+
+/// Logs flight 2's report (with the acquisition's counts and the rate check, as flight 1's) and
+/// what the warm stages did; `true` when there is a report. Not inlined: its formatting locals
+/// stay out of `main`'s frame.
+#[inline(never)]
+fn log_warm(
+    report: Result<(HealthReport, WarmReport), monitor::MonitorError>,
+    acquired: &monitor::AcquisitionSummary,
+    rate_ok: bool,
+) -> bool {
+    match report {
+        Ok((r, warm)) => {
+            let r = r.with_acquisition(acquired);
+            let r = if rate_ok { r } else { r.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
+            report_log::log_report(&r);
+            defmt::info!(
+                "warm start: probes fired {=u8:07b} (groups), {=u16} probes, {=u8} refits, {=u32} evaluations of the warm stages; cold next: {=bool}",
+                warm.fired,
+                warm.probes,
+                warm.refits,
+                warm.evaluations,
+                warm.needs_cold(&r)
+            );
+            true
+        }
+        Err(e) => {
+            defmt::error!("warm identification refused: {}", e);
+            false
+        }
+    }
 }
 
 /// Logs where the trace and the model effects come from when they are not the defaults, then the
@@ -170,14 +218,20 @@ fn log_model_effects() {
 }
 
 /// The on-board identification: monitor model (with [`MODEL_EFFECTS`]) + PSO
-/// (`IdentifyConfig::onboard`), run to its end.
+/// (`IdentifyConfig::onboard`), run to its end; cold without a prior, warm from `prior` (flight
+/// 1's fault vector: model selection, the polish, the new-fault probes and, when one fires, the
+/// targeted refit, [`Identification::warm`]). One function for both flights: the identification's
+/// constructor has one caller and is built in place, in this frame.
 #[inline(never)]
-fn identify(trace: &MeasuredTrace<ONBOARD_WINDOW>) -> Result<HealthReport, monitor::MonitorError> {
-    let config = IdentifyConfig { effects: MODEL_EFFECTS, ..IdentifyConfig::onboard() };
+fn identify(
+    trace: &MeasuredTrace<ONBOARD_WINDOW>,
+    prior: Option<&[f32; 8]>,
+) -> Result<(HealthReport, WarmReport), monitor::MonitorError> {
+    let config = IdentifyConfig { effects: MODEL_EFFECTS, prior: prior.copied(), ..IdentifyConfig::onboard() };
     let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
         Identification::new(trace, PARAMS, Profile::STANDARD, &config)?;
     id.run(u32::MAX);
-    Ok(id.report())
+    Ok((id.report(), id.warm_report().unwrap_or_default()))
 }
 
 /// Logs the summary of a refusal, `summary: REFUSED <stage> <error>`: the stage that refused the

@@ -67,6 +67,7 @@ const TESTS: &[(&str, Test)] = &[
     ("persist_power_cut_keeps_a_record", persist_power_cut_keeps_a_record),
     ("persist_corrupt_byte_is_detected", persist_corrupt_byte_is_detected),
     ("persist_dead_flash_is_an_error", persist_dead_flash_is_an_error),
+    ("warm_start_from_the_cold_report", warm_start_from_the_cold_report),
 ];
 
 #[entry]
@@ -653,4 +654,40 @@ fn persist_dead_flash_is_an_error() -> Result<(), &'static str> {
     ensure(s.save(&record_after(2)) == Err(StoreError::Flash(FlashFault::Other)), "save on a dead flash")?;
     ensure(s.reset() == Err(StoreError::Flash(FlashFault::Other)), "reset on a dead flash")?;
     ensure(loads(s.load(), Some(&record_after(1))), "record lost")
+}
+
+/// The warm start on target: from the firmware's cold diagnosis of the built-in trace (its fault
+/// vector bits, `README.md`), the warm identification of the same recording finishes with the
+/// same status, no probe fired, and a small fraction of the cold evaluations (1611).
+fn warm_start_from_the_cold_report() -> Result<(), &'static str> {
+    let t = PackedTrace::parse(BUILT_IN).map_err(|_| "built-in trace invalid")?;
+    let mut reader = PhaseCurrentReader::new(
+        ReplayAdc::new(t),
+        (PhaseA, PhaseB, PhaseC),
+        Calibration::NOMINAL,
+        AcquisitionConfig::DEFAULT,
+    )
+    .map_err(|_| "config refused")?;
+    let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
+    monitor::acquire(&mut reader, &mut trace).map_err(|_| "acquisition refused")?;
+    let prior = [0x3e7fb45d, 0, 0, 0, 0, 0, 0x3f000000, 0x3efe3b61].map(f32::from_bits);
+    let (report, warm) = warm_identification(&trace, &prior)?;
+    ensure(report.status == ema_monitor::health::Status::Degraded, "another status than the cold DEGRADED")?;
+    ensure(close(report.faults.0[0], prior[0], 0.01), "friction moved")?;
+    ensure(warm.fired == 0, "a probe fired on the same recording")?;
+    ensure(report.evaluations < 200, "too many evaluations for a warm start")
+}
+
+/// A warm identification of `trace` from `prior`, run to its end.
+#[inline(never)]
+fn warm_identification(
+    trace: &MeasuredTrace<ONBOARD_WINDOW>,
+    prior: &[f32; 8],
+) -> Result<(HealthReport, monitor::WarmReport), &'static str> {
+    let config = IdentifyConfig::onboard();
+    let mut id =
+        Identification::<'_, ONBOARD_WINDOW, 50>::warm(trace, EmaParams::NOMINAL, Profile::STANDARD, &config, prior)
+            .map_err(|_| "warm identification refused")?;
+    id.run(u32::MAX);
+    Ok((id.report(), id.warm_report().ok_or("no warm report")?))
 }

@@ -84,6 +84,14 @@ pub struct IdentifyConfig {
     /// control rate (the firmware's ADC), fewer for a recording interpolated from a slower rate
     /// (`DECIMATION · f_recording / f_control`).
     pub independent_frames_per_block: f32,
+    /// The previous flight's fault vector: `Some` makes the identification a **warm start** from
+    /// it (no global search; model selection, the polish, the new-fault probes and the targeted
+    /// refit, `warm.rs`); `None` (the default) a cold one. Whether a warm start is allowed is
+    /// [`super::plan_start`]'s decision.
+    pub prior: Option<[f32; FAULT_COUNT]>,
+    /// Flights after which a cold identification runs again instead of a warm one
+    /// ([`super::plan_start`]; [`super::COLD_EVERY_FLIGHTS`] by default).
+    pub cold_every_flights: u32,
 }
 
 impl Default for IdentifyConfig {
@@ -114,6 +122,8 @@ impl IdentifyConfig {
             fast_regime_weight: 1.0,
             selection_polish_max_evaluations: SELECTION_POLISH_MAX_EVALUATIONS,
             independent_frames_per_block: DECIMATION as f32,
+            prior: None,
+            cold_every_flights: super::COLD_EVERY_FLIGHTS,
         }
     }
 

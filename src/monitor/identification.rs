@@ -7,6 +7,7 @@
 
 use super::config::{fault_bounds, selection_polish_left, starting_guesses, Algorithm, IdentifyConfig};
 use super::selection::{group_present, without_group, Selection, FAULT_GROUPS};
+use super::warm::{WarmReport, WarmStage, WarmState};
 use super::MonitorError;
 use super::MODEL_MISMATCH_A;
 use crate::command::Command;
@@ -68,8 +69,26 @@ pub(super) enum Stage {
     Polish(PatternSearch<FAULT_COUNT>),
     /// No polish, but selection changed the vector: evaluate it once, then finish.
     Rescore(TerminationReason),
+    /// The stages of a warm start ([`WarmStage`]).
+    Warm(WarmStage),
     /// Finished with this reason.
     Done(TerminationReason),
+}
+
+/// The start point of a warm start from `prior`: the prior in the search box, its absent groups
+/// exactly healthy; refused when it is not a fault vector.
+fn warm_start_point(prior: &[f32; FAULT_COUNT]) -> Result<[f32; FAULT_COUNT], MonitorError> {
+    if !FaultVector(*prior).is_valid() {
+        return Err(MonitorError::Prior);
+    }
+    let mut start = *prior;
+    fault_bounds().enforce_point(&mut start);
+    for &group in FAULT_GROUPS.iter() {
+        if !group_present(&start, group) {
+            start = without_group(&start, group);
+        }
+    }
+    Ok(start)
 }
 
 /// One fault identification in progress: `W` window samples, `P` individuals.
@@ -89,12 +108,16 @@ pub struct Identification<'a, const W: usize, const P: usize> {
     pub(super) selection_polish_evaluations: u32,
     /// Present groups model selection had no budget left to test.
     pub(super) untested_groups: u8,
+    /// The warm start's state (`None`: a cold identification).
+    pub(super) warm: Option<WarmState>,
 }
 
 impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     /// Prepares the identification of `trace`, measured under `command` (a [`crate::Profile`] or a
     /// sampled command, [`Command`]) on an actuator whose healthy parameters are `params`. A trace
-    /// longer than the command (by more than one control period) is refused.
+    /// longer than the command (by more than one control period) is refused. With
+    /// [`IdentifyConfig::prior`] set, the identification is a warm start from it
+    /// ([`Identification::warm`]).
     pub fn new(
         trace: &'a MeasuredTrace<W>,
         params: EmaParams,
@@ -149,6 +172,12 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                 )
             }
         };
+        // a warm start replaces the global search by the prior (checked here, set in place: the
+        // identification is built once, never moved, so the stack holds one copy of it)
+        let start = match config.prior {
+            Some(prior) => Some(warm_start_point(&prior)?),
+            None => None,
+        };
         let fit = CurrentFit::new(trace, params, command)?
             .with_effects(config.effects)
             .with_fast_regime_weight(config.fast_regime_weight)
@@ -158,13 +187,36 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             solver,
             params,
             config: *config,
-            stage: Stage::Global,
-            best: healthy,
+            stage: if start.is_some() { Stage::Warm(WarmStage::Start) } else { Stage::Global },
+            best: start.unwrap_or(healthy),
             best_cost: f32::INFINITY,
             kept: [true; FAULT_GROUPS.len()],
             selection_polish_evaluations: 0,
             untested_groups: 0,
+            warm: start.map(|_| WarmState::default()),
         })
+    }
+
+    /// Prepares a **warm** identification of `trace` from `prior`, the previous flight's fault
+    /// vector: no global search; model selection and the polish start from the prior (its
+    /// absent groups exactly healthy), then the new-fault probes and, when one fires, the
+    /// targeted refit (`warm.rs`). Refuses what [`Identification::new`] refuses, and a prior
+    /// that is not a fault vector ([`MonitorError::Prior`]). Whether a warm start is allowed at
+    /// all is [`super::plan_start`]'s decision (a cold one is required on the first flight, after
+    /// maintenance, periodically, and after a warm result that failed its fit check).
+    pub fn warm(
+        trace: &'a MeasuredTrace<W>,
+        params: EmaParams,
+        command: impl Into<Command<'a>>,
+        config: &IdentifyConfig,
+        prior: &[f32; FAULT_COUNT],
+    ) -> Result<Self, MonitorError> {
+        Self::new(trace, params, command, &IdentifyConfig { prior: Some(*prior), ..*config })
+    }
+
+    /// What the warm stages did (`None` for a cold identification).
+    pub fn warm_report(&self) -> Option<WarmReport> {
+        self.warm.map(|w| w.report)
     }
 
     /// One objective evaluation (one monitor-model run over the trace, possibly abandoned early).
@@ -193,6 +245,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                 }
             }
             Stage::Select(_) => self.selection_step(),
+            Stage::Warm(_) => self.warm_step(),
             Stage::Polish(search) => {
                 let before = search.evaluations();
                 let status = search.step(&mut self.fit);
@@ -200,14 +253,14 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                 let (x, c) = search.best();
                 (self.best, self.best_cost) = (*x, c);
                 if let Status::Done(_) = status {
-                    self.stage = Stage::Done(self.global_reason());
+                    self.finish(self.global_reason());
                 }
             }
             Stage::Rescore(reason) => {
                 let reason = *reason;
                 self.best_cost = self.fit.error(&FaultVector(self.best));
                 self.selection_polish_evaluations += 1;
-                self.stage = Stage::Done(reason);
+                self.finish(reason);
             }
         }
         self.status()
@@ -231,9 +284,9 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             let keep = self.kept.get(g).is_some_and(|&kept| kept) && present;
             free.iter_mut().enumerate().filter(|&(i, _)| in_group(i)).for_each(|(_, f)| *f = keep);
         }
-        let unscored = if self.best_cost.is_nan() { Stage::Rescore(reason) } else { Stage::Done(reason) };
+        let unscored = self.best_cost.is_nan();
         let Some(polish) = self.config.polish else {
-            self.stage = unscored;
+            self.end_unpolished(unscored, reason);
             return;
         };
         let start_cost = if self.best_cost.is_nan() { None } else { Some(self.best_cost) };
@@ -245,14 +298,27 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         };
         // The configuration was validated in `new`; with no budget left (or should it fail
         // anyway), keep the result as is.
-        self.stage = match PatternSearch::new(fault_bounds(), polish, self.best, start_cost, free) {
-            Ok(search) => Stage::Polish(search),
-            Err(_) => unscored,
-        };
+        match PatternSearch::new(fault_bounds(), polish, self.best, start_cost, free) {
+            Ok(search) => self.stage = Stage::Polish(search),
+            Err(_) => self.end_unpolished(unscored, reason),
+        }
     }
 
-    /// Why the global search stopped (the report's termination reason).
+    /// Ends without a polish: a rescore first when the cost of the vector is unknown.
+    fn end_unpolished(&mut self, unscored: bool, reason: TerminationReason) {
+        if unscored {
+            self.stage = Stage::Rescore(reason);
+        } else {
+            self.finish(reason);
+        }
+    }
+
+    /// Why the global search stopped (the report's termination reason; a warm start, which has
+    /// none, converged).
     pub(super) fn global_reason(&self) -> TerminationReason {
+        if self.warm.is_some_and(|w| !w.report.cold_fallback) {
+            return TerminationReason::FunctionTolerance;
+        }
         let status = match &self.solver {
             Solver::Pso(s) => s.status(),
             Solver::Ga(s) => s.status(),
@@ -298,7 +364,8 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             Stage::Global => self.solver.best(),
             _ => (self.best, self.best_cost),
         };
-        let evaluations = self.solver.evaluations() + self.selection_polish_evaluations;
+        let warm = self.warm.map_or(0, |w| w.report.evaluations);
+        let evaluations = self.solver.evaluations() + self.selection_polish_evaluations + warm;
         let report = HealthReport::new(
             FaultVector(best),
             &self.params,

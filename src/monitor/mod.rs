@@ -8,12 +8,15 @@
 //!
 //! The stages: the global search (PSO, GA or DE from [`starting_guesses`] and random points), model
 //! selection (`selection.rs`: each fault group must pay for its parameters), and the polish of the
-//! groups kept by a compass search (`identification.rs`).
+//! groups kept by a compass search (`identification.rs`). A warm start from the previous flight's
+//! diagnosis replaces the global search by the prior and adds new-fault probes (`warm.rs`,
+//! [`Identification::warm`]).
 
 mod config;
 mod identification;
 mod selection;
 mod verdict;
+mod warm;
 
 pub use config::{
     fault_bounds, starting_guesses, Algorithm, IdentifyConfig, ONBOARD_MAX_ITERATIONS, ONBOARD_POPULATION,
@@ -27,6 +30,10 @@ pub use selection::{
 pub use verdict::{
     covers, rate_matches, window_noise_variance_a2, AcquisitionSummary, MAX_REFUSED_RUN, MAX_REFUSED_SHARE,
     MODEL_MISMATCH_A,
+};
+pub use warm::{
+    plan_start, ColdReason, Start, WarmReport, COLD_EVERY_FLIGHTS, GROUP_NAMES, MAX_NEW_FAULTS, PROBE_SCOUT,
+    PROBE_SEVERITY, TARGETED_REFIT,
 };
 
 use crate::acquisition::{AcquisitionError, PhaseCurrents};
@@ -48,6 +55,9 @@ pub enum MonitorError {
     TraceLongerThanProfile,
     /// The fast-regime weight is not in `(0, 1]`.
     FastRegimeWeight,
+    /// The prior of a warm start is not a fault vector (a non-finite element, or one outside
+    /// `[0, 1]`).
+    Prior,
 }
 
 impl core::fmt::Display for MonitorError {
@@ -60,6 +70,7 @@ impl core::fmt::Display for MonitorError {
                 f.write_str("the trace is longer than the command that drives the model")
             }
             MonitorError::FastRegimeWeight => f.write_str("the fast-regime weight is not in (0, 1]"),
+            MonitorError::Prior => f.write_str("the prior of a warm start is not a fault vector in [0, 1]"),
         }
     }
 }

@@ -121,6 +121,15 @@ pub fn refit_replaces(with: &[f32; FAULT_COUNT], without: &[f32; FAULT_COUNT], t
 pub(super) enum Selection {
     /// Evaluates the effective sample count of the best vector (one evaluation).
     EffectiveSamples,
+    /// Evaluates the best vector with `group` set back to healthy, before any refit (one
+    /// evaluation): a group that does not pay even against this unrefitted cost is dropped
+    /// without its refit ([`Identification::selection_step`]).
+    PreCheck {
+        /// Group under test.
+        group: usize,
+        /// `n` of the information criterion.
+        effective_samples: f32,
+    },
     /// Starts the test of the first present group from `group` on (no evaluation).
     NextGroup {
         /// First group to consider.
@@ -177,6 +186,10 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
                 self.selection_polish_evaluations += 1;
                 *selection = Selection::NextGroup { group: 0, effective_samples };
             }
+            Selection::PreCheck { group, effective_samples } => {
+                let (group, effective_samples) = (*group, *effective_samples);
+                self.pre_check(group, effective_samples);
+            }
             Selection::NextGroup { group, effective_samples } => {
                 let (group, effective_samples) = (*group, *effective_samples);
                 self.next_selection_test(group, effective_samples);
@@ -187,14 +200,7 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
                 self.selection_polish_evaluations += search.evaluations() - before;
                 if let Status::Done(_) = status {
                     let (group, effective_samples) = (*group, *effective_samples);
-                    let (x, without) = search.best();
-                    let x = *x;
-                    match self.judge_refit(group, effective_samples, x, without) {
-                        Some(check) => {
-                            self.stage = Stage::Select(Selection::WindowCheck { group, effective_samples, check })
-                        }
-                        None => self.next_selection_test(group + 1, effective_samples),
-                    }
+                    self.refit_done(group, effective_samples);
                 }
             }
             Selection::WindowCheck { group, effective_samples, check } => {
@@ -219,6 +225,67 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
                     }
                 }
             }
+        }
+    }
+
+    /// Judges the finished refit of `group` and moves on to its window check or the next group.
+    fn refit_done(&mut self, group: usize, effective_samples: f32) {
+        let Stage::Select(Selection::Refit { search, .. }) = &self.stage else { return };
+        let (x, without) = search.best();
+        let x = *x;
+        match self.judge_refit(group, effective_samples, x, without) {
+            Some(check) => self.stage = Stage::Select(Selection::WindowCheck { group, effective_samples, check }),
+            None => self.next_selection_test(group + 1, effective_samples),
+        }
+    }
+
+    /// The pre-check of `group` (one evaluation): `E` of the best vector with the group set back
+    /// to healthy and nothing refitted. A refit can only lower that cost, and a lower
+    /// `E_without` makes the group pay less, so a group that fails the information criterion
+    /// against the unrefitted cost fails it against any refit: it is dropped at once (and an
+    /// unrefitted vector that fits better than the best becomes the one to beat). A group that
+    /// pays gets its refit, which starts from this point with its cost known, so the refit's
+    /// trials and the evaluations spent are those of a refit without the pre-check
+    /// (`docs/decisions/0018-warm-start.md`).
+    fn pre_check(&mut self, group: usize, effective_samples: f32) {
+        let Some(&tested) = FAULT_GROUPS.get(group) else {
+            self.next_selection_test(group, effective_samples);
+            return;
+        };
+        let start = without_group(&self.best, tested);
+        let cost = self.fit.error(&FaultVector(start));
+        self.selection_polish_evaluations += 1;
+        let parameters = tested.1 - tested.0 + 1;
+        let pays = cost >= self.best_cost && group_pays(self.best_cost, cost, parameters, effective_samples);
+        if !pays {
+            if cost < self.best_cost {
+                (self.best, self.best_cost) = (start, cost);
+            }
+            if let Some(kept) = self.kept.get_mut(group) {
+                *kept = false;
+            }
+            self.next_selection_test(group + 1, effective_samples);
+            return;
+        }
+        // The refit's budget as `next_selection_test` gave it before this evaluation, less the
+        // evaluation of its start point done here (at least 1: that budget was at least 2).
+        let left = selection_polish_left(&self.config, self.selection_polish_evaluations);
+        let refit_budget = SELECTION_REFIT.max_evaluations.min(left).saturating_sub(1).max(1);
+        let mut free = [false; FAULT_COUNT];
+        for (h, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
+            let movable = h != group && self.kept[h] && group_present(&self.best, (first, last));
+            free[first..=last].iter_mut().for_each(|f| *f = movable);
+        }
+        let config = PatternConfig { max_evaluations: refit_budget, ..SELECTION_REFIT };
+        match PatternSearch::new(fault_bounds(), config, start, Some(cost), free) {
+            Ok(search) => {
+                let done = matches!(search.status(), Status::Done(_));
+                self.stage = Stage::Select(Selection::Refit { group, effective_samples, search });
+                if done {
+                    self.refit_done(group, effective_samples); // nothing free: judged on the pre-check
+                }
+            }
+            Err(_) => self.next_selection_test(group + 1, effective_samples),
         }
     }
 
@@ -260,17 +327,8 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
                 break;
             }
             if group_present(&self.best, tested) {
-                let mut free = [false; FAULT_COUNT];
-                for (h, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
-                    let movable = h != group && self.kept[h] && group_present(&self.best, (first, last));
-                    free[first..=last].iter_mut().for_each(|f| *f = movable);
-                }
-                let start = without_group(&self.best, tested);
-                let config = PatternConfig { max_evaluations: refit_budget, ..SELECTION_REFIT };
-                if let Ok(search) = PatternSearch::new(fault_bounds(), config, start, None, free) {
-                    self.stage = Stage::Select(Selection::Refit { group, effective_samples, search });
-                    return;
-                }
+                self.stage = Stage::Select(Selection::PreCheck { group, effective_samples });
+                return;
             }
             group += 1;
         }

@@ -37,10 +37,11 @@ use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
 use ema_monitor::effects::{parse_model_config, ModelEffects};
 use ema_monitor::health::{Abstain, HealthReport, Status};
 use ema_monitor::monitor::{
-    self, AcquisitionSummary, Algorithm, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW,
+    self, AcquisitionSummary, Algorithm, Identification, IdentifyConfig, WarmReport, GROUP_NAMES, ONBOARD_POPULATION,
+    ONBOARD_WINDOW,
 };
 use ema_monitor::trace::{packed_len, PackedTrace};
-use ema_monitor::{Command, EmaParams, Profile, SampledCommand};
+use ema_monitor::{Command, EmaParams, FaultVector, Profile, SampledCommand};
 use serde::Serialize;
 
 use crate::error::CliError;
@@ -297,6 +298,11 @@ pub struct IdentifyArgs {
     /// [default: the monitor's, 0.1; 1 with --paper-only].
     #[arg(long, value_name = "RHO")]
     pub fast_regime_weight: Option<f32>,
+    /// Warm start from the previous flight's fault vector `K1,...,K8` (its diagnosis): no global
+    /// search; model selection and the polish from it, then the new-fault probes
+    /// (docs/identification.md, "Warm start").
+    #[arg(long, value_name = "K1,...,K8", value_parser = parse_prior)]
+    pub prior: Option<[f32; 8]>,
     /// Print JSON instead of the readable report.
     #[arg(long)]
     pub json: bool,
@@ -320,6 +326,36 @@ pub struct Outcome {
     pub report: HealthReport,
     /// Wall time of the identification alone (acquisition and file reading excluded).
     pub seconds: f64,
+    /// The warm start's prior and what its stages did (`None`: a cold identification).
+    pub warm: Option<WarmStart>,
+}
+
+/// The prior of a warm start and what its stages did ([`ema_monitor::monitor::WarmReport`]).
+#[derive(Clone, Copy, Debug)]
+pub struct WarmStart {
+    /// The prior fault vector.
+    pub prior: [f32; 8],
+    /// Probes, refits and evaluations of the warm stages.
+    pub report: WarmReport,
+}
+
+impl WarmStart {
+    /// Names of the groups whose new-fault probe fired.
+    pub fn fired(&self) -> Vec<&'static str> {
+        GROUP_NAMES.iter().enumerate().filter(|&(g, _)| self.report.fired_group(g)).map(|(_, &n)| n).collect()
+    }
+}
+
+/// `--prior K1,...,K8`: eight numbers in [0, 1].
+fn parse_prior(s: &str) -> Result<[f32; 8], String> {
+    let k: Vec<f32> =
+        s.split(',').map(|x| x.trim().parse::<f32>().map_err(|e| format!("'{x}': {e}"))).collect::<Result<_, _>>()?;
+    let k: [f32; 8] = k.try_into().map_err(|k: Vec<f32>| format!("8 values expected, got {}", k.len()))?;
+    if FaultVector(k).is_valid() {
+        Ok(k)
+    } else {
+        Err("every value must be finite and in [0, 1]".to_owned())
+    }
 }
 
 /// Runs `ema identify`.
@@ -334,6 +370,7 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
             Some(path) => read_model_config(path)?,
             None => ModelEffects::NONE,
         },
+        prior: args.prior,
         ..base
     };
     let config = method_flags(config, args.paper_only, args.fast_regime_weight);
@@ -572,7 +609,8 @@ fn run_identification<const W: usize>(
     let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> =
         Box::new(Identification::new(trace, *params, command, config)?);
     id.run(u32::MAX);
-    Ok(Outcome { report: id.report(), seconds: start.elapsed().as_secs_f64() })
+    let warm = config.prior.zip(id.warm_report()).map(|(prior, report)| WarmStart { prior, report });
+    Ok(Outcome { report: id.report(), seconds: start.elapsed().as_secs_f64(), warm })
 }
 
 /// Largest packed trace the on-board window takes, in bytes: [`ONBOARD_WINDOW`] blocks of
@@ -788,6 +826,30 @@ pub struct IdentifyJson {
     pub recording: Option<LoadSummary>,
     /// The monitor model's effect terms (`--model-config`): effect ID to severity.
     pub model_effects: std::collections::BTreeMap<&'static str, f32>,
+    /// `cold` (the global search) or `warm` (from `--prior`).
+    pub start: &'static str,
+    /// The warm start's prior and stages, under `warm` only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub warm: Option<WarmJson>,
+}
+
+/// The warm start of the JSON report ([`WarmStart`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct WarmJson {
+    /// The prior fault vector.
+    pub prior: [f32; 8],
+    /// Probe evaluations run.
+    pub probes: u16,
+    /// Groups whose probe fired (a new fault).
+    pub probes_fired: Vec<&'static str>,
+    /// Targeted refits run.
+    pub refits: u8,
+    /// Evaluations of the warm stages (start, probes, refits).
+    pub warm_evaluations: u32,
+    /// `true` when the warm result failed its fit check and the identification went on cold.
+    pub cold_fallback: bool,
+    /// `true` when the next identification must be cold (the warm result failed its fit check).
+    pub cold_next: bool,
 }
 
 /// The JSON report's body of `outcome`, the monitor model run with `effects`.
@@ -836,6 +898,16 @@ pub fn json_body(
         command: command.to_json(),
         recording: loaded.cloned(),
         model_effects: effects.active().map(|(e, s)| (e.id(), s)).collect(),
+        start: if outcome.warm.is_some() { "warm" } else { "cold" },
+        warm: outcome.warm.map(|w| WarmJson {
+            prior: w.prior,
+            probes: w.report.probes,
+            probes_fired: w.fired(),
+            refits: w.report.refits,
+            warm_evaluations: w.report.evaluations,
+            cold_fallback: w.report.cold_fallback,
+            cold_next: w.report.needs_cold(r),
+        }),
     }
 }
 
@@ -869,6 +941,19 @@ fn render(
         );
         if args.model_config.is_some() {
             text.push_str(&format!("\n  model effects: {}", effects_label(effects)));
+        }
+        if let Some(w) = &outcome.warm {
+            let fired = w.fired();
+            text.push_str(&format!(
+                "\n  warm start from {:?}: probes fired: {} ({} probes, {} refits, {} evaluations of the warm stages){}{}",
+                w.prior,
+                if fired.is_empty() { "none".to_owned() } else { fired.join(", ") },
+                w.report.probes,
+                w.report.refits,
+                w.report.evaluations,
+                if w.report.cold_fallback { "; the warm result failed its fit check: identified cold" } else { "" },
+                if w.report.needs_cold(&outcome.report) { "; the next identification must be cold" } else { "" }
+            ));
         }
         if let Some(l) = loaded {
             text.push_str(&format!("\n  {}", l.line()));

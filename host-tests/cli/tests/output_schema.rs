@@ -39,7 +39,11 @@ fn identify_json_matches_the_schema() {
     assert!(wrote.status.success(), "{}", String::from_utf8_lossy(&wrote.stderr));
     let from_csv = json_quietly(&["identify", s(&csv), "--json", "--max-iterations", "2"]);
     assert_eq!(from_csv["input_file"], s(&csv));
-    schema::check_json("`ema identify --json`", &[&short, &full, &from_csv]);
+    // a warm start (--prior): the warm object
+    let prior = "0.25,0,0,0,0,0,0.5,0.5";
+    let warm = json_quietly(&["identify", "--firmware-trace", trace, "--json", "--prior", prior]);
+    assert_eq!((&warm["start"], &full["start"]), (&serde_json::json!("warm"), &serde_json::json!("cold")), "{warm}");
+    schema::check_json("`ema identify --json`", &[&short, &full, &from_csv, &warm]);
 }
 
 #[test]

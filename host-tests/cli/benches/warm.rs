@@ -1,0 +1,46 @@
+//! Warm against cold identification on one core, in one run: the on-board identification
+//! (`IdentifyConfig::onboard`) of the reference model's recording of the standard manoeuvre with
+//! the built-in trace's fault (friction k1 = 0.25, noise seed 1), cold, and warm from the cold
+//! diagnosis (the same recording: model selection, the polish and the new-fault probes,
+//! `src/monitor/warm.rs`). The ratio of the two times is the figure; the machine's speed cancels.
+//!
+//! `cd host-tests && cargo bench -p ema-cli --bench warm`. Run without `--bench` (e.g.
+//! `cargo test --all-targets`) it runs once as a smoke test.
+
+use std::path::Path;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use ema_cli::identify::{condition_recording, HOST_WINDOW};
+use ema_cli::recording::Recording;
+use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::health::HealthReport;
+use ema_monitor::monitor::{Identification, IdentifyConfig, ONBOARD_POPULATION};
+use ema_monitor::{EmaParams, FaultVector, Profile};
+use ema_reference::{simulate, SimConfig};
+
+fn identify(trace: &MeasuredTrace<HOST_WINDOW>, config: &IdentifyConfig) -> HealthReport {
+    let mut id: Box<Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>> =
+        Box::new(Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, config).expect("accepted"));
+    id.run(u32::MAX);
+    id.report()
+}
+
+fn bench(c: &mut Criterion) {
+    let truth = FaultVector([0.25, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+    let rec = simulate(&SimConfig { faults: truth, seed: 1, ..SimConfig::default() }).expect("simulates");
+    let recording = Recording::from_reference(&rec, Vec::new());
+    let trace = condition_recording(&recording, Path::new("standard.csv"), &EmaParams::NOMINAL, &Profile::STANDARD)
+        .expect("conditions");
+    let cold = IdentifyConfig::onboard();
+    let prior = identify(&trace, &cold).faults;
+    let warm = IdentifyConfig { prior: Some(prior.0), ..cold };
+    let mut group = c.benchmark_group("identification");
+    group.sample_size(10);
+    for (name, config) in [("cold", cold), ("warm", warm)] {
+        group.bench_function(name, |b| b.iter(|| identify(&trace, std::hint::black_box(&config))));
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,461 @@
+//! Warm start: an identification from the previous flight's diagnosis, without the global search.
+//!
+//! A monitor that runs every flight sees faults that change slowly. From a prior fault vector
+//! (the last diagnosis) the warm identification ([`Identification::warm`]) runs, in order:
+//! 1. **start**: the prior with its absent groups exactly healthy, its cost and the effective
+//!    sample count `n` of the information criterion (two evaluations);
+//! 2. **model selection and the polish** from the prior, as after a cold global search (only
+//!    the groups present in the prior move): a group the new flight no longer supports is
+//!    dropped, the others follow their drift;
+//! 3. **new-fault probes**: for each group absent from the result, one evaluation with the group
+//!    at [`PROBE_SEVERITY`] (the eccentricity at each of the four basin phases of
+//!    [`super::starting_guesses`], the gain drift on both sides of nominal). A probe **fires** when
+//!    the same Bayesian information criterion as model selection says the group pays for its
+//!    parameters at the probe point: [`group_pays`]`(E_probe, E_best, m, n)`. The probe's model
+//!    run is abandoned as soon as its cost exceeds the criterion's threshold, so a quiet probe
+//!    costs a fraction of an evaluation;
+//! 4. **targeted refit** when one fires: each fired probe is scouted by a short compass search
+//!    over its group alone ([`PROBE_SCOUT`]), and a compass search ([`TARGETED_REFIT`]) from the
+//!    best scouted point moves that group and the present ones; then the probes of the groups
+//!    still absent run again (at most [`MAX_NEW_FAULTS`] refits per flight).
+//!
+//! A probe of severity `s` lowers the cost when the fault is larger than about `s/2` (`E` is
+//! nearly quadratic in a fault's severity), so the probe severity sets the smallest new fault
+//! one flight detects; smaller ones are left to the evidence pooled over flights. The choice and
+//! its evidence: `docs/decisions/0018-warm-start.md`.
+//!
+//! A warm result that fails its goodness-of-fit test goes on cold in the same call
+//! ([`WarmReport::cold_fallback`]). When a cold identification is required from the start is
+//! [`plan_start`]'s answer: no prior (the
+//! first flight, or after maintenance reset the record), every [`IdentifyConfig::cold_every_flights`]
+//! flights, and after a warm flight whose result fails its fit check ([`WarmReport::needs_cold`]).
+
+use super::config::{fault_bounds, IdentifyConfig, PHASE_INDEX};
+use super::identification::{Identification, Stage};
+use super::selection::{group_pays, group_present, Selection, FAULT_GROUPS};
+use crate::faults::{FaultVector, FAULT_COUNT};
+use crate::health::HealthReport;
+use crate::optimizer::pattern::{PatternConfig, PatternSearch};
+use crate::optimizer::{Objective, Optimizer, Status, TerminationReason};
+
+/// Severity of a new-fault probe (normalized, the scale of the fault vector): 0.1. A probe
+/// fires for a new fault above about half of it (0.05, the campaign's smallest "low" fault);
+/// smaller probes sit closer to the noise, larger ones miss the faults between.
+pub const PROBE_SEVERITY: f32 = 0.1;
+
+/// The targeted refit after a probe fires: steps from 0.05 (a new fault may lie far from the
+/// probe) down to the polish's 2e-4, at most 250 evaluations.
+pub const TARGETED_REFIT: PatternConfig = PatternConfig { initial_step: 0.05, min_step: 2.0e-4, max_evaluations: 250 };
+
+/// Targeted refits one warm identification runs at most (new faults found in one flight).
+pub const MAX_NEW_FAULTS: u8 = 2;
+
+/// Default of [`IdentifyConfig::cold_every_flights`]: a cold identification every 20 flights
+/// bounds how long a wrong prior (a basin the probes cannot leave) can persist.
+pub const COLD_EVERY_FLIGHTS: u32 = 20;
+
+/// Probe points: friction, backlash, the three shorts (one each), eccentricity at four phases,
+/// gain drift up and down.
+const PROBES: usize = 11;
+
+/// The probe `index` (`0..PROBES`): its group (index into [`FAULT_GROUPS`]) and the parameters it
+/// sets, applied to `k`.
+fn probe_point(k: &[f32; FAULT_COUNT], index: usize) -> Option<(usize, [f32; FAULT_COUNT])> {
+    let mut x = *k;
+    let group = match index {
+        0..=4 => {
+            *x.get_mut(index)? = PROBE_SEVERITY;
+            index
+        }
+        5..=8 => {
+            x[5] = PROBE_SEVERITY;
+            x[PHASE_INDEX] = 0.125 + 0.25 * (index - 5) as f32;
+            5
+        }
+        9 => {
+            x[7] = 0.5 + 0.5 * PROBE_SEVERITY;
+            6
+        }
+        10 => {
+            x[7] = 0.5 - 0.5 * PROBE_SEVERITY;
+            6
+        }
+        _ => return None,
+    };
+    Some((group, x))
+}
+
+/// Names of the fault groups of [`FAULT_GROUPS`], in order (the probes' reports name them).
+pub const GROUP_NAMES: [&str; 7] =
+    ["friction", "backlash", "short circuit A", "short circuit B", "short circuit C", "eccentricity", "gain drift"];
+
+/// Why an identification starts cold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ColdReason {
+    /// No prior: the first flight, or the record was reset by maintenance (or found corrupt).
+    NoPrior,
+    /// The prior is not a fault vector (a non-finite element, or one outside `[0, 1]`).
+    InvalidPrior,
+    /// [`IdentifyConfig::cold_every_flights`] flights since the last cold identification.
+    Periodic,
+    /// The last warm identification's result failed its fit check ([`WarmReport::needs_cold`]).
+    FailedWarm,
+}
+
+/// How the next identification starts ([`plan_start`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Start {
+    /// The global search, then model selection and the polish ([`Identification::new`]).
+    Cold(ColdReason),
+    /// From the prior ([`Identification::warm`]).
+    Warm,
+}
+
+/// Decides how the next identification starts from what the persisted record holds: the prior
+/// (`None` after maintenance or on the first flight), the flights since the last cold
+/// identification (0 right after one), and whether the last warm flight asked for a cold one.
+pub fn plan_start(
+    prior: Option<&[f32; FAULT_COUNT]>,
+    flights_since_cold: u32,
+    last_warm_needs_cold: bool,
+    config: &IdentifyConfig,
+) -> Start {
+    match prior {
+        None => Start::Cold(ColdReason::NoPrior),
+        Some(k) if !FaultVector(*k).is_valid() => Start::Cold(ColdReason::InvalidPrior),
+        Some(_) if last_warm_needs_cold => Start::Cold(ColdReason::FailedWarm),
+        Some(_) if flights_since_cold >= config.cold_every_flights => Start::Cold(ColdReason::Periodic),
+        Some(_) => Start::Warm,
+    }
+}
+
+/// What a warm identification did, beside its health report ([`Identification::warm_report`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct WarmReport {
+    /// Groups of [`FAULT_GROUPS`] whose probe fired, bit `g` for group `g`.
+    pub fired: u8,
+    /// Probe evaluations run.
+    pub probes: u16,
+    /// Targeted refits run.
+    pub refits: u8,
+    /// Evaluations of the warm stages: the start, the probes, the scouts, the refits and the fit
+    /// check (model selection and the polish count in the report's `evaluations`, with these).
+    pub evaluations: u32,
+    /// The warm result failed its fit check, and the identification went on cold (the global
+    /// search, model selection and the polish) in the same call; the evaluations of the warm
+    /// attempt are in `evaluations`.
+    pub cold_fallback: bool,
+}
+
+impl WarmReport {
+    /// `true` when group `g` of [`FAULT_GROUPS`] was found new by a probe.
+    pub fn fired_group(&self, g: usize) -> bool {
+        g < FAULT_GROUPS.len() && self.fired & (1 << g) != 0
+    }
+
+    /// `true` when the next identification must be cold: the warm result failed its fit check
+    /// (a drift the polish could not follow, or a new fault the refit could not fit).
+    pub fn needs_cold(&self, report: &HealthReport) -> bool {
+        report.fit_check.is_some_and(|c| !c.passes())
+    }
+}
+
+/// The scout of a fired probe: a short compass search over the probe's group alone, from the
+/// probe point (steps 0.05 → 0.0125, at most 16 evaluations). Groups whose effects look alike
+/// in the slow regime (the three shorts differ mainly in the fast reversal) can all fire; the
+/// probe at a fixed severity does not rank them, their best single-group fits do.
+pub const PROBE_SCOUT: PatternConfig = PatternConfig { initial_step: 0.05, min_step: 0.0125, max_evaluations: 16 };
+
+/// Where the warm stages are.
+#[derive(Clone, Debug)]
+pub(super) enum WarmStage {
+    /// Evaluates the prior's cost (one evaluation).
+    Start,
+    /// Evaluates `n` of the information criterion at the prior (one evaluation), then hands over
+    /// to model selection.
+    Samples,
+    /// Runs probe `next` on (one evaluation each); bit `i` of `fired` marks probe `i` fired.
+    Probe {
+        /// Next probe index.
+        next: u8,
+        /// Fired probes, bit `i` for probe `i`.
+        fired: u16,
+    },
+    /// Scouts the fired probes in turn ([`PROBE_SCOUT`]; one evaluation per step).
+    Scout {
+        /// Fired probes not scouted yet, bit `i` for probe `i`.
+        left: u16,
+        /// The scout under way.
+        search: PatternSearch<FAULT_COUNT>,
+        /// The best scouted point and its cost so far.
+        best: Option<([f32; FAULT_COUNT], f32)>,
+    },
+    /// The targeted refit (one evaluation per step).
+    Refit(PatternSearch<FAULT_COUNT>),
+}
+
+/// The warm identification's state beside the stage: its report, `n`, and whether the stages
+/// of model selection and the polish are over (then the probes run).
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct WarmState {
+    pub(super) report: WarmReport,
+    pub(super) effective_samples: f32,
+    pub(super) probing: bool,
+}
+
+/// The parameters of `FAULT_GROUPS[group]` free, the others fixed.
+fn group_free(group: usize) -> [bool; FAULT_COUNT] {
+    let mut free = [false; FAULT_COUNT];
+    if let Some(&(first, last)) = FAULT_GROUPS.get(group) {
+        free.iter_mut().enumerate().filter(|(i, _)| (first..=last).contains(i)).for_each(|(_, f)| *f = true);
+    }
+    free
+}
+
+impl<const W: usize, const P: usize> Identification<'_, W, P> {
+    /// One step of the warm stages (see [`WarmStage`] for what each spends).
+    pub(super) fn warm_step(&mut self) {
+        let Some(warm) = self.warm.as_mut() else { return };
+        let Stage::Warm(stage) = &mut self.stage else { return };
+        match stage {
+            WarmStage::Start => {
+                self.best_cost = self.fit.error(&FaultVector(self.best));
+                warm.report.evaluations += 1;
+                *stage = WarmStage::Samples;
+            }
+            WarmStage::Samples => {
+                let effective_samples = self.fit.effective_samples(&FaultVector(self.best));
+                warm.effective_samples = effective_samples;
+                warm.report.evaluations += 1;
+                if self.config.model_selection {
+                    self.stage = Stage::Select(Selection::NextGroup { group: 0, effective_samples });
+                } else {
+                    self.start_polish(TerminationReason::FunctionTolerance);
+                }
+            }
+            WarmStage::Probe { next, fired } => {
+                let n = warm.effective_samples;
+                let mut index = usize::from(*next);
+                while index < PROBES {
+                    match probe_point(&self.best, index) {
+                        Some((g, x)) if FAULT_GROUPS.get(g).is_some_and(|&group| !group_present(&self.best, group)) => {
+                            let parameters = FAULT_GROUPS.get(g).map_or(1, |&(first, last)| last - first + 1);
+                            // above this cost the group cannot pay: the model run stops there
+                            let threshold =
+                                self.best_cost * libm::expf(-(parameters as f32) * libm::logf(n.max(2.0)) / n.max(2.0));
+                            let cost = self.fit.cost(&x, threshold);
+                            warm.report.evaluations += 1;
+                            warm.report.probes = warm.report.probes.saturating_add(1);
+                            if group_pays(cost, self.best_cost, parameters, n) {
+                                warm.report.fired |= 1 << g;
+                                *fired |= 1 << index;
+                            }
+                            *next = (index + 1) as u8;
+                            return;
+                        }
+                        _ => index += 1,
+                    }
+                }
+                let fired = *fired;
+                self.next_scout(fired, None);
+            }
+            WarmStage::Scout { left, search, best } => {
+                let before = search.evaluations();
+                let status = search.step(&mut self.fit);
+                warm.report.evaluations += search.evaluations() - before;
+                if let Status::Done(_) = status {
+                    let (x, c) = search.best();
+                    let best = match *best {
+                        Some((_, b)) if b <= c => *best,
+                        _ => Some((*x, c)),
+                    };
+                    let left = *left;
+                    self.next_scout(left, best);
+                }
+            }
+            WarmStage::Refit(search) => {
+                let before = search.evaluations();
+                let status = search.step(&mut self.fit);
+                warm.report.evaluations += search.evaluations() - before;
+                if let Status::Done(_) = status {
+                    let (x, c) = search.best();
+                    if c <= self.best_cost {
+                        (self.best, self.best_cost) = (*x, c);
+                    }
+                    warm.report.refits += 1;
+                    *stage = WarmStage::Probe { next: 0, fired: 0 };
+                }
+            }
+        }
+    }
+
+    /// Scouts the next fired probe of `left` (no evaluation: the probe's cost is re-evaluated by
+    /// the scout's first step), or, when none is left, starts the targeted refit from `best`.
+    fn next_scout(&mut self, mut left: u16, best: Option<([f32; FAULT_COUNT], f32)>) {
+        while left != 0 {
+            let index = left.trailing_zeros() as usize;
+            left &= left - 1;
+            let Some((g, x)) = probe_point(&self.best, index) else { continue };
+            if let Ok(search) = PatternSearch::new(fault_bounds(), PROBE_SCOUT, x, None, group_free(g)) {
+                self.stage = Stage::Warm(WarmStage::Scout { left, search, best });
+                return;
+            }
+        }
+        self.start_refit(best);
+    }
+
+    /// The targeted refit from the best scouted point, moving its new group and the present
+    /// ones; or the end when no probe fired or [`MAX_NEW_FAULTS`] refits ran.
+    fn start_refit(&mut self, best: Option<([f32; FAULT_COUNT], f32)>) {
+        let refits = self.warm.map_or(MAX_NEW_FAULTS, |w| w.report.refits);
+        let Some((x, cost)) = best else {
+            self.end_warm(TerminationReason::FunctionTolerance);
+            return;
+        };
+        if refits >= MAX_NEW_FAULTS {
+            self.end_warm(TerminationReason::MaxIterations);
+            return;
+        }
+        let mut free = [false; FAULT_COUNT];
+        for &(first, last) in FAULT_GROUPS.iter() {
+            let present = group_present(&x, (first, last));
+            free.iter_mut().enumerate().filter(|(i, _)| (first..=last).contains(i)).for_each(|(_, f)| *f = present);
+        }
+        match PatternSearch::new(fault_bounds(), TARGETED_REFIT, x, Some(cost), free) {
+            Ok(search) => self.stage = Stage::Warm(WarmStage::Refit(search)),
+            Err(_) => self.end_warm(TerminationReason::FunctionTolerance),
+        }
+    }
+
+    /// The end of the warm stages: the fit check of the result (one model run); when it fails,
+    /// the identification starts over cold in the same call (the global search from its own
+    /// start; model selection and the polish with their whole budget), since a warm start that
+    /// does not fit left the prior's basin for a wrong one or never found a new fault's.
+    fn end_warm(&mut self, reason: TerminationReason) {
+        let fails = self.report().fit_check.is_some_and(|c| !c.passes());
+        let Some(warm) = self.warm.as_mut() else {
+            self.stage = Stage::Done(reason);
+            return;
+        };
+        warm.report.evaluations += 1;
+        if !fails || warm.report.cold_fallback {
+            self.stage = Stage::Done(reason);
+            return;
+        }
+        warm.report.cold_fallback = true;
+        warm.report.evaluations += self.selection_polish_evaluations;
+        self.selection_polish_evaluations = 0;
+        self.kept = [true; FAULT_GROUPS.len()];
+        self.untested_groups = 0;
+        (self.best, self.best_cost) = (FaultVector::HEALTHY.0, f32::INFINITY);
+        self.stage = Stage::Global;
+    }
+
+    /// Where a warm identification goes once model selection and the polish are over: the
+    /// probes (the first time), or the end.
+    pub(super) fn finish(&mut self, reason: TerminationReason) {
+        match self.warm.as_mut() {
+            Some(warm) if warm.report.cold_fallback => self.stage = Stage::Done(reason),
+            Some(warm) if !warm.probing && !self.best_cost.is_nan() => {
+                warm.probing = true;
+                self.stage = Stage::Warm(WarmStage::Probe { next: 0, fired: 0 });
+            }
+            Some(_) => self.end_warm(reason),
+            None => self.stage = Stage::Done(reason),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::conditioning::{MeasuredTrace, DECIMATION};
+    use crate::fitness::simulate_window;
+    use crate::monitor::{MonitorError, ONBOARD_POPULATION, ONBOARD_WINDOW};
+    use crate::params::EmaParams;
+    use crate::profile::Profile;
+
+    /// The model's own trace of `truth` with the nominal actuator's noise on every frame (as in
+    /// `identification.rs`'s tests), from the seeded generator `seed`.
+    fn noisy_self_trace(truth: &FaultVector, seed: u64) -> MeasuredTrace<ONBOARD_WINDOW> {
+        let mut t = MeasuredTrace::<ONBOARD_WINDOW>::new();
+        let n = (Profile::STANDARD.duration_s() / EmaParams::NOMINAL.control_period_s) as usize / DECIMATION;
+        let mut rng = crate::optimizer::rng::Rng::new(seed);
+        simulate_window(&EmaParams::NOMINAL, &Profile::STANDARD, truth, n, |_, i, _| {
+            for _ in 0..DECIMATION {
+                let pair = i + 0.29 * rng.normal();
+                let [na, nb, nc] = [0.02 * rng.normal(), 0.02 * rng.normal(), 0.02 * rng.normal()];
+                t.push(pair + na, -pair + nb, nc).unwrap();
+            }
+            true
+        });
+        t.finish().unwrap();
+        t
+    }
+
+    type Id<'a> = Identification<'a, ONBOARD_WINDOW, ONBOARD_POPULATION>;
+
+    fn cold(trace: &MeasuredTrace<ONBOARD_WINDOW>) -> HealthReport {
+        let mut id = Id::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &IdentifyConfig::onboard()).unwrap();
+        id.run(u32::MAX);
+        id.report()
+    }
+
+    fn warm(trace: &MeasuredTrace<ONBOARD_WINDOW>, prior: &FaultVector) -> (HealthReport, WarmReport) {
+        let config = IdentifyConfig::onboard();
+        let mut id = Id::warm(trace, EmaParams::NOMINAL, Profile::STANDARD, &config, &prior.0).unwrap();
+        id.run(u32::MAX);
+        let r = id.report();
+        assert_eq!(r.fitness, id.fitness().error(&r.faults), "the reported fitness is the reported vector's");
+        (r, id.warm_report().unwrap())
+    }
+
+    #[test]
+    fn a_cold_start_is_required_without_a_prior_periodically_and_after_a_failed_warm_flight() {
+        let config = IdentifyConfig::onboard();
+        let k = FaultVector::HEALTHY.0;
+        assert_eq!(plan_start(None, 3, false, &config), Start::Cold(ColdReason::NoPrior));
+        assert_eq!(plan_start(Some(&[f32::NAN; 8]), 3, false, &config), Start::Cold(ColdReason::InvalidPrior));
+        assert_eq!(plan_start(Some(&k), 3, true, &config), Start::Cold(ColdReason::FailedWarm));
+        assert_eq!(plan_start(Some(&k), COLD_EVERY_FLIGHTS, false, &config), Start::Cold(ColdReason::Periodic));
+        assert_eq!(plan_start(Some(&k), COLD_EVERY_FLIGHTS - 1, false, &config), Start::Warm);
+        let t = noisy_self_trace(&FaultVector::HEALTHY, 1);
+        let bad = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 1.5];
+        let r = Id::warm(&t, EmaParams::NOMINAL, Profile::STANDARD, &config, &bad);
+        assert!(matches!(r, Err(MonitorError::Prior)));
+    }
+
+    #[test]
+    fn warm_from_the_cold_diagnosis_finds_it_again_at_a_fraction_of_the_cost() {
+        // friction and a short on phase B: the cold diagnosis as the prior, the same recording
+        let truth = FaultVector([0.3, 0.0, 0.0, 0.2, 0.0, 0.0, 0.5, 0.5]);
+        let t = noisy_self_trace(&truth, 5);
+        let c = cold(&t);
+        let (w, report) = warm(&t, &c.faults);
+        let (ce, we) = (c.faults.paper_error_percent(&truth), w.faults.paper_error_percent(&truth));
+        assert!(we <= ce + 0.2, "Err% warm {we} cold {ce}: {:?} {:?}", w.faults.0, c.faults.0);
+        assert_eq!(report.fired, 0, "no new fault: {report:?}");
+        assert_eq!(w.status, c.status);
+        assert!(w.evaluations * 10 < c.evaluations, "warm {} cold {}", w.evaluations, c.evaluations);
+    }
+
+    #[test]
+    fn a_probe_fires_on_a_new_fault_and_the_refit_finds_it() {
+        // the prior knows the friction; the flight adds a short on phase C or an eccentricity
+        let prior = FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+        for (truth, group) in [
+            (FaultVector([0.3, 0.0, 0.0, 0.0, 0.25, 0.0, 0.5, 0.5]), 4),
+            (FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.3, 0.7, 0.5]), 5),
+        ] {
+            let t = noisy_self_trace(&truth, 11);
+            let (w, report) = warm(&t, &prior);
+            assert!(report.fired_group(group) && report.refits >= 1, "{report:?}");
+            let (we, ce) = (w.faults.paper_error_percent(&truth), cold(&t).faults.paper_error_percent(&truth));
+            assert!(we <= ce + 0.2, "Err% warm {we} cold {ce}: {:?}", w.faults.0);
+            assert!(!report.needs_cold(&w), "{:?}", w.fit_check);
+        }
+    }
+}
