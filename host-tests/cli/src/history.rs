@@ -8,7 +8,8 @@
 //!
 //! Each recording is one flight, in the order given. Every flight runs the on-board sequence
 //! through [`identify_flight`]: the core identifies the recording (the first flight cold, a later
-//! flight from the previous diagnosis when a warm start is available) with the on-board settings
+//! flight warm from the previous diagnosis, with new-fault probes, unless the core's plan asks
+//! for a cold one) with the on-board settings
 //! ([`IdentifyConfig::onboard`]: the firmware's iteration budget) and, when its status is a
 //! diagnosis, its five mode severities join the history of the core's [`HealthRecord`] (a ring
 //! of the last 16 flights per mode, the record the firmware persists). After each flight the core fits the trend of every mode and the flight
@@ -21,7 +22,9 @@
 //! `friction=0.05+0.04` grows linearly from the first flight and `short_a=0.3@5` is a sudden
 //! fault at flight 5. Modes: `friction` (k1), `backlash` (k2), `short_a`, `short_b`, `short_c`
 //! (k3–k5), `eccentricity` (k6, minimum gap at 0°), `gain` (k8 = 0.5 + severity/2). Knowing the
-//! truth, the command scores each flight (the paper's Err%), the detection of each mode (first
+//! truth, the command scores each flight (the paper's Err%, cold and warm apart), the probes of
+//! the warm flights (false alarms: a probe that fires on a group absent from the truth or present
+//! in the prior; misses: a new group neither probed nor reported), the detection of each mode (first
 //! flight its group is reported after its onset, and reports of a mode that is absent), and the
 //! prognosis at the last flight against the true crossing of the failing threshold.
 //!
@@ -33,7 +36,7 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 use ema_monitor::health::{FaultMode, HealthReport, DEGRADED_AT, FAILING_AT};
-use ema_monitor::monitor::IdentifyConfig;
+use ema_monitor::monitor::{self as core_monitor, group_present, IdentifyConfig, WarmReport, FAULT_GROUPS};
 use ema_monitor::persist::HealthRecord;
 use ema_monitor::prognosis::{mode_index, Prognosis, HISTORY_CAPACITY, RUL_CONFIDENCE};
 use ema_monitor::{EmaParams, FaultVector, Profile};
@@ -114,22 +117,34 @@ pub struct FlightResult {
     pub start: Start,
     /// Wall time of the identification (s).
     pub seconds: f64,
+    /// What the warm stages did (`None`: a cold flight).
+    pub warm: Option<WarmReport>,
 }
 
-/// Identifies one flight's `recording` (named `label` in errors) driven by `command`, from the
-/// previous diagnosis `prior` when there is one. The seam of the on-board sequence: this build
-/// identifies every flight cold, so `prior` is not used yet.
+/// Identifies one flight's `recording` (named `label` in errors) driven by `command`, as the
+/// firmware does: warm from the previous diagnosis `prior` when the core's
+/// [`core_monitor::plan_start`] allows it (a prior, fewer than
+/// [`IdentifyConfig::cold_every_flights`] flights since the last cold one, and a last warm flight
+/// that passed its fit check: `flights_since_cold` and `last_warm_needs_cold`), cold otherwise.
 pub fn identify_flight(
     recording: &Recording,
     label: &Path,
     prior: Option<[f32; 8]>,
+    (flights_since_cold, last_warm_needs_cold): (u32, bool),
     params: &EmaParams,
     command: &ModelCommand,
     config: &IdentifyConfig,
 ) -> Result<FlightResult, CliError> {
-    let _ = prior;
-    let outcome = identify_recording_with(recording, label, params, command, config)?;
-    Ok(FlightResult { report: outcome.report, start: Start::Cold, seconds: outcome.seconds })
+    let warm = matches!(
+        core_monitor::plan_start(prior.as_ref(), flights_since_cold, last_warm_needs_cold, config),
+        core_monitor::Start::Warm
+    );
+    let config = IdentifyConfig { prior: if warm { prior } else { None }, ..*config };
+    let outcome = identify_recording_with(recording, label, params, command, &config)?;
+    let warm = outcome.warm.map(|w| w.report);
+    // a warm attempt that failed its fit check went on cold in the same call
+    let start = if warm.is_some_and(|w| !w.cold_fallback) { Start::Warm } else { Start::Cold };
+    Ok(FlightResult { report: outcome.report, start, seconds: outcome.seconds, warm })
 }
 
 /// A degradation law of one mode (`MODE=START[+RATE][@ONSET]`).
@@ -259,6 +274,9 @@ pub struct FlightJson {
     pub start: Start,
     /// Objective evaluations.
     pub evaluations: u32,
+    /// Groups whose new-fault probe fired, under a warm flight.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub probes_fired: Option<Vec<&'static str>>,
     /// Wall time of the identification (s).
     pub identification_s: f64,
     /// The report's status.
@@ -413,6 +431,12 @@ pub struct Series {
     pub prognosis: [Option<Prognosis>; 5],
     /// The reports of the flights.
     pub reports: Vec<HealthReport>,
+    /// Under `--simulate`: warm flights' probes that fired on a group absent from the truth or
+    /// present in the prior already.
+    pub probe_false_alarms: u32,
+    /// Under `--simulate`: groups present in the truth and absent from the prior that a warm
+    /// flight neither probed successfully nor reported.
+    pub probe_misses: u32,
 }
 
 /// Runs the series: every flight through [`identify_flight`], the history and prognosis after
@@ -423,13 +447,28 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
     let count = if laws.is_empty() { args.files.len() } else { args.flights as usize };
     let bar = progress::bar(count as u64, "flights", args.progress.visible());
     let mut record = HealthRecord::new();
+    let mut last_warm_needs_cold = false;
+    let (mut probe_false_alarms, mut probe_misses) = (0u32, 0u32);
     let (mut flights, mut reports) = (Vec::new(), Vec::new());
     let mut prognosis = [None; 5];
     for n in 0..count {
         let f = flight_source(args, laws, params, &profile, n)?;
         let config = IdentifyConfig { seed: f.seed, ..IdentifyConfig::onboard() };
         let prior = record.has_prior().then(|| record.k().0);
-        let result = identify_flight(&f.recording, &f.label, prior, params, &command, &config)?;
+        let since_cold = (record.flights_since_cold(), last_warm_needs_cold);
+        let result = identify_flight(&f.recording, &f.label, prior, since_cold, params, &command, &config)?;
+        last_warm_needs_cold = result.warm.is_some_and(|w| w.needs_cold(&result.report));
+        if let (Some(w), Some(truth), Some(prior)) = (result.warm, f.truth, prior) {
+            // a probe is right when its group is present in the truth and absent from the prior
+            for (g, &group) in FAULT_GROUPS.iter().enumerate() {
+                let new = group_present(&truth.0, group) && !group_present(&prior, group);
+                match (w.fired_group(g), new) {
+                    (true, false) => probe_false_alarms += 1,
+                    (false, true) if !group_present(&result.report.faults.0, group) => probe_misses += 1,
+                    _ => {}
+                }
+            }
+        }
         bar.inc(1);
         let number = n as u32 + 1;
         let r = &result.report;
@@ -442,6 +481,14 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
             file: f.file,
             start: result.start,
             evaluations: r.evaluations,
+            probes_fired: result.warm.map(|w| {
+                core_monitor::GROUP_NAMES
+                    .iter()
+                    .enumerate()
+                    .filter(|&(g, _)| w.fired_group(g))
+                    .map(|(_, &n)| n)
+                    .collect()
+            }),
             identification_s: result.seconds,
             status: r.status.label(),
             severity: r.modes.map(|m| m.severity),
@@ -453,7 +500,7 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
         reports.push(result.report);
     }
     bar.finish_and_clear();
-    Ok(Series { flights, record, prognosis, reports })
+    Ok(Series { flights, record, prognosis, reports, probe_false_alarms, probe_misses })
 }
 
 /// The per-mode block of the document.
@@ -512,6 +559,7 @@ pub fn document(series: &Series, laws: &[Law], args: &HistoryArgs, params: &EmaP
         let errs: Vec<f32> = series.flights.iter().filter(|f| f.start == start).filter_map(|f| f.err_percent).collect();
         (!errs.is_empty()).then(|| errs.iter().sum::<f32>() / errs.len() as f32)
     };
+    let warm = series.flights.iter().any(|f| f.start == Start::Warm);
     HistoryJson {
         confidence: RUL_CONFIDENCE,
         failing_at: FAILING_AT,
@@ -523,8 +571,8 @@ pub fn document(series: &Series, laws: &[Law], args: &HistoryArgs, params: &EmaP
             seed: args.seed,
             cold_mean_err_percent: mean(Start::Cold),
             warm_mean_err_percent: mean(Start::Warm),
-            probe_false_alarms: None,
-            probe_misses: None,
+            probe_false_alarms: warm.then_some(series.probe_false_alarms),
+            probe_misses: warm.then_some(series.probe_misses),
         }),
     }
 }

@@ -37,6 +37,11 @@ fn six_flights_of_growing_friction_bracket_the_true_rul() {
     for f in flights {
         assert!(f["err_percent"].as_f64().unwrap() < 2.0, "{f}");
     }
+    // the first flight cold, the later ones warm from the previous diagnosis, no probe firing on drift
+    let start: Vec<&str> = flights.iter().map(|f| f["start"].as_str().unwrap()).collect();
+    assert_eq!(start, ["cold", "warm", "warm", "warm", "warm", "warm"]);
+    assert!(flights[1]["evaluations"].as_u64().unwrap() < 300, "{}", flights[1]);
+    assert_eq!((&v["campaign"]["probe_false_alarms"], &v["campaign"]["probe_misses"]), (&0.into(), &0.into()));
     // no RUL before three diagnoses, one from the third on
     assert!(flights[1]["remaining_flights"][0].is_null() && flights[2]["remaining_flights"][0].is_number());
 
