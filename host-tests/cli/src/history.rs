@@ -23,8 +23,9 @@
 //! fault at flight 5. Modes: `friction` (k1), `backlash` (k2), `short_a`, `short_b`, `short_c`
 //! (k3–k5), `eccentricity` (k6, minimum gap at 0°), `gain` (k8 = 0.5 + severity/2). Knowing the
 //! truth, the command scores each flight (the paper's Err%, cold and warm apart), the probes of
-//! the warm flights (false alarms: a probe that fires on a group absent from the truth or present
-//! in the prior; misses: a new group neither probed nor reported), the detection of each mode (first
+//! the warm flights (false alarms: a drift-only flight, no group present in the truth and absent
+//! from the prior, on which a probe fires; misses: a flight with a new fault on which none fires
+//! and the report misses it), the detection of each mode (first
 //! flight its group is reported after its onset, and reports of a mode that is absent), and the
 //! prognosis at the last flight against the true crossing of the failing threshold.
 //!
@@ -347,9 +348,10 @@ pub struct CampaignJson {
     pub cold_mean_err_percent: Option<f32>,
     /// Mean Err% of the warm flights (null: none).
     pub warm_mean_err_percent: Option<f32>,
-    /// Warm flights whose new-fault probe fired without a new fault (null: no probes run).
+    /// Drift-only warm flights on which a probe fired (null: no warm flight).
     pub probe_false_alarms: Option<u32>,
-    /// New faults no probe caught (null: no probes run).
+    /// Warm flights with a new fault that no probe caught and the report missed (null: no warm
+    /// flight).
     pub probe_misses: Option<u32>,
 }
 
@@ -431,11 +433,11 @@ pub struct Series {
     pub prognosis: [Option<Prognosis>; 5],
     /// The reports of the flights.
     pub reports: Vec<HealthReport>,
-    /// Under `--simulate`: warm flights' probes that fired on a group absent from the truth or
-    /// present in the prior already.
+    /// Under `--simulate`: drift-only warm flights (no group present in the truth and absent
+    /// from the prior) on which a probe fired.
     pub probe_false_alarms: u32,
-    /// Under `--simulate`: groups present in the truth and absent from the prior that a warm
-    /// flight neither probed successfully nor reported.
+    /// Under `--simulate`: warm flights with a new fault on which no probe fired and the new
+    /// group went unreported.
     pub probe_misses: u32,
 }
 
@@ -459,15 +461,12 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
         let result = identify_flight(&f.recording, &f.label, prior, since_cold, params, &command, &config)?;
         last_warm_needs_cold = result.warm.is_some_and(|w| w.needs_cold(&result.report));
         if let (Some(w), Some(truth), Some(prior)) = (result.warm, f.truth, prior) {
-            // a probe is right when its group is present in the truth and absent from the prior
-            for (g, &group) in FAULT_GROUPS.iter().enumerate() {
-                let new = group_present(&truth.0, group) && !group_present(&prior, group);
-                match (w.fired_group(g), new) {
-                    (true, false) => probe_false_alarms += 1,
-                    (false, true) if !group_present(&result.report.faults.0, group) => probe_misses += 1,
-                    _ => {}
-                }
-            }
+            // per warm flight: a new fault is a group present in the truth and absent from the prior
+            let new = |g: &(usize, usize)| group_present(&truth.0, *g) && !group_present(&prior, *g);
+            let any_new = FAULT_GROUPS.iter().any(new);
+            let unreported = FAULT_GROUPS.iter().any(|g| new(g) && !group_present(&result.report.faults.0, *g));
+            probe_false_alarms += u32::from(!any_new && w.fired != 0);
+            probe_misses += u32::from(any_new && w.fired == 0 && unreported);
         }
         bar.inc(1);
         let number = n as u32 + 1;
@@ -651,7 +650,7 @@ pub fn text(doc: &HistoryJson) -> String {
             opt(c.cold_mean_err_percent, 2),
             opt(c.warm_mean_err_percent, 2),
             match (c.probe_false_alarms, c.probe_misses) {
-                (Some(fa), Some(miss)) => format!("{fa} false alarms, {miss} misses"),
+                (Some(fa), Some(miss)) => format!("{fa} false alarms (drift-only flights), {miss} misses"),
                 _ => "not run (every flight cold)".to_owned(),
             }
         );
