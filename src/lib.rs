@@ -53,6 +53,7 @@ pub mod optimizer;
 pub mod params;
 pub mod persist;
 pub mod profile;
+pub mod prognosis;
 #[cfg(feature = "defmt")]
 pub mod report_log;
 mod six_step;

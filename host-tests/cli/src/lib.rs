@@ -22,6 +22,7 @@ pub mod discover;
 pub mod error;
 pub mod firmware_trace;
 pub mod flights;
+pub mod history;
 pub mod identify;
 pub mod input;
 pub mod output;

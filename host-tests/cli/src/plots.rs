@@ -275,6 +275,81 @@ fn draw_bars(
     Ok(())
 }
 
+/// One fault mode of a severity plot ([`severity_plot`]).
+#[derive(Clone, Debug)]
+pub struct SeveritySeries<'a> {
+    /// Its name in the legend.
+    pub name: &'a str,
+    /// Its colour, `(r, g, b)`.
+    pub colour: (u8, u8, u8),
+    /// `(flight, severity)` of each diagnosis.
+    pub points: &'a [(f64, f64)],
+    /// The trend line, from `(flight, severity)` to `(flight, severity)`.
+    pub trend: Option<((f64, f64), (f64, f64))>,
+    /// The flights of the interval on the failing-threshold crossing (the RUL band), the upper
+    /// end `None` when unbounded.
+    pub band: Option<(f64, Option<f64>)>,
+}
+
+/// Severity against flight: per mode its diagnoses (points joined by a line), its trend and the
+/// interval on the flight at which it reaches `threshold` (a shaded band), the threshold as a
+/// horizontal line; the flight axis runs to `last_flight`.
+pub fn severity_plot(title: &str, series: &[SeveritySeries], threshold: f64, last_flight: f64) -> io::Result<String> {
+    render_svg((960, 460), |root| draw_severity(root, title, series, threshold, last_flight))
+}
+
+fn draw_severity(
+    root: &DrawingArea<SVGBackend, Shift>,
+    title: &str,
+    series: &[SeveritySeries],
+    threshold: f64,
+    last_flight: f64,
+) -> Drawn {
+    root.fill(&WHITE)?;
+    let colour = |s: &SeveritySeries| RGBColor(s.colour.0, s.colour.1, s.colour.2);
+    let band_names: Vec<String> = series.iter().map(|s| format!("{} RUL band", s.name)).collect();
+    let mut items: Vec<(&str, Swatch)> = Vec::new();
+    for (s, band) in series.iter().zip(&band_names) {
+        items.push((s.name, Swatch::Line(colour(s))));
+        if s.band.is_some() {
+            items.push((band.as_str(), Swatch::Fill(colour(s).mix(0.18))));
+        }
+    }
+    items.push(("failing threshold", Swatch::Line(ZERO)));
+    let plot = with_legend(root, 960, 460, &items)?;
+    let x_max = if last_flight.is_finite() && last_flight > 1.0 { last_flight } else { 2.0 };
+    let mut chart = ChartBuilder::on(&plot)
+        .caption(title, ("sans-serif", 16))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..x_max, 0.0..1.0)?;
+    chart
+        .configure_mesh()
+        .x_desc("flight")
+        .y_desc("severity")
+        .x_labels(12)
+        .y_labels(10)
+        .light_line_style(RGBColor(240, 240, 240))
+        .draw()?;
+    for s in series {
+        if let Some((lo, hi)) = s.band {
+            let (lo, hi) = (lo.clamp(0.0, x_max), hi.unwrap_or(x_max).clamp(0.0, x_max));
+            chart.draw_series([Rectangle::new([(lo, 0.0), (hi, 1.0)], colour(s).mix(0.18).filled())])?;
+        }
+    }
+    chart.draw_series(LineSeries::new([(0.0, threshold), (x_max, threshold)], ZERO.stroke_width(1)))?;
+    for s in series {
+        let c = colour(s);
+        chart.draw_series(LineSeries::new(s.points.iter().copied(), c.stroke_width(2)))?;
+        chart.draw_series(s.points.iter().map(|&p| Circle::new(p, 3, c.filled())))?;
+        if let Some((a, b)) = s.trend {
+            chart.draw_series(LineSeries::new([a, b], c.mix(0.6).stroke_width(1)))?;
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
