@@ -281,7 +281,7 @@ pub struct IdentifyArgs {
     /// as `EMA_MODEL_CONFIG` gives them to the firmware [default: none].
     #[arg(long, value_name = "CONFIG")]
     pub model_config: Option<PathBuf>,
-    /// Command profile the recording was made with: `standard` or a profile file.
+    /// Command profile the recording was made with: `standard`, `pbit` or a profile file.
     #[arg(long, default_value = "standard")]
     pub profile: String,
     /// What drives the monitor model: the command profile (`--profile`, which the recording's

@@ -15,11 +15,14 @@ fn args(runs: u32, modes: &[&str]) -> CampaignArgs {
         runs,
         algorithms: vec![AlgorithmArg::Pso],
         multi: 0,
+        multi_low: 0,
+        noise: ema_cli::simulate::Noise::On,
         max_iterations: 2,
         paper_only: false,
         fast_regime_weight: None,
         profile: "standard".to_string(),
         seed: 2018,
+        audit: false,
         threads: Some(1),
         modes: modes.iter().map(|m| m.to_string()).collect(),
         json: false,
@@ -88,9 +91,9 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
     // the global search alone, so every run spends exactly its budget
     let a = CampaignArgs { paper_only: true, ..args(1, &["friction", "gain"]) };
     let plans = plan(&a).expect("valid");
-    let one = run_all(&plans, &identify_config(&a), &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD, 1, false)
+    let one = run_all(&plans, &identify_config(&a), &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD, true, 1, false)
         .expect("runs");
-    let two = run_all(&plans, &identify_config(&a), &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD, 2, false)
+    let two = run_all(&plans, &identify_config(&a), &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD, true, 2, false)
         .expect("runs");
     // every column but `identification_s` (third to last), which is wall time
     let strip = |csv: String| -> Vec<Vec<String>> {
@@ -127,6 +130,7 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
         &identify_config(&CampaignArgs { paper_only: false, ..a.clone() }),
         &ema_monitor::EmaParams::NOMINAL,
         &Profile::STANDARD,
+        true,
         2,
         false,
     )
@@ -218,7 +222,7 @@ fn a_profile_file_drives_every_run() {
     let a = CampaignArgs { paper_only: true, profile: path_str(&file).to_string(), ..args(1, &["friction"]) };
     let plans = plan(&a).expect("valid");
     let config = identify_config(&a);
-    let flown = run_all(&plans, &config, &ema_monitor::EmaParams::NOMINAL, &profile, 1, false).expect("runs");
+    let flown = run_all(&plans, &config, &ema_monitor::EmaParams::NOMINAL, &profile, true, 1, false).expect("runs");
     for (p, r) in plans.iter().zip(&flown) {
         let rec = simulate(&SimConfig { faults: p.truth, seed: p.seed, profile, ..SimConfig::default() }).expect("sim");
         let samples = profile.duration_s() / ema_monitor::EmaParams::NOMINAL.control_period_s;
