@@ -277,6 +277,26 @@ mod tests {
         assert!(Profile::new(p.segments(), p.duration_s(), 0.6).is_ok());
     }
 
+    /// `pbit` passes the checks of a profile file, lasts at most 1.0 s and fits the on-board
+    /// window, and its command is continuous from the reversal on (each ramp starts where the
+    /// previous one ends).
+    #[test]
+    fn pbit_is_a_valid_manoeuvre_that_fits_on_board() {
+        let p = Profile::PBIT;
+        assert!(Profile::new(p.segments(), p.duration_s(), 0.6).is_ok());
+        assert!(p.duration_s() <= 1.0);
+        let samples = libm::roundf(p.duration_s() / 1e-4) as usize / crate::conditioning::DECIMATION;
+        assert!(samples <= crate::monitor::ONBOARD_WINDOW, "{samples} window samples");
+        for pair in p.segments()[3..].windows(2) {
+            let t = pair[1].start_s();
+            assert!((pair[0].value_rad(t) - pair[1].value_rad(t)).abs() < 1e-6, "jump at {t} s");
+        }
+        assert!(p.segments().iter().all(|s| match *s {
+            Segment::Ramp { rate_rad_per_s, .. } => rate_rad_per_s.abs() <= 0.4,
+            _ => true,
+        }));
+    }
+
     #[test]
     fn bad_profiles_are_refused() {
         let hold = |start_s, value_rad| Segment::Hold { start_s, value_rad };

@@ -351,14 +351,8 @@ pub fn execute(
     profile: &Profile,
     noise: bool,
 ) -> Result<RunResult, CliError> {
-    let config = SimConfig {
-        params: *params,
-        faults: p.truth,
-        seed: p.seed,
-        profile: *profile,
-        noise,
-        ..SimConfig::default()
-    };
+    let config =
+        SimConfig { params: *params, faults: p.truth, seed: p.seed, profile: *profile, noise, ..SimConfig::default() };
     let rec = simulate(&config).map_err(|e| CliError::Simulation(e.to_string()))?;
     let recording = Recording::from_reference(&rec, Vec::new());
     let identify = IdentifyConfig { algorithm: Algorithm::from(p.algorithm), seed: p.seed, ..*base };
@@ -675,8 +669,7 @@ pub fn run(args: &CampaignArgs) -> Result<String, CliError> {
         prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
     }
     let noise = args.noise == Noise::On;
-    let results =
-        run_all(&plans, &identify_config(args), &params, &profile, noise, threads, args.progress.visible())?;
+    let results = run_all(&plans, &identify_config(args), &params, &profile, noise, threads, args.progress.visible())?;
     let summary = summarize(&results);
     if let Some(dir) = &args.output.out {
         let contents = [

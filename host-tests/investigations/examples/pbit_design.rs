@@ -114,13 +114,17 @@ fn assess(profile: &Profile) -> Result<Assessment, Box<dyn std::error::Error>> {
     let (clean, clean_trace) = record(false)?;
     let (_, noisy_trace) = record(true)?;
     let n = clean_trace.len();
-    let sigma_a = (clean_trace.current_a().iter().zip(noisy_trace.current_a()).map(|(a, b)| f64::from(a - b).powi(2)).sum::<f64>()
+    let sigma_a = (clean_trace
+        .current_a()
+        .iter()
+        .zip(noisy_trace.current_a())
+        .map(|(a, b)| f64::from(a - b).powi(2))
+        .sum::<f64>()
         / n as f64)
         .sqrt();
     let peak_position_rad = clean.truth.iter().map(|t| t.surface_angle_rad.abs()).fold(0.0, f64::max);
     let peak_rate_rad_s = clean.truth.iter().map(|t| t.surface_speed_rad_per_s.abs()).fold(0.0, f64::max);
-    let peak_current_a =
-        clean.truth.iter().flat_map(|t| t.phase_current_a.iter().map(|i| i.abs())).fold(0.0, f64::max);
+    let peak_current_a = clean.truth.iter().flat_map(|t| t.phase_current_a.iter().map(|i| i.abs())).fold(0.0, f64::max);
     let no_load_rate = f64::from(params.supply_voltage_v)
         / (2.0 * f64::from(params.phase_emf_constant_v_s_per_rad) * f64::from(params.gear_ratio));
     let within_limits = peak_position_rad < f64::from(params.end_stop_rad)
@@ -161,9 +165,8 @@ fn assess(profile: &Profile) -> Result<Assessment, Box<dyn std::error::Error>> {
     let inv = invert(info).ok_or("singular information matrix")?;
     let cov = mul(&mul(&inv, &middle), &inv);
     let crb: [f64; 8] = std::array::from_fn(|j| sigma_a * cov[j][j].max(0.0).sqrt());
-    let criterion = [crb[2], crb[3], crb[4], crb[5], f64::from(DESIGN_POINT[5]) * crb[6], crb[7]]
-        .into_iter()
-        .fold(0.0, f64::max);
+    let criterion =
+        [crb[2], crb[3], crb[4], crb[5], f64::from(DESIGN_POINT[5]) * crb[6], crb[7]].into_iter().fold(0.0, f64::max);
     Ok(Assessment {
         duration_s: profile.duration_s(),
         peak_position_rad,
