@@ -3,7 +3,8 @@
 //! Wiring only, no math. Numbered steps:
 //! 1. paint the stack (for the peak-stack figure at the end);
 //! 2. open the built-in phase-current trace (`traces/standard.ematrace`, or `EMA_TRACE` at build
-//!    time: a recording of the standard manoeuvre, packed 12-bit, in flash), put a `ReplayAdc`
+//!    time: a recording of the standard manoeuvre, packed 12-bit, in flash; with `EMA_PROFILE=pbit`
+//!    the pre-flight built-in test `Profile::PBIT` and `traces/pbit.ematrace`), put a `ReplayAdc`
 //!    behind the embedded-hal 0.2 `OneShot` reader and arm a [`Sampler`] over it: TIMER0
 //!    interrupts every 100 µs and its handler reads one frame into the sampler's queue
 //!    (`qemu_live`), from the trigger (the first tick: the recording starts at the command's
@@ -46,7 +47,8 @@ use ema_monitor::persist::{HealthRecord, HealthStore, RamFlash};
 use ema_monitor::trace::PackedTrace;
 use ema_monitor::{report_log, EmaParams, ModelEffects, Profile};
 
-// `MODEL_EFFECTS`, `MODEL_CONFIG_SOURCE`, `PARAMS`, `PARAMS_SOURCE`, `TRACE_SOURCE` and `TRACE`,
+// `MODEL_EFFECTS`, `MODEL_CONFIG_SOURCE`, `PARAMS`, `PARAMS_SOURCE`, `PROFILE` and `PROFILE_NAME`
+// (`EMA_PROFILE`: standard or pbit), `TRACE_SOURCE` and `TRACE`,
 // written by `build.rs`: the built-in trace is `EMA_TRACE` (default `traces/standard.ematrace`,
 // the reference model's recording of the standard manoeuvre, traces/README.md), the monitor
 // model's effect terms come from the model configuration file `EMA_MODEL_CONFIG` (default none:
@@ -83,7 +85,7 @@ fn main() -> ! {
         None => exit(false),
     };
     // The replay starts at the command's onset: the trigger is high from the first tick.
-    let frames = manoeuvre_frames(&Profile::STANDARD, &PARAMS);
+    let frames = manoeuvre_frames(&PROFILE, &PARAMS);
     let config = SamplerConfig { frames, trigger_timeout_frames: TRIGGER_TIMEOUT_FRAMES };
     let mut live = match qemu_live::arm(sampler, trace, config, 0) {
         Ok(c) => c,
@@ -270,6 +272,9 @@ fn log_warm(
 /// formatting locals stay out of `main`'s frame, which lies below the identification's.
 #[inline(never)]
 fn log_model_effects() {
+    if PROFILE_NAME != "standard" {
+        defmt::info!("profile: {=str}", PROFILE_NAME);
+    }
     if TRACE_SOURCE != "traces/standard.ematrace" {
         defmt::info!("trace file: {=str}", TRACE_SOURCE);
     }
@@ -299,7 +304,7 @@ fn identify(
 ) -> Result<(HealthReport, WarmReport), monitor::MonitorError> {
     let config = IdentifyConfig { effects: MODEL_EFFECTS, prior: prior.copied(), ..IdentifyConfig::onboard() };
     let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
-        Identification::new(trace, PARAMS, Profile::STANDARD, &config)?;
+        Identification::new(trace, PARAMS, PROFILE, &config)?;
     id.run(u32::MAX);
     Ok((id.report(), id.warm_report().unwrap_or_default()))
 }

@@ -2,7 +2,8 @@
 //!
 //! Protocol (Dalla Vedova, Berri, Re, ICSRS 2018, §VII): 5 single-fault modes × {low, high} ×
 //! `--runs` runs × algorithms. Each run draws a fault with a seeded generator, lets the reference
-//! model record the standard manoeuvre with sensor noise on, identifies it with the `no_std` core
+//! model record the manoeuvre (`--profile`: standard, pbit or a file) with sensor noise on
+//! (`--noise off`: the paper's conditions, no sensor noise), identifies it with the `no_std` core
 //! (the firmware's code, built for the host) and scores it with the paper's error
 //! `Err% = 100·sqrt(Σ_{i≤6}(k_i − k̂_i)² + k̂6 (k7 − k̂7)² + (k8 − k̂8)²)`.
 //!
@@ -11,6 +12,10 @@
 //! - short circuit: the phase uniformly among A, B, C; eccentricity: the phase k7 uniform in [0, 1);
 //!   gain drift: `k8 = 0.5 ± severity/2`, the sign drawn;
 //! - `--multi N`: N extra runs with 2 or 3 distinct modes at severities uniform in [0.05, 0.95];
+//! - `--multi-low N`: N extra runs with every mode at once, each at a low severity uniform in
+//!   [0.05, 0.15] (small simultaneous faults), reported as their own row (`multi-low`);
+//! - `--audit`: the master seed is [`AUDIT_SEED`], which no test uses, so its draws are fault
+//!   vectors the method was never tuned on;
 //! - the sensor-noise seed of the reference model and the optimizer's seed come from the same draw.
 //!
 //! Outputs: a Markdown table with the paper's Table II beside ours; `--out DIR` writes `runs.csv`,
@@ -40,7 +45,10 @@ use crate::plots;
 use crate::progress::{self, ProgressArgs};
 use crate::recording::Recording;
 use crate::schema::Document;
-use crate::simulate::resolve_profile;
+use crate::simulate::{resolve_profile, Noise};
+
+/// Master seed of `--audit`: no test and no committed campaign draws with it.
+pub const AUDIT_SEED: u64 = 0x00A0_D17C_A3BA_1601;
 
 /// Order of the algorithms in the table: the paper's two, then differential evolution (not in the paper).
 const ALGORITHM_ORDER: [&str; 3] = ["pso", "ga", "de"];
@@ -90,6 +98,13 @@ pub struct CampaignArgs {
     /// Extra multi-fault runs (2–3 simultaneous faults) per algorithm, reported separately.
     #[arg(long, default_value_t = 0)]
     pub multi: u32,
+    /// Extra multi-fault runs with every fault mode at once at low severity (0.05–0.15) per
+    /// algorithm, reported separately (`multi-low`).
+    #[arg(long, default_value_t = 0)]
+    pub multi_low: u32,
+    /// Sensor noise of the reference model's recordings (`off`: the paper's conditions).
+    #[arg(long, value_enum, default_value_t = Noise::On)]
+    pub noise: Noise,
     /// Iteration limit of each identification (the paper: 200).
     #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(1..))]
     pub max_iterations: u32,
@@ -102,12 +117,16 @@ pub struct CampaignArgs {
     #[arg(long, value_name = "RHO")]
     pub fast_regime_weight: Option<f32>,
     /// Command profile of every run (the manoeuvre the reference model flies and the monitor
-    /// model is driven by): `standard` or a profile file (`ema simulate --help` has the format).
+    /// model is driven by): `standard`, `pbit` or a profile file (`ema simulate --help` has the
+    /// format).
     #[arg(long, value_name = "NAME|FILE", default_value = "standard")]
     pub profile: String,
     /// Master seed of every draw.
     #[arg(long, default_value_t = 2018)]
     pub seed: u64,
+    /// Audit draws: the master seed is `AUDIT_SEED`, which no test uses (replaces `--seed`).
+    #[arg(long, conflicts_with = "seed")]
+    pub audit: bool,
     /// Worker threads (default: the available cores). The results do not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
@@ -236,6 +255,7 @@ fn inject(k: &mut FaultVector, mode: usize, severity: f32, rng: &mut SplitMix) {
 
 /// The planned runs of a campaign, in a fixed order.
 pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
+    let master = master_seed(args);
     let modes: Vec<usize> = if args.modes.is_empty() {
         (0..MODES.len()).collect()
     } else {
@@ -261,7 +281,7 @@ pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
                     // The fault depends on (mode, level, run) only, so every algorithm sees the
                     // same faults; the seed of the noise and of the optimizer adds the algorithm.
                     let key = (mode as u64 + 1) << 40 | level_key << 32 | u64::from(run);
-                    let mut rng = SplitMix(args.seed ^ key.wrapping_mul(0xD1B5_4A32_D192_ED03));
+                    let mut rng = SplitMix(master ^ key.wrapping_mul(0xD1B5_4A32_D192_ED03));
                     let mut truth = FaultVector::HEALTHY;
                     let severity = rng.range(lo, hi);
                     inject(&mut truth, mode, severity, &mut rng);
@@ -272,7 +292,7 @@ pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
         }
         for run in 0..args.multi {
             let key = 7u64 << 40 | u64::from(run);
-            let mut rng = SplitMix(args.seed ^ key.wrapping_mul(0xD1B5_4A32_D192_ED03));
+            let mut rng = SplitMix(master ^ key.wrapping_mul(0xD1B5_4A32_D192_ED03));
             let count = 2 + (rng.next_u64() % 2) as usize;
             let mut chosen: Vec<usize> = Vec::new();
             while chosen.len() < count {
@@ -291,8 +311,28 @@ pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
             let seed = rng.next_u64() ^ alg_key;
             out.push(Plan { algorithm, mode: names.join("+"), level: "multi", run, seed, truth });
         }
+        for run in 0..args.multi_low {
+            let key = 8u64 << 40 | u64::from(run);
+            let mut rng = SplitMix(master ^ key.wrapping_mul(0xD1B5_4A32_D192_ED03));
+            let mut truth = FaultVector::HEALTHY;
+            for m in 0..MODES.len() {
+                let severity = rng.range(0.05, 0.15);
+                inject(&mut truth, m, severity, &mut rng);
+            }
+            let seed = rng.next_u64() ^ alg_key;
+            out.push(Plan { algorithm, mode: "all-low".to_string(), level: "multi-low", run, seed, truth });
+        }
     }
     Ok(out)
+}
+
+/// The master seed of the draws: [`AUDIT_SEED`] with `--audit`, else `--seed`.
+pub fn master_seed(args: &CampaignArgs) -> u64 {
+    if args.audit {
+        AUDIT_SEED
+    } else {
+        args.seed
+    }
 }
 
 /// The identification settings of `ema campaign`'s flags (algorithm and seed are per run).
@@ -301,11 +341,18 @@ pub fn identify_config(args: &CampaignArgs) -> IdentifyConfig {
     crate::identify::method_flags(base, args.paper_only, args.fast_regime_weight)
 }
 
-/// Simulates and identifies one planned run of the actuator `params` under `profile`.
-/// `base` gives the identification's settings; the algorithm and the seed come from the plan.
-pub fn execute(p: &Plan, base: &IdentifyConfig, params: &EmaParams, profile: &Profile) -> Result<RunResult, CliError> {
+/// Simulates (sensor noise on when `noise`) and identifies one planned run of the actuator
+/// `params` under `profile`. `base` gives the identification's settings; the algorithm and the
+/// seed come from the plan.
+pub fn execute(
+    p: &Plan,
+    base: &IdentifyConfig,
+    params: &EmaParams,
+    profile: &Profile,
+    noise: bool,
+) -> Result<RunResult, CliError> {
     let config =
-        SimConfig { params: *params, faults: p.truth, seed: p.seed, profile: *profile, ..SimConfig::default() };
+        SimConfig { params: *params, faults: p.truth, seed: p.seed, profile: *profile, noise, ..SimConfig::default() };
     let rec = simulate(&config).map_err(|e| CliError::Simulation(e.to_string()))?;
     let recording = Recording::from_reference(&rec, Vec::new());
     let identify = IdentifyConfig { algorithm: Algorithm::from(p.algorithm), seed: p.seed, ..*base };
@@ -332,7 +379,7 @@ fn alg_name(a: AlgorithmArg) -> &'static str {
     }
 }
 
-/// Runs every planned run of the actuator `params` under `profile` on `threads` workers (a rayon pool of its own);
+/// Runs every planned run of the actuator `params` under `profile` (sensor noise on when `noise`) on `threads` workers (a rayon pool of its own);
 /// results in plan order, whatever the thread count, since every run's draws come from its plan.
 /// `progress` shows a bar of the runs on stderr ([`progress::bar`]).
 pub fn run_all(
@@ -340,6 +387,7 @@ pub fn run_all(
     base: &IdentifyConfig,
     params: &EmaParams,
     profile: &Profile,
+    noise: bool,
     threads: usize,
     progress: bool,
 ) -> Result<Vec<RunResult>, CliError> {
@@ -352,7 +400,7 @@ pub fn run_all(
         plans
             .par_iter()
             .map(|p| {
-                let r = execute(p, base, params, profile);
+                let r = execute(p, base, params, profile, noise);
                 bar.inc(1);
                 r
             })
@@ -386,10 +434,9 @@ pub fn summarize(results: &[RunResult]) -> BTreeMap<CellKey, Cell> {
     for r in results {
         let alg = alg_name(r.plan.algorithm).to_string();
         let mut keys = vec![(alg.clone(), r.plan.mode.clone(), r.plan.level.to_string())];
-        if r.plan.level != "multi" {
-            keys.push((alg.clone(), "total".to_string(), r.plan.level.to_string()));
-        } else {
-            keys = vec![(alg.clone(), "multi".to_string(), "multi".to_string())];
+        match r.plan.level {
+            "multi" | "multi-low" => keys = vec![(alg.clone(), r.plan.level.to_string(), r.plan.level.to_string())],
+            level => keys.push((alg.clone(), "total".to_string(), level.to_string())),
         }
         for key in keys {
             let e = sums.entry(key).or_default();
@@ -459,24 +506,28 @@ fn table(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> String {
             let _ = writeln!(out, "| {alg} | {level} | {} | {} |", floors.join(" | "), floor("total"));
         }
     }
-    for alg in ALGORITHM_ORDER {
-        if let Some(c) = summary.get(&(alg.to_string(), "multi".to_string(), "multi".to_string())) {
-            let _ = writeln!(
-                out,
-                "\nmulti-fault ({alg}): {} runs, mean Err% {:.2} (floor {:.2}), mean time {:.2} s",
-                c.runs, c.mean_err_percent, c.mean_floor_err_percent, c.mean_identification_s
-            );
+    for (level, what) in [("multi", "multi-fault"), ("multi-low", "small simultaneous faults (every mode low)")] {
+        for alg in ALGORITHM_ORDER {
+            if let Some(c) = summary.get(&(alg.to_string(), level.to_string(), level.to_string())) {
+                let _ = writeln!(
+                    out,
+                    "\n{what} ({alg}): {} runs, mean Err% {:.2} (floor {:.2}), mean time {:.2} s",
+                    c.runs, c.mean_err_percent, c.mean_floor_err_percent, c.mean_identification_s
+                );
+            }
         }
     }
     let _ = write!(
         out,
-        "\nErr% by the paper's formula; ours: {} runs per cell, reference model with noise, profile {}, max {} iterations, {}, fast-regime weight {}, seed {}.",
+        "\nErr% by the paper's formula; ours: {} runs per cell, reference model with sensor noise {}, profile {}, max {} iterations, {}, fast-regime weight {}, seed {}{}.",
         args.runs,
+        if args.noise == Noise::On { "on" } else { "off" },
         args.profile,
         args.max_iterations,
         if args.paper_only { "global search only" } else { "then model selection and polish" },
         identify_config(args).fast_regime_weight,
-        args.seed
+        master_seed(args),
+        if args.audit { " (--audit)" } else { "" }
     );
     out
 }
@@ -486,9 +537,9 @@ fn table(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> String {
 pub struct CellJson<'a> {
     /// `pso`, `ga` or `de`.
     pub algorithm: &'a str,
-    /// A fault mode ([`MODES`]), `total` (the single-fault modes pooled) or `multi`.
+    /// A fault mode ([`MODES`]), `total` (the single-fault modes pooled), `multi` or `multi-low`.
     pub mode: &'a str,
-    /// `low`, `high` or `multi`.
+    /// `low`, `high`, `multi` or `multi-low`.
     pub level: &'a str,
     /// The means.
     #[serde(flatten)]
@@ -504,8 +555,10 @@ pub struct SummaryJson<'a> {
     pub profile: &'a str,
     /// `--max-iterations`.
     pub max_iterations: u32,
-    /// `--seed`.
+    /// The master seed (`--seed`, or [`AUDIT_SEED`] with `--audit`).
     pub seed: u64,
+    /// `--noise`: whether the recordings carry sensor noise.
+    pub noise: bool,
     /// False with `--paper-only`.
     pub model_selection_and_polish: bool,
     /// The fitness's fast-regime weight.
@@ -526,7 +579,8 @@ pub fn summary_json(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> S
             runs_per_cell: args.runs,
             profile: &args.profile,
             max_iterations: args.max_iterations,
-            seed: args.seed,
+            seed: master_seed(args),
+            noise: args.noise == Noise::On,
             model_selection_and_polish: !args.paper_only,
             fast_regime_weight: identify_config(args).fast_regime_weight,
             cells,
@@ -584,7 +638,7 @@ pub fn bar_chart(
 ) -> std::io::Result<String> {
     let series: Vec<(String, String)> = summary
         .keys()
-        .filter(|(_, mode, level)| mode != "total" && level != "multi")
+        .filter(|(_, mode, level)| mode != "total" && !level.starts_with("multi"))
         .map(|(a, _, l)| (a.clone(), l.clone()))
         .collect::<std::collections::BTreeSet<_>>()
         .into_iter()
@@ -614,7 +668,8 @@ pub fn run(args: &CampaignArgs) -> Result<String, CliError> {
     if let Some(dir) = &args.output.out {
         prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
     }
-    let results = run_all(&plans, &identify_config(args), &params, &profile, threads, args.progress.visible())?;
+    let noise = args.noise == Noise::On;
+    let results = run_all(&plans, &identify_config(args), &params, &profile, noise, threads, args.progress.visible())?;
     let summary = summarize(&results);
     if let Some(dir) = &args.output.out {
         let contents = [

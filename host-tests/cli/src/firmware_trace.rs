@@ -3,6 +3,7 @@
 //!
 //! ```text
 //! ema firmware-trace [--out FILE] [--force]                       # default: ./standard.ematrace
+//! ema firmware-trace --profile pbit [--out FILE] [--force]        # default: ./pbit.ematrace
 //! ema firmware-trace --from RECORDING.csv [--out FILE] [--force]  # default: ./RECORDING.ematrace
 //! ```
 //!
@@ -21,6 +22,10 @@
 //! coded them (`Sample::adc_counts`, not re-quantized amperes), 10 kHz, packed with
 //! [`ema_monitor::trace::pack`]: 8500 frames, 38 262 bytes.
 //!
+//! `--profile pbit` records the pre-flight built-in test ([`Profile::PBIT`], 0.88 s) instead,
+//! with the same actuator, faults and seed: `traces/pbit.ematrace`, 8800 frames, 39 612 bytes,
+//! which the firmware replays when built with `EMA_PROFILE=pbit`.
+//!
 //! The same recording as CSV: `ema simulate --faults 0.25,0,0,0,0,0,0.5,0.5 --seed 1 --out FILE.csv`
 //! (its current columns are `counts_to_amps` of these codes).
 //!
@@ -34,7 +39,7 @@
 
 use std::path::{Path, PathBuf};
 
-use clap::Args;
+use clap::{Args, ValueEnum};
 use ema_monitor::trace::{amps_to_counts, pack, packed_len, PackedTrace, SAMPLE_RATE_HZ};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, Effects, SimConfig};
@@ -71,6 +76,36 @@ pub struct FirmwareTraceArgs {
     /// How to read the --from recording.
     #[command(flatten)]
     pub recording: RecordingArgs,
+    /// The manoeuvre of the built-in run (the firmware's `EMA_PROFILE`).
+    #[arg(long, value_enum, default_value_t = BuiltInProfile::Standard, conflicts_with = "from")]
+    pub profile: BuiltInProfile,
+}
+
+/// A manoeuvre the firmware can fly (`EMA_PROFILE` at build time).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BuiltInProfile {
+    /// [`Profile::STANDARD`] (0.85 s): `traces/standard.ematrace`.
+    Standard,
+    /// [`Profile::PBIT`] (0.88 s), the pre-flight built-in test: `traces/pbit.ematrace`.
+    Pbit,
+}
+
+impl BuiltInProfile {
+    /// The profile.
+    pub fn profile(self) -> Profile {
+        match self {
+            BuiltInProfile::Standard => Profile::STANDARD,
+            BuiltInProfile::Pbit => Profile::PBIT,
+        }
+    }
+
+    /// Its name: `standard` or `pbit`.
+    pub fn name(self) -> &'static str {
+        match self {
+            BuiltInProfile::Standard => "standard",
+            BuiltInProfile::Pbit => "pbit",
+        }
+    }
 }
 
 /// Frames of a firmware trace: the standard profile at 10 kHz (8500, as the built-in trace).
@@ -105,7 +140,13 @@ pub fn firmware_trace_config() -> SimConfig {
 /// codes of the three phases: with [`EmaParams::NOMINAL`], the exact content of
 /// `traces/standard.ematrace`.
 pub fn firmware_trace_bytes(params: &EmaParams) -> Result<Vec<u8>, CliError> {
-    let config = SimConfig { params: *params, ..firmware_trace_config() };
+    firmware_trace_bytes_for(params, BuiltInProfile::Standard)
+}
+
+/// [`firmware_trace_bytes`] of the manoeuvre `profile`: with [`EmaParams::NOMINAL`] and
+/// [`BuiltInProfile::Pbit`], the exact content of `traces/pbit.ematrace`.
+pub fn firmware_trace_bytes_for(params: &EmaParams, profile: BuiltInProfile) -> Result<Vec<u8>, CliError> {
+    let config = SimConfig { params: *params, profile: profile.profile(), ..firmware_trace_config() };
     let recording = simulate(&config).map_err(|e| CliError::Simulation(e.to_string()))?;
     let period = 1.0 / f64::from(SAMPLE_RATE_HZ);
     if (recording.sample_period_s - period).abs() > 1e-9 * period {
@@ -151,24 +192,28 @@ pub fn recording_trace_bytes(recording: &Recording, path: &Path, params: &EmaPar
 
 /// Runs `ema firmware-trace`; returns the one-line summary printed on success.
 pub fn run(args: &FirmwareTraceArgs) -> Result<String, CliError> {
-    let out = args.output.out.clone().unwrap_or_else(|| default_out(args.from.as_deref()));
+    let out = args.output.out.clone().unwrap_or_else(|| match (args.from.as_deref(), args.profile) {
+        (None, BuiltInProfile::Pbit) => PathBuf::from("pbit.ematrace"),
+        (from, _) => default_out(from),
+    });
     let overwrite = args.output.overwrite();
     check_file(&out, overwrite)?;
     let params = args.params.load()?;
     if let Some(from) = &args.from {
         return run_from(from, &args.recording, &out, overwrite, &params);
     }
-    let bytes = firmware_trace_bytes(&params)?;
+    let bytes = firmware_trace_bytes_for(&params, args.profile)?;
     let trace = PackedTrace::parse(&bytes)
         .map_err(|e| CliError::Simulation(format!("the packed trace does not read back: {e}")))?;
     write_files(&[(&out, &bytes)], overwrite)?;
     let k: Vec<String> = FIRMWARE_TRACE_FAULTS.0.iter().map(|v| v.to_string()).collect();
     Ok(format!(
-        "wrote {} frames at {} Hz ({} bytes) to {}: profile standard, faults {}, noise on, seed {}",
+        "wrote {} frames at {} Hz ({} bytes) to {}: profile {}, faults {}, noise on, seed {}",
         trace.frames(),
         trace.sample_rate_hz(),
         bytes.len(),
         out.display(),
+        args.profile.name(),
         k.join(","),
         FIRMWARE_TRACE_SEED
     ))

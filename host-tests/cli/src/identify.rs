@@ -284,7 +284,7 @@ pub struct IdentifyArgs {
     /// as `EMA_MODEL_CONFIG` gives them to the firmware [default: none].
     #[arg(long, value_name = "CONFIG")]
     pub model_config: Option<PathBuf>,
-    /// Command profile the recording was made with: `standard` or a profile file.
+    /// Command profile the recording was made with: `standard`, `pbit` or a profile file.
     #[arg(long, default_value = "standard")]
     pub profile: String,
     /// What drives the monitor model: the command profile (`--profile`, which the recording's
@@ -663,6 +663,17 @@ fn read_firmware_trace(path: &Path) -> Result<Vec<u8>, CliError> {
 /// `INCONCLUSIVE (rate mismatch)` when the header's rate is not 10 kHz. A step that refuses the
 /// trace gives the [`Refusal`] the firmware logs.
 pub fn firmware_trace_outcome(bytes: &[u8], params: &EmaParams, config: &IdentifyConfig) -> Result<Outcome, Refusal> {
+    firmware_trace_outcome_for(bytes, params, &Profile::STANDARD, config)
+}
+
+/// [`firmware_trace_outcome`] of a trace of the manoeuvre `profile` (the firmware's
+/// `EMA_PROFILE`: [`Profile::STANDARD`] or [`Profile::PBIT`]).
+pub fn firmware_trace_outcome_for(
+    bytes: &[u8],
+    params: &EmaParams,
+    profile: &Profile,
+    config: &IdentifyConfig,
+) -> Result<Outcome, Refusal> {
     let packed = PackedTrace::parse(bytes).map_err(|e| Refusal::new("trace", e))?;
     let rate_ok = monitor::rate_matches(packed.sample_rate_hz() as f32, params);
     let adc = ReplayAdc::new(packed);
@@ -671,7 +682,7 @@ pub fn firmware_trace_outcome(bytes: &[u8], params: &EmaParams, config: &Identif
             .map_err(|e| Refusal::new("reader", e))?;
     let mut trace = Box::new(MeasuredTrace::<ONBOARD_WINDOW>::new());
     let acquired = monitor::acquire(&mut reader, &mut trace).map_err(|e| Refusal::new("acquisition", e))?;
-    let outcome = run_identification(&trace, params, Command::Profile(Profile::STANDARD), config)
+    let outcome = run_identification(&trace, params, Command::Profile(*profile), config)
         .map_err(|e| Refusal::new("identification", e))?;
     let report = outcome.report.with_acquisition(&acquired);
     let report = if rate_ok { report } else { report.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };

@@ -46,7 +46,8 @@ pub struct SimulateArgs {
     /// hall_misalignment, compliance, bus_sag).
     #[arg(long = "effect", value_name = "ID=S", allow_hyphen_values = true)]
     pub effects: Vec<String>,
-    /// Command profile: `standard` or a profile file (lines `hold START VALUE`, `ramp START START_RAD RATE`,
+    /// Command profile: `standard`, `pbit` (the pre-flight built-in test, docs/pbit.md) or a
+    /// profile file (lines `hold START VALUE`, `ramp START START_RAD RATE`,
     /// `sine START OFFSET AMP FREQ`, `end DURATION`; `#` comments).
     #[arg(long, value_name = "NAME|FILE", default_value = "standard")]
     pub profile: String,
@@ -126,14 +127,19 @@ pub fn parse_effect_both_sides(item: Option<&str>) -> Result<(Effects, ModelEffe
     Ok((actuator, model))
 }
 
-/// `standard` or a profile file.
+/// `standard`, `pbit` ([`Profile::PBIT`]) or a profile file.
 pub fn resolve_profile(name: &str) -> Result<Profile, CliError> {
-    if name == "standard" {
-        return Ok(Profile::STANDARD);
+    match name {
+        "standard" => return Ok(Profile::STANDARD),
+        "pbit" => return Ok(Profile::PBIT),
+        _ => {}
     }
     let path = Path::new(name);
     if !path.exists() {
-        return Err(CliError::flag("--profile", format!("'{name}' is neither 'standard' nor an existing file")));
+        return Err(CliError::flag(
+            "--profile",
+            format!("'{name}' is neither 'standard', 'pbit' nor an existing file"),
+        ));
     }
     Ok(read_profile(path)?)
 }

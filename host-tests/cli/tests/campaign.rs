@@ -4,7 +4,7 @@ mod common;
 use common::{refused, s as path_str, scratch};
 
 use ema_cli::campaign::{
-    self, bar_chart, identify_config, plan, run_all, runs_csv, summarize, CampaignArgs, PAPER_TABLE_II,
+    self, bar_chart, identify_config, plan, run_all, runs_csv, summarize, CampaignArgs, AUDIT_SEED, PAPER_TABLE_II,
 };
 use ema_cli::identify::AlgorithmArg;
 use ema_monitor::{FaultVector, Profile};
@@ -15,11 +15,14 @@ fn args(runs: u32, modes: &[&str]) -> CampaignArgs {
         runs,
         algorithms: vec![AlgorithmArg::Pso],
         multi: 0,
+        multi_low: 0,
+        noise: ema_cli::simulate::Noise::On,
         max_iterations: 2,
         paper_only: false,
         fast_regime_weight: None,
         profile: "standard".to_string(),
         seed: 2018,
+        audit: false,
         threads: Some(1),
         modes: modes.iter().map(|m| m.to_string()).collect(),
         json: false,
@@ -83,15 +86,40 @@ fn plans_follow_the_protocol_and_are_deterministic() {
     }
 }
 
+/// `--multi-low` draws every fault mode at once at low severity; `--audit` draws other faults
+/// than any `--seed` a test uses.
+#[test]
+fn small_simultaneous_faults_and_audit_draws() {
+    let a = args(1, &["friction"]);
+    let low = plan(&CampaignArgs { multi_low: 3, ..a.clone() }).expect("valid");
+    let small: Vec<_> = low.iter().filter(|r| r.level == "multi-low").collect();
+    assert_eq!(small.len(), 3);
+    for r in small {
+        let k = r.truth.0;
+        let shorts: Vec<f32> = k[2..5].iter().copied().filter(|x| *x > 0.0).collect();
+        let sev = [k[0], k[1], shorts[0], k[5], 2.0 * (k[7] - 0.5).abs()];
+        assert_eq!(shorts.len(), 1, "{r:?}");
+        assert!(sev.iter().all(|s| (0.05 - 1e-6..=0.15 + 1e-6).contains(s)), "{r:?}");
+    }
+    let audit = plan(&CampaignArgs { audit: true, ..a.clone() }).expect("valid");
+    assert_eq!(ema_cli::campaign::master_seed(&CampaignArgs { audit: true, ..a.clone() }), AUDIT_SEED);
+    for seed in [1, 2, 7, 2018, 2019] {
+        let other = plan(&CampaignArgs { seed, ..a.clone() }).expect("valid");
+        assert!(audit.iter().zip(&other).all(|(x, y)| x.truth != y.truth), "seed {seed}");
+    }
+}
+
 #[test]
 fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
     // the global search alone, so every run spends exactly its budget
     let a = CampaignArgs { paper_only: true, ..args(1, &["friction", "gain"]) };
     let plans = plan(&a).expect("valid");
-    let one = run_all(&plans, &identify_config(&a), &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD, 1, false)
-        .expect("runs");
-    let two = run_all(&plans, &identify_config(&a), &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD, 2, false)
-        .expect("runs");
+    let one =
+        run_all(&plans, &identify_config(&a), &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD, true, 1, false)
+            .expect("runs");
+    let two =
+        run_all(&plans, &identify_config(&a), &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD, true, 2, false)
+            .expect("runs");
     // every column but `identification_s` (third to last), which is wall time
     let strip = |csv: String| -> Vec<Vec<String>> {
         csv.lines()
@@ -127,6 +155,7 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
         &identify_config(&CampaignArgs { paper_only: false, ..a.clone() }),
         &ema_monitor::EmaParams::NOMINAL,
         &Profile::STANDARD,
+        true,
         2,
         false,
     )
@@ -218,7 +247,7 @@ fn a_profile_file_drives_every_run() {
     let a = CampaignArgs { paper_only: true, profile: path_str(&file).to_string(), ..args(1, &["friction"]) };
     let plans = plan(&a).expect("valid");
     let config = identify_config(&a);
-    let flown = run_all(&plans, &config, &ema_monitor::EmaParams::NOMINAL, &profile, 1, false).expect("runs");
+    let flown = run_all(&plans, &config, &ema_monitor::EmaParams::NOMINAL, &profile, true, 1, false).expect("runs");
     for (p, r) in plans.iter().zip(&flown) {
         let rec = simulate(&SimConfig { faults: p.truth, seed: p.seed, profile, ..SimConfig::default() }).expect("sim");
         let samples = profile.duration_s() / ema_monitor::EmaParams::NOMINAL.control_period_s;

@@ -6,9 +6,16 @@ use std::path::{Path, PathBuf};
 mod common;
 use common::{ema, scratch};
 
-use ema_cli::firmware_trace::{default_out, firmware_trace_bytes, FIRMWARE_TRACE_FAULTS, FIRMWARE_TRACE_SEED};
+use ema_cli::firmware_trace::{
+    default_out, firmware_trace_bytes, firmware_trace_bytes_for, BuiltInProfile, FIRMWARE_TRACE_FAULTS,
+    FIRMWARE_TRACE_SEED,
+};
+use ema_cli::identify::firmware_trace_outcome_for;
 use ema_cli::recording::read_recording;
+use ema_monitor::health::Status;
+use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::trace::{counts_to_amps, PackedTrace, SAMPLE_RATE_HZ};
+use ema_monitor::Profile;
 
 /// The exact command that regenerates the committed trace.
 const REGENERATE: &str =
@@ -122,4 +129,36 @@ fn readme_documents_the_command_faults_and_seed() {
     ] {
         assert!(readme.contains(&needle), "traces/README.md does not mention {needle}");
     }
+}
+
+/// The exact command that regenerates the committed pbit trace.
+const REGENERATE_PBIT: &str = "cd host-tests && cargo run --release --bin ema -- firmware-trace --profile pbit \
+     --out ../traces/pbit.ematrace --force";
+
+/// `traces/pbit.ematrace` (the firmware's trace with `EMA_PROFILE=pbit`) is the reference model's
+/// recording of `Profile::PBIT`, and the firmware's whole path on it (replay, acquisition into
+/// the on-board window, on-board identification driven by the pbit profile) finds its friction
+/// fault and nothing else.
+#[test]
+fn the_pbit_trace_passes_the_on_board_path() {
+    let fresh = firmware_trace_bytes_for(&ema_monitor::EmaParams::NOMINAL, BuiltInProfile::Pbit).expect("recorded");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../traces/pbit.ematrace");
+    let on_disk =
+        std::fs::read(&path).unwrap_or_else(|e| panic!("cannot read {}: {e}; {REGENERATE_PBIT}", path.display()));
+    assert!(fresh == on_disk, "traces/pbit.ematrace differs from the reference model's recording; {REGENERATE_PBIT}");
+    let t = PackedTrace::parse(&fresh).expect("valid packed trace");
+    assert_eq!((t.frames(), t.sample_rate_hz(), fresh.len()), (8800, SAMPLE_RATE_HZ, 39_612));
+    let report = firmware_trace_outcome_for(
+        &fresh,
+        &ema_monitor::EmaParams::NOMINAL,
+        &Profile::PBIT,
+        &IdentifyConfig::onboard(),
+    )
+    .expect("identified")
+    .report;
+    assert_eq!(report.status, Status::Degraded, "{report}");
+    let k = report.faults.0;
+    // 0.273: pbit's step runs the motor near its no-load speed, where the model is least exact
+    assert!((k[0] - 0.25).abs() < 0.03, "friction 0.25: {k:?}");
+    assert!(k[1..6].iter().all(|&x| x == 0.0) && k[7] == 0.5, "nothing else: {k:?}");
 }
