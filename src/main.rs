@@ -16,7 +16,8 @@
 //!    by default; logged first), between the instruction-count markers
 //!    [`ema_identification_start`] and [`ema_identification_end`] (`scripts/qemu-run` counts the
 //!    instructions between them);
-//! 5. log the health report, the fault vector's bits and the one-line summary of the host/target
+//! 5. add the uncertainty of the reported vector (its 1σ and detectable-below severities, outside
+//!    the counted region), log the health report, the fault vector's bits and the one-line summary of the host/target
 //!    parity check ([`log_summary`]), static RAM and peak stack over defmt, then exit through
 //!    semihosting: status 0 when the monitor gives a report (a diagnosis, or an honest
 //!    `INCONCLUSIVE` / `SENSOR_FAULT`), 1 when it refuses the trace (a malformed packed trace, too
@@ -119,7 +120,7 @@ fn main() -> ! {
     // 5. Report and exit.
     let ok = match report {
         Ok(r) => {
-            let r = r.with_acquisition(&acquired);
+            let r = with_uncertainty(&trace, r).with_acquisition(&acquired);
             let r = if rate_ok { r } else { r.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
             report_log::log_report(&r);
             true
@@ -178,6 +179,15 @@ fn identify(trace: &MeasuredTrace<ONBOARD_WINDOW>) -> Result<HealthReport, monit
         Identification::new(trace, PARAMS, Profile::STANDARD, &config)?;
     id.run(u32::MAX);
     Ok(id.report())
+}
+
+/// The report with the 1σ of each parameter and the detectable-below severities
+/// ([`monitor::with_uncertainty`]: 9 model runs in lockstep), after the counted region so that
+/// the identification's instruction count stays the identification's.
+#[inline(never)]
+fn with_uncertainty(trace: &MeasuredTrace<ONBOARD_WINDOW>, report: HealthReport) -> HealthReport {
+    let config = IdentifyConfig { effects: MODEL_EFFECTS, ..IdentifyConfig::onboard() };
+    monitor::with_uncertainty(trace, PARAMS, Profile::STANDARD, &config, report)
 }
 
 /// Logs the summary of a refusal, `summary: REFUSED <stage> <error>`: the stage that refused the

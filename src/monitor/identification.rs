@@ -77,7 +77,7 @@ pub(super) enum Stage {
 pub struct Identification<'a, const W: usize, const P: usize> {
     pub(super) fit: CurrentFit<'a, W>,
     solver: Solver<P>,
-    params: EmaParams,
+    pub(super) params: EmaParams,
     pub(super) config: IdentifyConfig,
     pub(super) stage: Stage,
     /// Best vector and cost of the stages after the global search.

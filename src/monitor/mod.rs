@@ -8,11 +8,14 @@
 //!
 //! The stages: the global search (PSO, GA or DE from [`starting_guesses`] and random points), model
 //! selection (`selection.rs`: each fault group must pay for its parameters), and the polish of the
-//! groups kept by a compass search (`identification.rs`).
+//! groups kept by a compass search (`identification.rs`). After the report, the uncertainty of
+//! the reported vector (`uncertainty.rs`: the 1σ of each parameter and the severity below which
+//! a group reported healthy could hide) is one more lockstep run of the model.
 
 mod config;
 mod identification;
 mod selection;
+mod uncertainty;
 mod verdict;
 
 pub use config::{
@@ -23,6 +26,9 @@ pub use identification::Identification;
 pub use selection::{
     group_pays, group_present, helps_without_its_best_window, refit_replaces, without_group, FAULT_GROUPS,
     REPLACED_ABOVE, SELECTION_REFIT, WINDOW_GAIN_SHARE,
+};
+pub use uncertainty::{
+    covariance_noise_a2, uncertainty_at, with_uncertainty, Fisher, FISHER_STEP, MISMATCH_CORRELATION_SAMPLES,
 };
 pub use verdict::{
     covers, rate_matches, window_noise_variance_a2, AcquisitionSummary, MAX_REFUSED_RUN, MAX_REFUSED_SHARE,

@@ -1,6 +1,6 @@
 //! `ema`: host tools of ema-monitor. Subcommands: `simulate` (reference model → recording CSV),
 //! `identify` (core → health report), `firmware-trace`, `compare`, `campaign`, `discover` (missing
-//! effects), `params` (the actuator parameter template).
+//! effects), `params` (the actuator parameter template), `detectability` (what a manoeuvre can tell).
 
 use std::io::{ErrorKind as IoErrorKind, Write};
 use std::process::ExitCode;
@@ -9,6 +9,7 @@ use clap::error::ErrorKind;
 use clap::{Parser, Subcommand};
 use ema_cli::campaign::{self, CampaignArgs};
 use ema_cli::compare::{self, CompareArgs};
+use ema_cli::detectability::{self, DetectabilityArgs};
 use ema_cli::discover::{self, DiscoverArgs};
 use ema_cli::error::{CliError, EXIT_FAILURE};
 use ema_cli::firmware_trace::{self, FirmwareTraceArgs};
@@ -40,6 +41,8 @@ enum Command {
     Discover(DiscoverArgs),
     /// Print the nominal actuator parameters as a commented TOML template (edit it, pass it with --params).
     Params(ParamsCommandArgs),
+    /// What a manoeuvre can tell: the 1σ (Cramér–Rao) and minimum detectable severity per fault mode.
+    Detectability(DetectabilityArgs),
 }
 
 fn main() -> ExitCode {
@@ -55,6 +58,7 @@ fn main() -> ExitCode {
         Command::Campaign(args) => campaign::run(args),
         Command::Discover(args) => discover::run(args),
         Command::Params(args) => params::run(args),
+        Command::Detectability(args) => detectability::run(args),
     };
     match result {
         // A reader that stops early (`ema discover FILE | head`) is not an error.
@@ -81,7 +85,7 @@ fn clap_error(e: &clap::Error) -> ExitCode {
         }
         ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
             eprintln!(
-                "error: a subcommand is required (simulate, identify, firmware-trace, compare, campaign, discover, params); try 'ema --help'"
+                "error: a subcommand is required (simulate, identify, firmware-trace, compare, campaign, discover, params, detectability); try 'ema --help'"
             );
             ExitCode::from(EXIT_FAILURE)
         }
