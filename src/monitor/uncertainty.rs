@@ -60,7 +60,7 @@ use crate::command::{Command, CommandCursor, SampledCursor};
 use crate::conditioning::{MeasuredEnvelope, MeasuredTrace, SensorErrorEnvelope, DECIMATION};
 use crate::effects::ModelEffects;
 use crate::faults::{FaultVector, FAULT_COUNT};
-use crate::fitness::CurrentFit;
+use crate::fitness::{CurrentFit, EVIDENCE_WINDOW_SAMPLES};
 use crate::health::{HealthReport, Uncertainty};
 use crate::model::{ModelState, MonitorModel};
 use crate::params::EmaParams;
@@ -74,9 +74,11 @@ pub const FISHER_STEP: f32 = 0.01;
 
 /// Correlation length `L` of the model mismatch in window samples (module doc): the mismatch
 /// [`MODEL_MISMATCH_A`] counts in the residual noise of the covariance as white noise of
-/// variance `L·m²`. Calibrated on the identification campaign so that ±2σ covers the true
-/// values about 95 % of the time (`docs/decisions/0022-uncertainty.md`).
-pub const MISMATCH_CORRELATION_SAMPLES: f32 = 1.0;
+/// variance `L·m²`. The mismatch is smooth over a reversal's transient, so `L` is one evidence
+/// window ([`EVIDENCE_WINDOW_SAMPLES`], 40 ms); with it ±2σ covers the true values of the
+/// identification campaign near 95 % of the time, and without it (`L` = 1) under 80 %
+/// (`docs/decisions/0022-uncertainty.md`).
+pub const MISMATCH_CORRELATION_SAMPLES: f32 = EVIDENCE_WINDOW_SAMPLES as f32;
 
 /// Models run in lockstep: the base and one per column.
 const MODELS: usize = FAULT_COUNT + 1;
@@ -289,7 +291,13 @@ impl Fisher {
 
     /// The free set with the group `first..=last` appended (for a healthy eccentricity its two
     /// basis columns), its size and the group's parameter count.
-    fn with_group(&self, free: &[usize; FAULT_COUNT], d: usize, first: usize, last: usize) -> ([usize; 8], usize, usize) {
+    fn with_group(
+        &self,
+        free: &[usize; FAULT_COUNT],
+        d: usize,
+        first: usize,
+        last: usize,
+    ) -> ([usize; 8], usize, usize) {
         let mut set = *free;
         let mut e = d;
         for i in first..=last {

@@ -180,7 +180,8 @@ pub struct RunResult {
 pub fn coverage(truth: &FaultVector, estimate: &FaultVector, sigma: &[f32; 8]) -> (u32, u32) {
     let (mut counted, mut covered) = (0u32, 0u32);
     for &(first, last) in &FAULT_GROUPS {
-        let (in_truth, in_estimate) = (group_present(&truth.0, (first, last)), group_present(&estimate.0, (first, last)));
+        let (in_truth, in_estimate) =
+            (group_present(&truth.0, (first, last)), group_present(&estimate.0, (first, last)));
         if !in_truth && !in_estimate {
             continue;
         }

@@ -185,7 +185,8 @@ pub fn tables(doc: &DetectabilityJson) -> String {
     );
     for c in &doc.cases {
         let row: Vec<String> = c.detectable_below.iter().map(|s| s.map_or("–".into(), cell)).collect();
-        let _ = writeln!(out, "| {} | {} | {:.4e} | {:.0} |", c.case, row.join(" | "), c.fitness_a2, c.effective_samples);
+        let _ =
+            writeln!(out, "| {} | {} | {:.4e} | {:.0} |", c.case, row.join(" | "), c.fitness_a2, c.effective_samples);
     }
     out.pop();
     out
