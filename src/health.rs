@@ -513,12 +513,11 @@ impl core::fmt::Display for HealthReport {
         }
         for (j, m) in self.modes.iter().enumerate().filter(|_| self.status.is_diagnosis()) {
             write!(f, "  {:<14} {:<9} severity {:.3}", m.mode.name(), m.condition.label(), m.severity)?;
-            match &self.uncertainty {
-                Some(u) => match u.detectable_below.get(j).copied().flatten() {
+            if let Some(u) = &self.uncertainty {
+                match u.detectable_below.get(j).copied().flatten() {
                     Some(floor) => write!(f, " (not detectable below {floor:.3})")?,
                     None => write!(f, " ± {:.3}", u.severity_sigma(m))?,
-                },
-                None => {}
+                }
             }
             write!(f, "  {:.3} {}", m.value, m.unit())?;
             match m.mode {

@@ -419,6 +419,7 @@ fn sub_matrix(m: &[[f32; FAULT_COUNT]; FAULT_COUNT], set: &[usize; FAULT_COUNT],
 /// The inverse of the symmetric `d×d` block `a` (`d ≤ 8`) by Cholesky factorisation after Jacobi
 /// scaling (`D·A·D` with unit diagonal, `D = diag(A)^{−1/2}`); `None` when a pivot falls below
 /// `1e-6` (not positive definite to `f32` precision) or an entry is not finite.
+#[allow(clippy::needless_range_loop, reason = "the factorisation reads as its index formulas")]
 fn invert(a: &[[f32; 8]; 8], d: usize) -> Option<[[f32; 8]; 8]> {
     let d = d.min(8);
     let mut scale = [0.0f32; 8];
@@ -438,7 +439,7 @@ fn invert(a: &[[f32; 8]; 8], d: usize) -> Option<[[f32; 8]; 8]> {
                 s -= l[i][p] * l[j][p];
             }
             if i == j {
-                if !(s > 1e-6) {
+                if s.is_nan() || s <= 1e-6 {
                     return None;
                 }
                 l[i][i] = libm::sqrtf(s);
@@ -494,6 +495,7 @@ fn sqrt_or_inf(x: f32) -> f32 {
 
 /// The lockstep run of [`Fisher::at`]: the base model and the 8 stepped ones under one command,
 /// each window sample's block means compared and accumulated.
+#[allow(clippy::needless_range_loop, reason = "the upper triangle of A and B, by index")]
 fn lockstep<const TERMS: bool, const W: usize>(
     models: &[MonitorModel; MODELS],
     params: &EmaParams,
