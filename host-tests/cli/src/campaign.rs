@@ -657,21 +657,22 @@ pub fn runs_csv(results: &[RunResult]) -> String {
             let _ = write!(out, ",k{i}_{prefix}");
         }
     }
+    out.push_str(",err_percent,identification_s,evaluations,floor_err_percent");
     for i in 1..=8 {
         let _ = write!(out, ",k{i}_sigma");
     }
-    out.push_str(",err_percent,identification_s,evaluations,floor_err_percent,coverage_counted,coverage_covered\n");
+    out.push_str(",coverage_counted,coverage_covered\n");
     for r in results {
         let p = &r.plan;
         let _ = write!(out, "{},{},{},{},{}", alg_name(p.algorithm), p.mode, p.level, p.run, p.seed);
-        for k in p.truth.0.iter().chain(r.estimate.0.iter()).chain(r.sigma.iter()) {
+        for k in p.truth.0.iter().chain(r.estimate.0.iter()) {
             let _ = write!(out, ",{k}");
         }
-        let _ = writeln!(
-            out,
-            ",{},{},{},{},{},{}",
-            r.err_percent, r.seconds, r.evaluations, r.floor_err_percent, r.coverage.0, r.coverage.1
-        );
+        let _ = write!(out, ",{},{},{},{}", r.err_percent, r.seconds, r.evaluations, r.floor_err_percent);
+        for s in &r.sigma {
+            let _ = write!(out, ",{s}");
+        }
+        let _ = writeln!(out, ",{},{}", r.coverage.0, r.coverage.1);
     }
     out
 }
