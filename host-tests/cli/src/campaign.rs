@@ -185,7 +185,7 @@ pub fn coverage(truth: &FaultVector, estimate: &FaultVector, sigma: &[f32; 8]) -
         if !in_truth && !in_estimate {
             continue;
         }
-        for i in first..=last {
+        for (i, &s) in sigma.iter().enumerate().take(last + 1).skip(first) {
             let mut d = (truth.0[i] - estimate.0[i]).abs();
             if i == 6 {
                 if !(in_truth && in_estimate) {
@@ -194,7 +194,7 @@ pub fn coverage(truth: &FaultVector, estimate: &FaultVector, sigma: &[f32; 8]) -
                 d = d.min(1.0 - d);
             }
             counted += 1;
-            if d <= 2.0 * sigma[i] {
+            if d <= 2.0 * s {
                 covered += 1;
             }
         }
@@ -425,9 +425,13 @@ pub struct Cell {
 /// `(algorithm, mode, level)` of a summary cell.
 pub type CellKey = (String, String, String);
 
+/// Running sums of a cell: runs, Err%, seconds, evaluations, floor Err%, coverage counted and
+/// covered.
+type CellSums = (usize, f64, f64, f64, f64, u32, u32);
+
 /// Groups results by `(algorithm, mode, level)` (mode `total` pools the single-fault modes).
 pub fn summarize(results: &[RunResult]) -> BTreeMap<CellKey, Cell> {
-    let mut sums: BTreeMap<CellKey, (usize, f64, f64, f64, f64, u32, u32)> = BTreeMap::new();
+    let mut sums: BTreeMap<CellKey, CellSums> = BTreeMap::new();
     for r in results {
         let alg = alg_name(r.plan.algorithm).to_string();
         let mut keys = vec![(alg.clone(), r.plan.mode.clone(), r.plan.level.to_string())];
