@@ -342,6 +342,36 @@ impl ModeReport {
     }
 }
 
+/// What the recording can tell about the reported vector
+/// ([`crate::monitor::Identification::with_uncertainty`], `src/monitor/uncertainty.rs`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Uncertainty {
+    /// 1σ of each normalized fault parameter `k1..k8` at the estimate (`+∞`: not identifiable on
+    /// this recording, e.g. the phase of an absent eccentricity). For a group reported healthy,
+    /// the σ it would have were it fitted.
+    pub sigma: [f32; 8],
+    /// Per fault mode of [`FaultMode::ALL`], for a mode whose fault groups are all reported
+    /// healthy: the smallest severity model selection would have kept on this recording (a
+    /// fault below it can hide); `None` for a mode found.
+    pub detectable_below: [Option<f32>; 5],
+}
+
+impl Uncertainty {
+    /// The 1σ of a mode's severity ([`ModeReport::severity`]): `k1`, `k2`, the reported phase's
+    /// short, `k6`, and `2·σ(k8)` for the gain drift.
+    pub fn severity_sigma(&self, mode: &ModeReport) -> f32 {
+        let s = &self.sigma;
+        match mode.mode {
+            FaultMode::Friction => s[0],
+            FaultMode::Backlash => s[1],
+            FaultMode::ShortCircuit => s[2 + usize::from(mode.phase) % 3],
+            FaultMode::Eccentricity => s[5],
+            FaultMode::GainDrift => 2.0 * s[7],
+        }
+    }
+}
+
 /// Outcome of one identification.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -372,6 +402,9 @@ pub struct HealthReport {
     pub fit_check: Option<FitCheck>,
     /// Frames acquisition refused (masked by holding the last good frame).
     pub refused_frames: u32,
+    /// The 1σ of each parameter and the detectable-below severities (`None`: not computed,
+    /// [`crate::monitor::Identification::with_uncertainty`] adds it).
+    pub uncertainty: Option<Uncertainty>,
 }
 
 impl HealthReport {
@@ -424,6 +457,7 @@ impl HealthReport {
             iterations,
             termination,
             untested_groups: 0,
+            uncertainty: None,
         }
     }
 
@@ -477,16 +511,15 @@ impl core::fmt::Display for HealthReport {
         if !self.status.is_diagnosis() {
             writeln!(f, "  no diagnosis: the fault values below are withheld from the mode report")?;
         }
-        for m in self.modes.iter().filter(|_| self.status.is_diagnosis()) {
-            write!(
-                f,
-                "  {:<14} {:<9} severity {:.3}  {:.3} {}",
-                m.mode.name(),
-                m.condition.label(),
-                m.severity,
-                m.value,
-                m.unit()
-            )?;
+        for (j, m) in self.modes.iter().enumerate().filter(|_| self.status.is_diagnosis()) {
+            write!(f, "  {:<14} {:<9} severity {:.3}", m.mode.name(), m.condition.label(), m.severity)?;
+            if let Some(u) = &self.uncertainty {
+                match u.detectable_below.get(j).copied().flatten() {
+                    Some(floor) => write!(f, " (not detectable below {floor:.3})")?,
+                    None => write!(f, " ± {:.3}", u.severity_sigma(m))?,
+                }
+            }
+            write!(f, "  {:.3} {}", m.value, m.unit())?;
             match m.mode {
                 FaultMode::ShortCircuit => write!(f, " (phase {})", ['A', 'B', 'C'][m.phase as usize % 3])?,
                 FaultMode::Eccentricity => write!(f, " (min gap at {:.0} deg)", self.eccentricity_phase_deg)?,
@@ -503,6 +536,13 @@ impl core::fmt::Display for HealthReport {
             write!(f, " {k:.4}")?;
         }
         writeln!(f)?;
+        if let Some(u) = &self.uncertainty {
+            write!(f, "  sigma =")?;
+            for s in &u.sigma {
+                write!(f, " {s:.4}")?;
+            }
+            writeln!(f)?;
+        }
         write!(
             f,
             "  fitness {:.4e} A^2, {} evaluations, {} iterations",

@@ -17,14 +17,15 @@
 //!    `EMA_MODEL_CONFIG` (none by default; logged first), between the instruction-count markers
 //!    [`ema_identification_start`] and [`ema_identification_end`] (`scripts/qemu-run` counts the
 //!    instructions between them, `identification (cold): N instructions`), and log its health
-//!    report, the fault vector's bits and the one-line summary of the host/target parity check
-//!    ([`log_summary`]);
+//!    report with the uncertainty of the reported vector (its 1σ and detectable-below severities,
+//!    computed outside the counted region), the fault vector's bits and the one-line summary of
+//!    the host/target parity check ([`log_summary`]);
 //! 5. add flight 1 to the health record (`ema_monitor::persist`) and save it to flash (RAM in
 //!    QEMU, [`RecordFlash`]), read it back as the next power-up does, and plan flight 2 from it
 //!    (`monitor::plan_start`): **warm** from the record's diagnosis unless a cold identification
 //!    is due, on the same recording, between a second pair of markers
 //!    (`identification (warm): N instructions`); log its report and what the warm stages did
-//!    (probes fired, evaluations), and add it to the record;
+//!    (probes fired, evaluations) with its uncertainty, and add it to the record;
 //! 6. log static RAM and peak stack over defmt, then exit through semihosting: status 0 when the
 //!    monitor gives a report (a diagnosis, or an honest `INCONCLUSIVE` / `SENSOR_FAULT`), 1 when it
 //!    refuses the trace (a malformed packed trace, too few frames: [`log_refusal`] logs the summary
@@ -128,7 +129,7 @@ fn main() -> ! {
     ema_identification_end();
     let report_1 = match report_1 {
         Ok((r, _)) => {
-            let r = r.with_acquisition(&acquired);
+            let r = with_uncertainty(&trace, r).with_acquisition(&acquired);
             let r = if rate_ok { r } else { r.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
             report_log::log_report(&r);
             Some(r)
@@ -163,7 +164,7 @@ fn main() -> ! {
         ema_identification_start();
         let report_2 = identify(&trace, warm.then_some(&prior.0));
         ema_identification_end();
-        let report_2 = log_warm(report_2, &acquired, rate_ok);
+        let report_2 = log_warm(&trace, report_2, &acquired, rate_ok);
         report_2.is_some_and(|r| record_flight(flash, &r, !warm).is_some())
     });
 
@@ -241,13 +242,14 @@ fn record_flight(flash: &mut RecordFlash, report: &HealthReport, cold: bool) -> 
 /// stay out of `main`'s frame.
 #[inline(never)]
 fn log_warm(
+    trace: &MeasuredTrace<ONBOARD_WINDOW>,
     report: Result<(HealthReport, WarmReport), monitor::MonitorError>,
     acquired: &monitor::AcquisitionSummary,
     rate_ok: bool,
 ) -> Option<HealthReport> {
     match report {
         Ok((r, warm)) => {
-            let r = r.with_acquisition(acquired);
+            let r = with_uncertainty(trace, r).with_acquisition(acquired);
             let r = if rate_ok { r } else { r.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
             report_log::log_report(&r);
             defmt::info!(
@@ -307,6 +309,15 @@ fn identify(
         Identification::new(trace, PARAMS, PROFILE, &config)?;
     id.run(u32::MAX);
     Ok((id.report(), id.warm_report().unwrap_or_default()))
+}
+
+/// The report with the 1σ of each parameter and the detectable-below severities
+/// ([`monitor::with_uncertainty`]: 9 model runs in lockstep), after the counted region so that
+/// the identification's instruction count stays the identification's.
+#[inline(never)]
+fn with_uncertainty(trace: &MeasuredTrace<ONBOARD_WINDOW>, report: HealthReport) -> HealthReport {
+    let config = IdentifyConfig { effects: MODEL_EFFECTS, ..IdentifyConfig::onboard() };
+    monitor::with_uncertainty(trace, PARAMS, PROFILE, &config, report)
 }
 
 /// Logs the summary of a refusal, `summary: REFUSED <stage> <error>`: the stage that refused the

@@ -1,6 +1,7 @@
 //! The health report as the firmware builds log it over defmt (the QEMU firmware and the board
 //! crate log the same lines): status and reason, one line per fault mode under a diagnosis, the
-//! fault vector and its bits, the fit, and the one-line summary that `scripts/parity` compares
+//! severities with their 1σ or detectable-below values, the fault vector and its bits, the fit,
+//! and the one-line summary that `scripts/parity` compares
 //! with the host's `ema identify --firmware-trace FILE --bits`. Built with the `defmt` feature.
 
 use crate::health::{FaultMode, HealthReport};
@@ -38,6 +39,7 @@ pub fn log_report(r: &HealthReport) {
             ),
         }
     }
+    log_uncertainty(r);
     let k = &r.faults.0;
     defmt::info!("fault vector k = {}", k);
     defmt::println!(
@@ -65,6 +67,24 @@ pub fn log_report(r: &HealthReport) {
         );
     }
     log_summary(r);
+}
+
+/// Logs what the recording can tell under a diagnosis, when the report carries it
+/// ([`crate::health::Uncertainty`]): each mode found as `friction 0.25 ± 0.01` (severity and its
+/// 1σ), each mode reported healthy as `eccentricity healthy (not detectable below 0.17)`, then the
+/// 1σ of the 8 parameters.
+pub fn log_uncertainty(r: &HealthReport) {
+    let Some(u) = &r.uncertainty else { return };
+    if !r.status.is_diagnosis() {
+        return;
+    }
+    for (m, floor) in r.modes.iter().zip(u.detectable_below) {
+        match floor {
+            Some(floor) => defmt::info!("  {=str} healthy (not detectable below {=f32})", m.mode.name(), floor),
+            None => defmt::info!("  {=str} {=f32} ± {=f32}", m.mode.name(), m.severity, u.severity_sigma(m)),
+        }
+    }
+    defmt::info!("fault vector 1-sigma = {}", u.sigma);
 }
 
 /// Logs the report's one-line summary, the line `scripts/parity` compares with the host's

@@ -96,7 +96,7 @@ fn warm_start_point(prior: &[f32; FAULT_COUNT]) -> Result<[f32; FAULT_COUNT], Mo
 pub struct Identification<'a, const W: usize, const P: usize> {
     pub(super) fit: CurrentFit<'a, W>,
     solver: Solver<P>,
-    params: EmaParams,
+    pub(super) params: EmaParams,
     pub(super) config: IdentifyConfig,
     pub(super) stage: Stage,
     /// Best vector and cost of the stages after the global search.

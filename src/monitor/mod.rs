@@ -11,12 +11,15 @@
 //! groups kept by a compass search (`identification.rs`). A warm start from the previous flight's
 //! diagnosis replaces the global search by the prior and adds new-fault probes (`warm.rs`,
 //! [`Identification::warm`]). Over flights, [`evidence`] sums each fault mode's log-likelihood
-//! ratio in a sequential test.
+//! ratio in a sequential test. After the report, the uncertainty of the reported vector
+//! (`uncertainty.rs`: the 1σ of each parameter and the severity below which a group reported
+//! healthy could hide) is one more lockstep run of the model.
 
 mod config;
 pub mod evidence;
 mod identification;
 mod selection;
+mod uncertainty;
 mod verdict;
 mod warm;
 
@@ -28,6 +31,9 @@ pub use identification::Identification;
 pub use selection::{
     group_pays, group_present, helps_without_its_best_window, refit_replaces, without_group, FAULT_GROUPS,
     REPLACED_ABOVE, SELECTION_REFIT, WINDOW_GAIN_SHARE,
+};
+pub use uncertainty::{
+    covariance_noise_a2, uncertainty_at, with_uncertainty, Fisher, FISHER_STEP, MISMATCH_CORRELATION_SAMPLES,
 };
 pub use verdict::{
     covers, rate_matches, window_noise_variance_a2, AcquisitionSummary, MAX_REFUSED_RUN, MAX_REFUSED_SHARE,

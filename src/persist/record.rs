@@ -208,7 +208,7 @@ impl HealthRecord {
     /// Appends one flight's report: the flight count goes up by one; the flights since the last
     /// cold identification restart at 0 when `cold` (this flight ran the cold identification) and
     /// go up by one otherwise; the report's fault vector and status become the last diagnosis
-    /// (`sigma` back to unknown until [`HealthRecord::set_sigma`]); and, when the status is a
+    /// (`sigma` the report's 1σ, unknown (NaN) when the report carries no uncertainty); and, when the status is a
     /// diagnosis ([`Status::is_diagnosis`]), each mode's severity joins its history. An
     /// abstention (`INCONCLUSIVE`, `SENSOR_FAULT`) adds nothing to the history: its values are not
     /// a diagnosis.
@@ -216,7 +216,7 @@ impl HealthRecord {
         self.flights = self.flights.saturating_add(1);
         self.flights_since_cold = if cold { 0 } else { self.flights_since_cold.saturating_add(1) };
         self.k = report.faults.0;
-        self.sigma = [f32::NAN; FAULT_COUNT];
+        self.sigma = report.uncertainty.map_or([f32::NAN; FAULT_COUNT], |u| u.sigma);
         self.status = Some(report.status);
         if report.status.is_diagnosis() {
             for (history, mode) in self.history.iter_mut().zip(report.modes.iter()) {

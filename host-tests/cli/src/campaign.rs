@@ -18,6 +18,10 @@
 //!   vectors the method was never tuned on;
 //! - the sensor-noise seed of the reference model and the optimizer's seed come from the same draw.
 //!
+//! **Coverage.** Each report carries the 1σ of every parameter (`src/monitor/uncertainty.rs`);
+//! a run counts how many of its true values lie within ±2σ of the estimate ([`coverage`]), and
+//! each cell reports the share (near 95 % when the σ are calibrated).
+//!
 //! Outputs: a Markdown table with the paper's Table II beside ours; `--out DIR` writes `runs.csv`,
 //! `summary.csv`, `summary.json`, `error.svg` and `time.svg` (grouped bars like the paper's
 //! Figures 4–5; [`OUTPUT_FILES`]); `--json` prints the summary JSON. `--out DIR` is checked before
@@ -182,6 +186,39 @@ pub struct RunResult {
     pub evaluations: u32,
     /// Err% of the detectability floor ([`detectability_floor`]).
     pub floor_err_percent: f64,
+    /// The report's 1σ per parameter (`+∞`: not identifiable; NaN: not computed).
+    pub sigma: [f32; 8],
+    /// Parameters counted by [`coverage`] and those of them within ±2σ.
+    pub coverage: (u32, u32),
+}
+
+/// `(counted, covered)`: the parameters of the fault groups present in the truth or in the
+/// estimate, and those of them whose true value lies within ±2σ of the estimate. A group healthy
+/// in both is left out (its exact healthy value would be covered by any σ); the eccentricity
+/// phase counts only when both have an eccentricity, by its distance on the circle.
+pub fn coverage(truth: &FaultVector, estimate: &FaultVector, sigma: &[f32; 8]) -> (u32, u32) {
+    let (mut counted, mut covered) = (0u32, 0u32);
+    for &(first, last) in &FAULT_GROUPS {
+        let (in_truth, in_estimate) =
+            (group_present(&truth.0, (first, last)), group_present(&estimate.0, (first, last)));
+        if !in_truth && !in_estimate {
+            continue;
+        }
+        for (i, &s) in sigma.iter().enumerate().take(last + 1).skip(first) {
+            let mut d = (truth.0[i] - estimate.0[i]).abs();
+            if i == 6 {
+                if !(in_truth && in_estimate) {
+                    continue;
+                }
+                d = d.min(1.0 - d);
+            }
+            counted += 1;
+            if d <= 2.0 * s {
+                covered += 1;
+            }
+        }
+    }
+    (counted, covered)
 }
 
 /// The truth with every fault group removed that model selection's criterion would refuse even
@@ -361,6 +398,7 @@ pub fn execute(
     let outcome = identify_trace(&trace, params, profile, &identify, &label)?;
     let floor = detectability_floor(&trace, params, profile, &identify, &p.truth);
     let estimate = outcome.report.faults;
+    let sigma = outcome.report.uncertainty.map_or([f32::NAN; 8], |u| u.sigma);
     Ok(RunResult {
         plan: p.clone(),
         estimate,
@@ -368,6 +406,8 @@ pub fn execute(
         seconds: outcome.seconds,
         evaluations: outcome.report.evaluations,
         floor_err_percent: f64::from(floor.paper_error_percent(&p.truth)),
+        sigma,
+        coverage: coverage(&p.truth, &estimate, &sigma),
     })
 }
 
@@ -423,14 +463,23 @@ pub struct Cell {
     pub mean_evaluations: f64,
     /// Mean Err% of the detectability floor ([`detectability_floor`]).
     pub mean_floor_err_percent: f64,
+    /// Share of the true values within ±2σ of the estimate ([`coverage`]; NaN, `null` in JSON,
+    /// when no parameter was counted).
+    pub coverage_2sigma: f64,
+    /// Parameters counted for `coverage_2sigma`.
+    pub coverage_parameters: u32,
 }
 
 /// `(algorithm, mode, level)` of a summary cell.
 pub type CellKey = (String, String, String);
 
+/// Running sums of a cell: runs, Err%, seconds, evaluations, floor Err%, coverage counted and
+/// covered.
+type CellSums = (usize, f64, f64, f64, f64, u32, u32);
+
 /// Groups results by `(algorithm, mode, level)` (mode `total` pools the single-fault modes).
 pub fn summarize(results: &[RunResult]) -> BTreeMap<CellKey, Cell> {
-    let mut sums: BTreeMap<CellKey, (usize, f64, f64, f64, f64)> = BTreeMap::new();
+    let mut sums: BTreeMap<CellKey, CellSums> = BTreeMap::new();
     for r in results {
         let alg = alg_name(r.plan.algorithm).to_string();
         let mut keys = vec![(alg.clone(), r.plan.mode.clone(), r.plan.level.to_string())];
@@ -445,10 +494,12 @@ pub fn summarize(results: &[RunResult]) -> BTreeMap<CellKey, Cell> {
             e.2 += r.seconds;
             e.3 += f64::from(r.evaluations);
             e.4 += r.floor_err_percent;
+            e.5 += r.coverage.0;
+            e.6 += r.coverage.1;
         }
     }
     sums.into_iter()
-        .map(|(k, (n, err, s, ev, floor))| {
+        .map(|(k, (n, err, s, ev, floor, counted, covered))| {
             let n_f = n as f64;
             let cell = Cell {
                 runs: n,
@@ -456,6 +507,8 @@ pub fn summarize(results: &[RunResult]) -> BTreeMap<CellKey, Cell> {
                 mean_identification_s: s / n_f,
                 mean_evaluations: ev / n_f,
                 mean_floor_err_percent: floor / n_f,
+                coverage_2sigma: if counted == 0 { f64::NAN } else { f64::from(covered) / f64::from(counted) },
+                coverage_parameters: counted,
             };
             (k, cell)
         })
@@ -511,12 +564,17 @@ fn table(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> String {
             if let Some(c) = summary.get(&(alg.to_string(), level.to_string(), level.to_string())) {
                 let _ = writeln!(
                     out,
-                    "\n{what} ({alg}): {} runs, mean Err% {:.2} (floor {:.2}), mean time {:.2} s",
-                    c.runs, c.mean_err_percent, c.mean_floor_err_percent, c.mean_identification_s
+                    "\n{what} ({alg}): {} runs, mean Err% {:.2} (floor {:.2}), mean time {:.2} s, ±2σ coverage {}",
+                    c.runs,
+                    c.mean_err_percent,
+                    c.mean_floor_err_percent,
+                    c.mean_identification_s,
+                    percent(c.coverage_2sigma)
                 );
             }
         }
     }
+    out.push_str(&coverage_table(summary));
     let _ = write!(
         out,
         "\nErr% by the paper's formula; ours: {} runs per cell, reference model with sensor noise {}, profile {}, max {} iterations, {}, fast-regime weight {}, seed {}{}.",
@@ -529,6 +587,42 @@ fn table(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> String {
         master_seed(args),
         if args.audit { " (--audit)" } else { "" }
     );
+    out
+}
+
+/// A share as a percentage with one decimal (`–` for NaN).
+fn percent(share: f64) -> String {
+    if share.is_nan() {
+        "–".into()
+    } else {
+        format!("{:.1} %", 100.0 * share)
+    }
+}
+
+/// The ±2σ coverage of the true values per (algorithm, level) and mode, then over every run.
+fn coverage_table(summary: &BTreeMap<CellKey, Cell>) -> String {
+    let mut out = format!(
+        "\n±2σ coverage: share of the true values within ±2σ of the estimate ([`coverage`], calibrated near 95 %)\n\n| algorithm | level | {} | total |\n|{}\n",
+        MODES.join(" | "),
+        "---|".repeat(MODES.len() + 3)
+    );
+    let (mut counted, mut covered) = (0u32, 0.0f64);
+    for alg in ALGORITHM_ORDER {
+        for level in ["low", "high", "multi"] {
+            let cell = |mode: &str| summary.get(&(alg.to_string(), mode.to_string(), level.to_string()));
+            let total = if level == "multi" { cell("multi") } else { cell("total") };
+            let Some(total) = total else { continue };
+            if !total.coverage_2sigma.is_nan() {
+                counted += total.coverage_parameters;
+                covered += total.coverage_2sigma * f64::from(total.coverage_parameters);
+            }
+            let modes: Vec<String> =
+                MODES.iter().map(|m| cell(m).map_or("–".into(), |c| percent(c.coverage_2sigma))).collect();
+            let _ = writeln!(out, "| {alg} | {level} | {} | {} |", modes.join(" | "), percent(total.coverage_2sigma));
+        }
+    }
+    let overall = if counted == 0 { f64::NAN } else { covered / f64::from(counted) };
+    let _ = writeln!(out, "\noverall ±2σ coverage: {} of {counted} parameters", percent(overall));
     out
 }
 
@@ -591,8 +685,8 @@ pub fn summary_json(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> S
 }
 
 /// `summary.csv`'s header: the keys of a [`CellJson`], in its order.
-pub const SUMMARY_CSV_HEADER: &str =
-    "algorithm,mode,level,runs,mean_err_percent,mean_identification_s,mean_evaluations,mean_floor_err_percent";
+pub const SUMMARY_CSV_HEADER: &str = "algorithm,mode,level,runs,mean_err_percent,mean_identification_s,\
+mean_evaluations,mean_floor_err_percent,coverage_2sigma,coverage_parameters";
 
 /// `summary.csv`: one row per (algorithm, mode, level), the columns of [`SUMMARY_CSV_HEADER`].
 pub fn summary_csv(summary: &BTreeMap<CellKey, Cell>) -> String {
@@ -600,8 +694,14 @@ pub fn summary_csv(summary: &BTreeMap<CellKey, Cell>) -> String {
     for ((alg, mode, level), c) in summary {
         let _ = writeln!(
             csv,
-            "{alg},{mode},{level},{},{},{},{},{}",
-            c.runs, c.mean_err_percent, c.mean_identification_s, c.mean_evaluations, c.mean_floor_err_percent
+            "{alg},{mode},{level},{},{},{},{},{},{},{}",
+            c.runs,
+            c.mean_err_percent,
+            c.mean_identification_s,
+            c.mean_evaluations,
+            c.mean_floor_err_percent,
+            c.coverage_2sigma,
+            c.coverage_parameters
         );
     }
     csv
@@ -615,14 +715,22 @@ pub fn runs_csv(results: &[RunResult]) -> String {
             let _ = write!(out, ",k{i}_{prefix}");
         }
     }
-    out.push_str(",err_percent,identification_s,evaluations,floor_err_percent\n");
+    out.push_str(",err_percent,identification_s,evaluations,floor_err_percent");
+    for i in 1..=8 {
+        let _ = write!(out, ",k{i}_sigma");
+    }
+    out.push_str(",coverage_counted,coverage_covered\n");
     for r in results {
         let p = &r.plan;
         let _ = write!(out, "{},{},{},{},{}", alg_name(p.algorithm), p.mode, p.level, p.run, p.seed);
         for k in p.truth.0.iter().chain(r.estimate.0.iter()) {
             let _ = write!(out, ",{k}");
         }
-        let _ = writeln!(out, ",{},{},{},{}", r.err_percent, r.seconds, r.evaluations, r.floor_err_percent);
+        let _ = write!(out, ",{},{},{},{}", r.err_percent, r.seconds, r.evaluations, r.floor_err_percent);
+        for s in &r.sigma {
+            let _ = write!(out, ",{s}");
+        }
+        let _ = writeln!(out, ",{},{}", r.coverage.0, r.coverage.1);
     }
     out
 }

@@ -616,7 +616,9 @@ fn run_identification<const W: usize>(
         Box::new(Identification::new(trace, *params, command, config)?);
     id.run(u32::MAX);
     let warm = config.prior.zip(id.warm_report()).map(|(prior, report)| WarmStart { prior, report });
-    Ok(Outcome { report: id.report(), seconds: start.elapsed().as_secs_f64(), warm })
+    let seconds = start.elapsed().as_secs_f64();
+    // the 1σ and detectable-below severities of the reported vector, as the firmware logs them
+    Ok(Outcome { report: id.with_uncertainty(id.report()), seconds, warm })
 }
 
 /// Largest packed trace the on-board window takes, in bytes: [`ONBOARD_WINDOW`] blocks of
@@ -776,6 +778,14 @@ pub struct ModeJson {
     pub value: f32,
     /// The unit of `value`, which differs from mode to mode.
     pub unit: &'static str,
+    /// 1σ of `severity` (null when not finite or not computed; absent for a mode reported
+    /// healthy by model selection, which has `detectable_below`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub severity_sigma: Option<f32>,
+    /// For a mode whose fault groups model selection reports healthy: the smallest severity it
+    /// would have kept on this recording.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub detectable_below: Option<f32>,
 }
 
 /// The goodness-of-fit test of the JSON report ([`ema_monitor::health::FitCheck`]).
@@ -836,6 +846,10 @@ pub struct IdentifyJson {
     /// The fault vector when the status is no diagnosis.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub k_not_a_diagnosis: Option<[f32; 8]>,
+    /// 1σ of each parameter, aligned with `k` (or `k_not_a_diagnosis`); a non-finite σ (not
+    /// identifiable on this recording) is null.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sigma: Option<[f32; 8]>,
     /// What drove the monitor model: a profile or the recorded command.
     pub command: CommandJson,
     /// How the recording file was read (rate, resampling, trimmed start), for a recording.
@@ -881,12 +895,18 @@ pub fn json_body(
     let modes = r
         .modes
         .iter()
-        .map(|m| ModeJson {
-            mode: m.mode.name(),
-            severity: m.severity,
-            condition: m.condition.label(),
-            value: m.value,
-            unit: m.unit(),
+        .enumerate()
+        .map(|(j, m)| {
+            let floor = r.uncertainty.and_then(|u| u.detectable_below[j]);
+            ModeJson {
+                mode: m.mode.name(),
+                severity: m.severity,
+                condition: m.condition.label(),
+                value: m.value,
+                unit: m.unit(),
+                severity_sigma: if floor.is_some() { None } else { r.uncertainty.map(|u| u.severity_sigma(m)) },
+                detectable_below: floor,
+            }
         })
         .collect();
     IdentifyJson {
@@ -912,6 +932,7 @@ pub fn json_body(
         overall: diagnosis.then(|| r.overall().label()),
         modes: diagnosis.then_some(modes),
         k_not_a_diagnosis: (!diagnosis).then_some(r.faults.0),
+        sigma: r.uncertainty.map(|u| u.sigma),
         command: command.to_json(),
         recording: loaded.cloned(),
         model_effects: effects.active().map(|(e, s)| (e.id(), s)).collect(),

@@ -18,6 +18,7 @@ use ema_monitor::params as core_params;
 
 pub mod campaign;
 pub mod compare;
+pub mod detectability;
 pub mod discover;
 pub mod error;
 pub mod firmware_trace;

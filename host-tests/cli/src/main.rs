@@ -1,6 +1,6 @@
 //! `ema`: host tools of ema-monitor. Subcommands: `simulate` (reference model → recording CSV),
 //! `identify` (core → health report), `firmware-trace`, `compare`, `campaign`, `discover` (missing
-//! effects), `params` (the actuator parameter template), `history` (trend and remaining useful life).
+//! effects), `params` (the actuator parameter template), `history` (trend and remaining useful life), `detectability` (what a manoeuvre can tell).
 
 use std::io::{ErrorKind as IoErrorKind, Write};
 use std::process::ExitCode;
@@ -9,6 +9,7 @@ use clap::error::ErrorKind;
 use clap::{Parser, Subcommand};
 use ema_cli::campaign::{self, CampaignArgs};
 use ema_cli::compare::{self, CompareArgs};
+use ema_cli::detectability::{self, DetectabilityArgs};
 use ema_cli::discover::{self, DiscoverArgs};
 use ema_cli::error::{CliError, EXIT_FAILURE};
 use ema_cli::firmware_trace::{self, FirmwareTraceArgs};
@@ -43,6 +44,8 @@ enum Command {
     Params(ParamsCommandArgs),
     /// Identify successive flights of one actuator; the trend and remaining useful life per fault mode.
     History(HistoryArgs),
+    /// What a manoeuvre can tell: the 1σ (Cramér–Rao) and minimum detectable severity per fault mode.
+    Detectability(DetectabilityArgs),
 }
 
 fn main() -> ExitCode {
@@ -59,6 +62,7 @@ fn main() -> ExitCode {
         Command::Discover(args) => discover::run(args),
         Command::Params(args) => params::run(args),
         Command::History(args) => history::run(args),
+        Command::Detectability(args) => detectability::run(args),
     };
     match result {
         // A reader that stops early (`ema discover FILE | head`) is not an error.
@@ -85,7 +89,7 @@ fn clap_error(e: &clap::Error) -> ExitCode {
         }
         ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
             eprintln!(
-                "error: a subcommand is required (simulate, identify, firmware-trace, compare, campaign, discover, params, history); try 'ema --help'"
+                "error: a subcommand is required (simulate, identify, firmware-trace, compare, campaign, discover, params, history, detectability); try 'ema --help'"
             );
             ExitCode::from(EXIT_FAILURE)
         }
