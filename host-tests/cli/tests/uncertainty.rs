@@ -8,6 +8,7 @@ mod schema;
 use common::ema;
 use ema_cli::campaign::{identify_config, plan, run_all, summarize, CampaignArgs};
 use ema_cli::identify::AlgorithmArg;
+use ema_cli::simulate::Noise;
 use ema_monitor::Profile;
 
 #[test]
@@ -36,6 +37,9 @@ fn two_sigma_covers_the_true_values_of_a_small_campaign() {
         runs: 2,
         algorithms: vec![AlgorithmArg::Pso],
         multi: 4,
+        multi_low: 0,
+        noise: Noise::On,
+        audit: false,
         max_iterations: 30,
         paper_only: false,
         fast_regime_weight: None,
@@ -51,7 +55,8 @@ fn two_sigma_covers_the_true_values_of_a_small_campaign() {
     let plans = plan(&args).expect("plan");
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let params = ema_monitor::EmaParams::NOMINAL;
-    let results = run_all(&plans, &identify_config(&args), &params, &Profile::STANDARD, threads, false).expect("runs");
+    let results =
+        run_all(&plans, &identify_config(&args), &params, &Profile::STANDARD, true, threads, false).expect("runs");
     let (counted, covered) = results.iter().fold((0u32, 0u32), |(n, c), r| (n + r.coverage.0, c + r.coverage.1));
     let share = f64::from(covered) / f64::from(counted);
     assert!(counted >= 20, "{counted} parameters counted");
