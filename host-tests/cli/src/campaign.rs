@@ -379,9 +379,8 @@ pub fn identify_config(args: &CampaignArgs) -> IdentifyConfig {
 }
 
 /// Simulates (sensor noise on when `noise`) and identifies one planned run of the actuator
-/// `params` under `profile`, the monitor given the recording's sensor noise (none when not
-/// `noise`). `base` gives the identification's settings; the algorithm and the seed come from
-/// the plan.
+/// `params` under `profile`. `base` gives the identification's settings; the algorithm and the
+/// seed come from the plan.
 pub fn execute(
     p: &Plan,
     base: &IdentifyConfig,
@@ -393,11 +392,6 @@ pub fn execute(
         SimConfig { params: *params, faults: p.truth, seed: p.seed, profile: *profile, noise, ..SimConfig::default() };
     let rec = simulate(&config).map_err(|e| CliError::Simulation(e.to_string()))?;
     let recording = Recording::from_reference(&rec, Vec::new());
-    // The monitor is told the sensors' noise, as a user gives it in the parameter file: none
-    // for noise-free recordings (the paper's conditions), so that the measured envelope and the
-    // fit test expect what the recording holds.
-    let monitor_params = if noise { *params } else { EmaParams { current_noise_a: 0.0, position_noise_rad: 0.0, ..*params } };
-    let params = &monitor_params;
     let identify = IdentifyConfig { algorithm: Algorithm::from(p.algorithm), seed: p.seed, ..*base };
     let label = PathBuf::from(format!("campaign run {} {} {} #{}", alg_name(p.algorithm), p.mode, p.level, p.run));
     let trace = condition_recording(&recording, &label, params, profile)?;
