@@ -447,7 +447,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::fitness::simulate_window;
     use crate::monitor::{
@@ -472,7 +472,7 @@ mod tests {
     /// The model's own trace of `truth` with the nominal actuator's noise on every frame
     /// (conditioning::MeasuredEnvelope: 0.29 A of controller jitter on the pair current, 0.02 A on
     /// each sensor), from the seeded generator `seed`.
-    fn noisy_self_trace(truth: &FaultVector, seed: u64) -> MeasuredTrace<ONBOARD_WINDOW> {
+    pub(in crate::monitor) fn noisy_self_trace(truth: &FaultVector, seed: u64) -> MeasuredTrace<ONBOARD_WINDOW> {
         let mut t = MeasuredTrace::<ONBOARD_WINDOW>::new();
         let n = (Profile::STANDARD.duration_s() / EmaParams::NOMINAL.control_period_s) as usize / DECIMATION;
         let mut rng = crate::optimizer::rng::Rng::new(seed);

@@ -371,30 +371,13 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::identification::tests::noisy_self_trace;
     use super::*;
     use crate::conditioning::{MeasuredTrace, DECIMATION};
     use crate::fitness::simulate_window;
     use crate::monitor::{MonitorError, ONBOARD_POPULATION, ONBOARD_WINDOW};
     use crate::params::EmaParams;
     use crate::profile::Profile;
-
-    /// The model's own trace of `truth` with the nominal actuator's noise on every frame (as in
-    /// `identification.rs`'s tests), from the seeded generator `seed`.
-    fn noisy_self_trace(truth: &FaultVector, seed: u64) -> MeasuredTrace<ONBOARD_WINDOW> {
-        let mut t = MeasuredTrace::<ONBOARD_WINDOW>::new();
-        let n = (Profile::STANDARD.duration_s() / EmaParams::NOMINAL.control_period_s) as usize / DECIMATION;
-        let mut rng = crate::optimizer::rng::Rng::new(seed);
-        simulate_window(&EmaParams::NOMINAL, &Profile::STANDARD, truth, n, |_, i, _| {
-            for _ in 0..DECIMATION {
-                let pair = i + 0.29 * rng.normal();
-                let [na, nb, nc] = [0.02 * rng.normal(), 0.02 * rng.normal(), 0.02 * rng.normal()];
-                t.push(pair + na, -pair + nb, nc).unwrap();
-            }
-            true
-        });
-        t.finish().unwrap();
-        t
-    }
 
     type Id<'a> = Identification<'a, ONBOARD_WINDOW, ONBOARD_POPULATION>;
 

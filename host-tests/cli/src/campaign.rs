@@ -257,21 +257,25 @@ pub fn detectability_floor<const W: usize>(
     FaultVector(floor)
 }
 
-/// SplitMix64: the campaign's seeded generator (one stream per run key).
-struct SplitMix(u64);
+/// SplitMix64 (Steele, Lea, Flood, OOPSLA 2014): the campaign's seeded generator (one stream per
+/// run key), also the tests' generator of fault vectors.
+pub struct SplitMix(pub u64);
 
 impl SplitMix {
-    fn next_u64(&mut self) -> u64 {
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
         z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
         z ^ (z >> 31)
     }
-    fn unit(&mut self) -> f32 {
+    /// Uniform in `[0, 1)` from the top 24 bits.
+    pub fn unit(&mut self) -> f32 {
         (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
     }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+    /// Uniform in `[lo, hi)`.
+    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
         lo + (hi - lo) * self.unit()
     }
 }

@@ -11,6 +11,7 @@
 
 use std::path::PathBuf;
 
+use ema_cli::campaign::SplitMix;
 use ema_cli::identify::{condition_recording, HOST_WINDOW};
 use ema_cli::recording::Recording;
 use ema_monitor::conditioning::MeasuredTrace;
@@ -45,43 +46,25 @@ fn warm(trace: &MeasuredTrace<HOST_WINDOW>, prior: &FaultVector) -> (HealthRepor
     (id.report(), id.warm_report().unwrap())
 }
 
-/// A small deterministic generator (SplitMix64) for the pairs.
-struct Mix(u64);
-impl Mix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn unit(&mut self) -> f32 {
-        (self.next() >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.unit()
-    }
-}
-
 /// Group index (0..7 of FAULT_GROUPS) to a fault: sets it at `severity` in `k`.
-fn inject(k: &mut FaultVector, group: usize, severity: f32, rng: &mut Mix) {
+fn inject(k: &mut FaultVector, group: usize, severity: f32, rng: &mut SplitMix) {
     match group {
         0..=4 => k.0[group] = severity,
         5 => {
             k.0[5] = severity;
             k.0[6] = rng.unit();
         }
-        _ => k.0[7] = if rng.next().is_multiple_of(2) { 0.5 - 0.5 * severity } else { 0.5 + 0.5 * severity },
+        _ => k.0[7] = if rng.next_u64().is_multiple_of(2) { 0.5 - 0.5 * severity } else { 0.5 + 0.5 * severity },
     }
 }
 
 /// Flight 1's truth: one or two groups among friction, backlash, a short, eccentricity, gain.
-fn first_truth(rng: &mut Mix) -> (FaultVector, Vec<usize>) {
+fn first_truth(rng: &mut SplitMix) -> (FaultVector, Vec<usize>) {
     let mut k = FaultVector::HEALTHY;
-    let count = 1 + (rng.next() % 2) as usize;
+    let count = 1 + (rng.next_u64() % 2) as usize;
     let mut groups = Vec::new();
     while groups.len() < count {
-        let g = (rng.next() % 7) as usize;
+        let g = (rng.next_u64() % 7) as usize;
         if !groups.contains(&g) {
             groups.push(g);
         }
@@ -94,7 +77,7 @@ fn first_truth(rng: &mut Mix) -> (FaultVector, Vec<usize>) {
 }
 
 /// `k` with every present fault moved by a drift of at most ±0.03 (the phase by ±0.01).
-fn drifted(k: &FaultVector, rng: &mut Mix) -> FaultVector {
+fn drifted(k: &FaultVector, rng: &mut SplitMix) -> FaultVector {
     let mut out = *k;
     for i in 0..8 {
         let healthy = FaultVector::HEALTHY.0[i];
@@ -122,19 +105,19 @@ struct Pair {
 }
 
 fn run_pair(index: u64, new_fault: bool) -> Pair {
-    let mut rng = Mix(0x5EED_0000 + index * 7919 + u64::from(new_fault) * 104_729);
+    let mut rng = SplitMix(0x5EED_0000 + index * 7919 + u64::from(new_fault) * 104_729);
     let (k1, groups) = first_truth(&mut rng);
     let mut k2 = drifted(&k1, &mut rng);
     let mut new_group = None;
     if new_fault {
         let candidates: Vec<usize> = (0..7).filter(|g| !groups.contains(g)).collect();
-        let g = candidates[(rng.next() % candidates.len() as u64) as usize];
+        let g = candidates[(rng.next_u64() % candidates.len() as u64) as usize];
         let s = rng.range(0.15, 0.6);
         inject(&mut k2, g, s, &mut rng);
         new_group = Some(g);
     }
-    let seed1 = rng.next();
-    let seed2 = rng.next();
+    let seed1 = rng.next_u64();
+    let seed2 = rng.next_u64();
     let t1 = flight(&k1, seed1);
     let prior = cold(&t1, 1).faults;
     let t2 = flight(&k2, seed2);
