@@ -517,16 +517,8 @@ fn identification_under_the_sampled_standard_profile() -> Result<(), &'static st
     command.load_profile(&Profile::STANDARD, 1, &EmaParams::NOMINAL).map_err(|_| "sampling refused")?;
     let command: &SampledCommand<8500> = command;
     ensure(manoeuvre_frames(command, &EmaParams::NOMINAL) == 8500, "sampled frame count")?;
-    let t = PackedTrace::parse(BUILT_IN).map_err(|_| "built-in trace invalid")?;
-    let mut reader = PhaseCurrentReader::new(
-        ReplayAdc::new(t),
-        (PhaseA, PhaseB, PhaseC),
-        Calibration::NOMINAL,
-        AcquisitionConfig::DEFAULT,
-    )
-    .map_err(|_| "config refused")?;
     let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
-    monitor::acquire(&mut reader, &mut trace).map_err(|_| "acquisition refused")?;
+    acquire_built_in(&mut trace)?;
     let config =
         IdentifyConfig { max_iterations: 3, selection_polish_max_evaluations: 60, ..IdentifyConfig::onboard() };
     let by_profile = short_identification(&trace, Command::Profile(Profile::STANDARD), &config)?;
@@ -660,6 +652,19 @@ fn persist_dead_flash_is_an_error() -> Result<(), &'static str> {
 /// vector bits, `README.md`), the warm identification of the same recording finishes with the
 /// same status, no probe fired, and a small fraction of the cold evaluations (1611).
 fn warm_start_from_the_cold_report() -> Result<(), &'static str> {
+    let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
+    acquire_built_in(&mut trace)?;
+    let prior = [0x3e7fb45d, 0, 0, 0, 0, 0, 0x3f000000, 0x3efe3b61].map(f32::from_bits);
+    let (report, warm) = warm_identification(&trace, &prior)?;
+    ensure(report.status == ema_monitor::health::Status::Degraded, "another status than the cold DEGRADED")?;
+    ensure(close(report.faults.0[0], prior[0], 0.01), "friction moved")?;
+    ensure(warm.fired == 0, "a probe fired on the same recording")?;
+    ensure(report.evaluations < 200, "too many evaluations for a warm start")
+}
+
+/// Acquires and conditions the built-in trace into `trace` as the firmware does (replay ADC,
+/// nominal calibration, default checks).
+fn acquire_built_in(trace: &mut MeasuredTrace<ONBOARD_WINDOW>) -> Result<(), &'static str> {
     let t = PackedTrace::parse(BUILT_IN).map_err(|_| "built-in trace invalid")?;
     let mut reader = PhaseCurrentReader::new(
         ReplayAdc::new(t),
@@ -668,14 +673,8 @@ fn warm_start_from_the_cold_report() -> Result<(), &'static str> {
         AcquisitionConfig::DEFAULT,
     )
     .map_err(|_| "config refused")?;
-    let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
-    monitor::acquire(&mut reader, &mut trace).map_err(|_| "acquisition refused")?;
-    let prior = [0x3e7fb45d, 0, 0, 0, 0, 0, 0x3f000000, 0x3efe3b61].map(f32::from_bits);
-    let (report, warm) = warm_identification(&trace, &prior)?;
-    ensure(report.status == ema_monitor::health::Status::Degraded, "another status than the cold DEGRADED")?;
-    ensure(close(report.faults.0[0], prior[0], 0.01), "friction moved")?;
-    ensure(warm.fired == 0, "a probe fired on the same recording")?;
-    ensure(report.evaluations < 200, "too many evaluations for a warm start")
+    monitor::acquire(&mut reader, trace).map_err(|_| "acquisition refused")?;
+    Ok(())
 }
 
 /// A warm identification of `trace` from `prior`, run to its end.
