@@ -56,6 +56,17 @@ impl FaultMode {
         FaultMode::GainDrift,
     ];
 
+    /// The mode's index in [`FaultMode::ALL`] (and in every per-mode array).
+    pub const fn index(self) -> usize {
+        match self {
+            FaultMode::Friction => 0,
+            FaultMode::Backlash => 1,
+            FaultMode::ShortCircuit => 2,
+            FaultMode::Eccentricity => 3,
+            FaultMode::GainDrift => 4,
+        }
+    }
+
     /// Short name.
     pub const fn name(self) -> &'static str {
         match self {
@@ -281,6 +292,20 @@ pub fn normal_upper_quantile(p: f32) -> f32 {
     t - num / den
 }
 
+/// The residual's lag-1 correlation `ρ = L/S` from its squared sum `S` and lag-1 sum `L`,
+/// clamped to `[0, 0.99]` (0 when `S` is not positive or `L` not finite): the correlation the
+/// noise model's effective sample count `n·(1 − ρ)/(1 + ρ)` uses.
+pub fn lag_correlation(weighted_sq: f32, lag: f32) -> f32 {
+    let rho = if weighted_sq > 0.0 && lag.is_finite() { lag / weighted_sq } else { 0.0 };
+    if rho > 0.99 {
+        0.99
+    } else if rho >= 0.0 {
+        rho
+    } else {
+        0.0
+    }
+}
+
 /// The normal score of one window's chi-square statistic: the window's `samples` samples with
 /// weighted squared residual `S = Σ ρ_i·w_i·r_i²`, weight `V = Σ ρ_i·w_i` and lag-1 sum
 /// `L = Σ u_i·u_{i−1}` (`u_i = √(ρ_i·w_i)·r_i`) against the noise variance `noise_a2` (`σ² + m²`,
@@ -297,14 +322,7 @@ pub fn window_score(samples: u32, weighted_sq: f32, weight: f32, lag: f32, noise
     if !weighted_sq.is_finite() || !lag.is_finite() {
         return f32::NAN;
     }
-    let rho = if weighted_sq > 0.0 { lag / weighted_sq } else { 0.0 };
-    let rho = if rho > 0.99 {
-        0.99
-    } else if rho >= 0.0 {
-        rho
-    } else {
-        0.0
-    };
+    let rho = lag_correlation(weighted_sq, lag);
     let nu = (samples as f32 * (1.0 - rho) / (1.0 + rho)).max(1.0);
     let ratio = weighted_sq / (weight * noise_a2);
     let a = 2.0 / (9.0 * nu);

@@ -96,17 +96,6 @@ impl From<HistoryEntry> for Point {
     }
 }
 
-/// The index of `mode` in [`FaultMode::ALL`].
-pub const fn mode_index(mode: FaultMode) -> usize {
-    match mode {
-        FaultMode::Friction => 0,
-        FaultMode::Backlash => 1,
-        FaultMode::ShortCircuit => 2,
-        FaultMode::Eccentricity => 3,
-        FaultMode::GainDrift => 4,
-    }
-}
-
 /// A mode counts as reported absent at or below this severity: model selection sets an absent
 /// group exactly healthy (severity 0).
 pub const ABSENT_AT: f32 = 1e-3;

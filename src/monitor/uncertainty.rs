@@ -61,7 +61,7 @@ use crate::conditioning::{MeasuredEnvelope, MeasuredTrace, SensorErrorEnvelope, 
 use crate::effects::ModelEffects;
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::{CurrentFit, EVIDENCE_WINDOW_SAMPLES};
-use crate::health::{HealthReport, Uncertainty};
+use crate::health::{lag_correlation, HealthReport, Uncertainty};
 use crate::model::{ModelState, MonitorModel};
 use crate::params::EmaParams;
 use crate::profile::ProfileCursor;
@@ -169,14 +169,7 @@ impl Fisher {
             }
         }
         let n = fit.trace().len();
-        let rho = if sums.sq > 0.0 && sums.lag.is_finite() { sums.lag / sums.sq } else { 0.0 };
-        let rho = if rho > 0.99 {
-            0.99
-        } else if rho >= 0.0 {
-            rho
-        } else {
-            0.0
-        };
+        let rho = lag_correlation(sums.sq, sums.lag);
         let error = if n == 0 { f32::INFINITY } else { sums.sq / n as f32 };
         Self {
             k: *k,

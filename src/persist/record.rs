@@ -263,7 +263,7 @@ impl HealthRecord {
 
     /// The history of `mode`.
     pub fn history(&self, mode: FaultMode) -> &ModeHistory {
-        &self.history[mode_index(mode)]
+        &self.history[mode.index()]
     }
 
     /// The summed log-likelihood ratio per mode ([`FaultMode::ALL`] order).
@@ -355,17 +355,6 @@ impl HealthRecord {
         let mut a = [0u8; Self::ENCODED_LEN];
         let mut b = [0u8; Self::ENCODED_LEN];
         self.encode(&mut a).is_ok() && other.encode(&mut b).is_ok() && a == b
-    }
-}
-
-/// Index of `mode` in [`FaultMode::ALL`].
-const fn mode_index(mode: FaultMode) -> usize {
-    match mode {
-        FaultMode::Friction => 0,
-        FaultMode::Backlash => 1,
-        FaultMode::ShortCircuit => 2,
-        FaultMode::Eccentricity => 3,
-        FaultMode::GainDrift => 4,
     }
 }
 

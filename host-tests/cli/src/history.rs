@@ -39,7 +39,7 @@ use clap::Args;
 use ema_monitor::health::{FaultMode, HealthReport, DEGRADED_AT, FAILING_AT};
 use ema_monitor::monitor::{self as core_monitor, group_present, IdentifyConfig, WarmReport, FAULT_GROUPS};
 use ema_monitor::persist::HealthRecord;
-use ema_monitor::prognosis::{mode_index, Prognosis, HISTORY_CAPACITY, RUL_CONFIDENCE};
+use ema_monitor::prognosis::{Prognosis, HISTORY_CAPACITY, RUL_CONFIDENCE};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 use serde::Serialize;
@@ -473,7 +473,7 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
         let r = &result.report;
         record.new_flight(r, result.start == Start::Cold);
         for mode in FaultMode::ALL {
-            prognosis[mode_index(mode)] = Prognosis::of_record(&record, mode);
+            prognosis[mode.index()] = Prognosis::of_record(&record, mode);
         }
         flights.push(FlightJson {
             flight: number,
@@ -508,7 +508,7 @@ fn modes_json(series: &Series, laws: &[Law], params: &EmaParams) -> Vec<ModeJson
     FaultMode::ALL
         .iter()
         .map(|&mode| {
-            let i = mode_index(mode);
+            let i = mode.index();
             let p = series.prognosis[i];
             let c = p.and_then(|p| p.failing);
             let rem = p.and_then(|p| p.remaining());
