@@ -6,6 +6,7 @@ use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::{Command, EffectId, EmaParams, ModelEffects};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
+use serde::Serialize;
 
 use super::fitting::{fault_parameter_count, fit_model, parameter_count, ModelFit, Part, PartFit, MIN_SEVERITY};
 use super::residual::{series, structural_energy, NOISE_FLOOR_A};
@@ -73,10 +74,12 @@ pub fn same_signature(effect: EffectId) -> &'static [&'static str] {
 /// Largest number of effects named.
 pub const MAX_NAMED: usize = 2;
 
-/// One library effect tried as the missing one.
-#[derive(Clone, Debug)]
+/// One library effect tried as the missing one; serialized as one entry of the JSON report's
+/// `rounds` (`docs/output-schema.md`).
+#[derive(Clone, Debug, Serialize)]
 pub struct Candidate {
-    /// The effect.
+    /// The effect (its ID in the JSON report).
+    #[serde(serialize_with = "effect_id")]
     pub effect: EffectId,
     /// Its fitted severity.
     pub severity: f32,
@@ -108,8 +111,19 @@ pub struct Candidate {
     /// ΔBIC on the held-out part of the fit against itself with the effect switched off: what the
     /// effect carries at its own fault vector ([`BIC_OWN_STRONG`]).
     pub bic_own_held_out: f64,
-    /// The fit with the effect on (fit part).
+    /// The fit with the effect on (fit part); its fault vector is the JSON report's `k`.
+    #[serde(rename = "k", serialize_with = "fit_fault_vector")]
     pub fit: ModelFit,
+}
+
+/// Serializes an effect as its ID.
+fn effect_id<S: serde::Serializer>(effect: &EffectId, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(effect.id())
+}
+
+/// Serializes a fit as its fault vector.
+fn fit_fault_vector<S: serde::Serializer>(fit: &ModelFit, s: S) -> Result<S::Ok, S::Error> {
+    fit.k.0.serialize(s)
 }
 
 /// The verdict of one search round.

@@ -7,7 +7,7 @@ use std::path::Path;
 use ema_monitor::FaultVector;
 use serde::Serialize;
 
-use super::naming::same_signature;
+use super::naming::{same_signature, Candidate};
 use super::residual::{above_noise_a, moving_mean, NOISE_FLOOR_A, SMOOTH_BLOCKS};
 use super::{Discovery, Withdrawal};
 use crate::error::CliError;
@@ -97,31 +97,6 @@ pub struct OrderJson {
     pub share: f64,
 }
 
-/// A round's candidate in the JSON report (the fields of [`super::Candidate`]).
-#[derive(Clone, Debug, Serialize)]
-pub struct CandidateJson {
-    /// Effect ID.
-    pub effect: &'static str,
-    /// Fitted severity.
-    pub severity: f32,
-    /// In-sample ΔBIC (null when not finite).
-    pub bic_fit: f64,
-    /// In-sample gain without the parameter penalty.
-    pub fit_gain: f64,
-    /// Held-out ΔBIC.
-    pub bic_held_out: f64,
-    /// Share of the gap removed.
-    pub gap_share: f64,
-    /// Share of the gap above the sensor noise removed.
-    pub above_noise_share: f64,
-    /// The fit leaves fewer fault parameters than the reference.
-    pub replaces_faults: bool,
-    /// The effect's own held-out ΔBIC.
-    pub bic_own_held_out: f64,
-    /// The candidate fit's fault vector.
-    pub k: [f32; 8],
-}
-
 /// The JSON report of `ema discover` (`--json`, `discovery.json`); `docs/output-schema.md`
 /// documents every key.
 #[derive(Clone, Debug, Serialize)]
@@ -167,7 +142,7 @@ pub struct DiscoveryJson {
     /// The rotor-angle orders' shares.
     pub orders: Vec<OrderJson>,
     /// Every round's candidates, best first.
-    pub rounds: Vec<Vec<CandidateJson>>,
+    pub rounds: Vec<Vec<Candidate>>,
     /// Fault vector of the current model's fit.
     pub k_before: [f32; 8],
     /// Fault vector with the named effects.
@@ -252,27 +227,7 @@ pub fn json_body(d: &Discovery) -> DiscoveryJson {
             })
             .collect(),
         orders: d.orders.iter().map(|(n, s)| OrderJson { order: n, share: *s }).collect(),
-        rounds: d
-            .rounds
-            .iter()
-            .map(|r| {
-                r.candidates
-                    .iter()
-                    .map(|c| CandidateJson {
-                        effect: c.effect.id(),
-                        severity: c.severity,
-                        bic_fit: c.bic_fit,
-                        fit_gain: c.fit_gain,
-                        bic_held_out: c.bic_held_out,
-                        gap_share: c.gap_share,
-                        above_noise_share: c.above_noise_share,
-                        replaces_faults: c.replaces_faults,
-                        bic_own_held_out: c.bic_own_held_out,
-                        k: c.fit.k.0,
-                    })
-                    .collect()
-            })
-            .collect(),
+        rounds: d.rounds.iter().map(|r| r.candidates.to_vec()).collect(),
         k_before: d.before.k.0,
         k_after: d.after.k.0,
         fitness_before_a2: d.before.error,
