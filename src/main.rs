@@ -20,7 +20,10 @@
 //!    report with the uncertainty of the reported vector (its 1σ and detectable-below severities,
 //!    computed outside the counted region), the fault vector's bits and the one-line summary of
 //!    the host/target parity check ([`log_summary`]);
-//! 5. add flight 1 to the health record (`ema_monitor::persist`) and save it to flash (RAM in
+//! 5. add flight 1 to the health record (`ema_monitor::persist`) through the evidence pooled over
+//!    flights (`monitor::evidence::record_flight_on`: the flight's per-mode log-likelihood ratios
+//!    join the record's sums, and a mode they declare while the report dropped it is refitted
+//!    in and logged as `pooled evidence: …`), and save it to flash (RAM in
 //!    QEMU, [`RecordFlash`]), read it back as the next power-up does, and plan flight 2 from it
 //!    (`monitor::plan_start`): **warm** from the record's diagnosis unless a cold identification
 //!    is due, on the same recording, between a second pair of markers
@@ -145,7 +148,7 @@ fn main() -> ! {
     //    next power-up; flight 2 starts as the record says (warm from its diagnosis, unless a cold
     //    identification is due) and joins it too. QEMU's flash is RAM ([`RecordFlash`]).
     let Some(flash) = cortex_m::singleton!(: RecordFlash = RecordFlash::new()) else { exit(false) };
-    let stored = report_1.and_then(|r| record_flight(flash, &r, true));
+    let stored = report_1.and_then(|r| record_flight(flash, &trace, &r, true));
     let ok = stored.is_some_and(|record| {
         let prior = record.k();
         let last_needs_cold = record.status().is_some_and(|s| matches!(s, Status::Inconclusive(_)));
@@ -165,7 +168,7 @@ fn main() -> ! {
         let report_2 = identify(&trace, warm.then_some(&prior.0));
         ema_identification_end();
         let report_2 = log_warm(&trace, report_2, &acquired, rate_ok);
-        report_2.is_some_and(|r| record_flight(flash, &r, !warm).is_some())
+        report_2.is_some_and(|r| record_flight(flash, &trace, &r, !warm).is_some())
     });
 
     // 6. Memory figures and exit.
@@ -192,11 +195,18 @@ fn main() -> ! {
 type RecordFlash = RamFlash<4, 2048>;
 
 /// Adds a flight's report to the health record in `flash` (a fresh record when none is stored or
-/// the stored one is unreadable), saves it, and reads it back as the next power-up does; the
-/// record read back, `None` (logged) when the flash refuses. Not inlined: the store's buffers
-/// stay out of `main`'s frame.
+/// the stored one is unreadable) through the evidence pooled over flights
+/// ([`monitor::evidence::record_flight_on`] on `trace`: the flight's evidence joins the record's
+/// accumulators, and a mode they declare while the report dropped it is refitted in and logged),
+/// saves it, and reads it back as the next power-up does; the record read back, `None` (logged)
+/// when the flash refuses. Not inlined: the store's buffers stay out of `main`'s frame.
 #[inline(never)]
-fn record_flight(flash: &mut RecordFlash, report: &HealthReport, cold: bool) -> Option<HealthRecord> {
+fn record_flight(
+    flash: &mut RecordFlash,
+    trace: &MeasuredTrace<ONBOARD_WINDOW>,
+    report: &HealthReport,
+    cold: bool,
+) -> Option<HealthRecord> {
     let mut store = match HealthStore::new(flash, 0..RecordFlash::CAPACITY as u32) {
         Ok(s) => s,
         Err(e) => {
@@ -212,7 +222,11 @@ fn record_flight(flash: &mut RecordFlash, report: &HealthReport, cold: bool) -> 
             HealthRecord::new()
         }
     };
-    record.new_flight(report, cold);
+    let config = IdentifyConfig { effects: MODEL_EFFECTS, ..IdentifyConfig::onboard() };
+    let pooled = monitor::evidence::record_flight_on(&mut record, trace, PARAMS, PROFILE, &config, report, cold);
+    if let Some(p) = pooled.filter(|p| p.any_declared()) {
+        log_declared(&p);
+    }
     if let Err(e) = store.save(&record) {
         defmt::error!("health record not saved: {}", e);
         return None;
@@ -233,6 +247,24 @@ fn record_flight(flash: &mut RecordFlash, report: &HealthReport, cold: bool) -> 
         Err(e) => {
             defmt::error!("health record unreadable after its save: {}", e);
             None
+        }
+    }
+}
+
+/// Logs each mode declared by the evidence pooled over flights (present by the accumulated
+/// evidence, dropped by the flight's own model selection) with its refitted severity. Not
+/// inlined: its formatting locals stay out of `main`'s frame.
+#[inline(never)]
+fn log_declared(pooled: &monitor::evidence::PooledFlight) {
+    for (m, (&declared, mode)) in pooled.declared.iter().zip(pooled.report.modes.iter()).enumerate() {
+        if declared {
+            defmt::info!(
+                "pooled evidence: {=str} declared after {=u32} flights (sum {=f32} nats), refitted severity {=f32}",
+                monitor::evidence::mode_name(m),
+                pooled.evidence.flights,
+                pooled.evidence.llr.get(m).copied().unwrap_or(0.0),
+                mode.severity
+            );
         }
     }
 }
