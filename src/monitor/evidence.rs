@@ -242,7 +242,8 @@ fn quadratic_min(e0: f32, (a, ea): (f32, f32), (b, eb): (f32, f32), lo: f32, hi:
     if q.is_nan() || q <= 0.0 {
         return measured;
     }
-    let s = (-g / (2.0 * q)).clamp(lo, hi);
+    // max/min, not clamp: no panic path for bounds the optimizer cannot order
+    let s = (-g / (2.0 * q)).max(lo).min(hi);
     let e = e0 + g * s + q * s * s;
     if e.is_finite() && e < measured {
         e
@@ -296,7 +297,9 @@ pub fn flight_evidence<const W: usize>(fit: &CurrentFit<'_, W>, k: &FaultVector,
                     for (first, _) in groups {
                         let at = |s: f32| {
                             let mut x = k.0;
-                            x[first] = s;
+                            if let Some(v) = x.get_mut(first) {
+                                *v = s;
+                            }
                             x
                         };
                         let (e1, e2) = (eval(&at(step)), eval(&at(2.0 * step)));
@@ -358,12 +361,12 @@ fn eccentricity_probe(
 pub const MAX_REFIT_EVALUATIONS: u32 = 32;
 
 /// Evaluations of each golden-section search of [`refit_mode`].
-const GOLDEN_EVALUATIONS: u32 = 14;
+pub const GOLDEN_EVALUATIONS: u32 = 14;
 
 /// Width of each refit's search, in probe steps ([`PROBE_STEP`]): severities up to 8 steps
 /// (friction 0.4, backlash 0.16, short 0.24, eccentricity 0.64; gain ±0.24 about the diagnosis),
 /// well beyond what a single flight fails to price.
-const REFIT_SPAN_STEPS: f32 = 8.0;
+pub const REFIT_SPAN_STEPS: f32 = 8.0;
 
 /// One flight through the evidence pooled over flights ([`record_flight`]).
 #[derive(Clone, Copy, Debug)]
