@@ -1,8 +1,8 @@
 //! ema-monitor firmware (Cortex-M4F, `thumbv7em-none-eabihf`; QEMU `mps2-an386` via `cargo run --release`).
 //!
 //! Wiring only, no math. Numbered steps:
-//! 1. paint the stack (for the peak-stack figure at the end);
-//!    With the command-line word `--maintenance` (`cargo run --release -- --maintenance`; QEMU
+//! 1. paint the stack (for the peak-stack figure at the end). With the command-line word
+//!    `--maintenance` (`cargo run --release -- --maintenance`; QEMU
 //!    passes it through semihosting's `SYS_GET_CMDLINE`, [`maintenance_requested`]) the health
 //!    record's flash is erased before flight 1 and the log says `maintenance: health record reset`
 //!    ([`maintenance_reset`]); without it nothing is erased and nothing more is logged;
