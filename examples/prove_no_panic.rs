@@ -70,7 +70,12 @@ fn main() -> ! {
         let early = id.report();
         id.run(black_box(u32::MAX));
         id.step();
-        Some((early, id.report()))
+        let report = id.report();
+        // the record path: the flight's evidence, the declarations and their refits
+        let mut record = HealthRecord::new();
+        black_box(monitor::evidence::record_flight(&mut record, Some(id.fitness()), &params, &report, black_box(true)));
+        black_box(&record);
+        Some((early, report))
     });
     black_box(&report);
     persist(report.map(|(_, r)| r));

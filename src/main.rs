@@ -1,7 +1,11 @@
 //! ema-monitor firmware (Cortex-M4F, `thumbv7em-none-eabihf`; QEMU `mps2-an386` via `cargo run --release`).
 //!
 //! Wiring only, no math. Numbered steps:
-//! 1. paint the stack (for the peak-stack figure at the end);
+//! 1. paint the stack (for the peak-stack figure at the end). With the command-line word
+//!    `--maintenance` (`cargo run --release -- --maintenance`; QEMU
+//!    passes it through semihosting's `SYS_GET_CMDLINE`, [`maintenance_requested`]) the health
+//!    record's flash is erased before flight 1 and the log says `maintenance: health record reset`
+//!    ([`maintenance_reset`]); without it nothing is erased and nothing more is logged;
 //! 2. open the built-in phase-current trace (`traces/standard.ematrace`, or `EMA_TRACE` at build
 //!    time: a recording of the standard manoeuvre, packed 12-bit, in flash; with `EMA_PROFILE=pbit`
 //!    the pre-flight built-in test `Profile::PBIT` and `traces/pbit.ematrace`), put a `ReplayAdc`
@@ -20,7 +24,10 @@
 //!    report with the uncertainty of the reported vector (its 1σ and detectable-below severities,
 //!    computed outside the counted region), the fault vector's bits and the one-line summary of
 //!    the host/target parity check ([`log_summary`]);
-//! 5. add flight 1 to the health record (`ema_monitor::persist`) and save it to flash (RAM in
+//! 5. add flight 1 to the health record (`ema_monitor::persist`) through the evidence pooled over
+//!    flights (`monitor::evidence::record_flight_on`: the flight's per-mode log-likelihood ratios
+//!    join the record's sums, and a mode they declare while the report dropped it is refitted
+//!    in and logged as `pooled evidence: …`), and save it to flash (RAM in
 //!    QEMU, [`RecordFlash`]), read it back as the next power-up does, and plan flight 2 from it
 //!    (`monitor::plan_start`): **warm** from the record's diagnosis unless a cold identification
 //!    is due, on the same recording, between a second pair of markers
@@ -69,6 +76,11 @@ fn main() -> ! {
     paint_stack();
     defmt::info!("ema-monitor firmware: {=usize} bytes of built-in trace", TRACE.len());
     log_model_effects();
+    // The health record's flash: erased first when maintenance is commanded.
+    let Some(flash) = cortex_m::singleton!(: RecordFlash = RecordFlash::new()) else { exit(false) };
+    if maintenance_requested() && !maintenance_reset(flash) {
+        exit(false)
+    }
 
     // 2. Trace → replay ADC → OneShot reader.
     let trace = match PackedTrace::parse(TRACE) {
@@ -144,8 +156,7 @@ fn main() -> ! {
     // 5. The health record: flight 1 joins it and it is saved to flash, then read back as at the
     //    next power-up; flight 2 starts as the record says (warm from its diagnosis, unless a cold
     //    identification is due) and joins it too. QEMU's flash is RAM ([`RecordFlash`]).
-    let Some(flash) = cortex_m::singleton!(: RecordFlash = RecordFlash::new()) else { exit(false) };
-    let stored = report_1.and_then(|r| record_flight(flash, &r, true));
+    let stored = report_1.and_then(|r| record_flight(flash, &trace, &r, true));
     let ok = stored.is_some_and(|record| {
         let prior = record.k();
         let last_needs_cold = record.status().is_some_and(|s| matches!(s, Status::Inconclusive(_)));
@@ -165,7 +176,7 @@ fn main() -> ! {
         let report_2 = identify(&trace, warm.then_some(&prior.0));
         ema_identification_end();
         let report_2 = log_warm(&trace, report_2, &acquired, rate_ok);
-        report_2.is_some_and(|r| record_flight(flash, &r, !warm).is_some())
+        report_2.is_some_and(|r| record_flight(flash, &trace, &r, !warm).is_some())
     });
 
     // 6. Memory figures and exit.
@@ -191,12 +202,64 @@ fn main() -> ! {
 /// path as on a board (`docs/persistence.md`).
 type RecordFlash = RamFlash<4, 2048>;
 
-/// Adds a flight's report to the health record in `flash` (a fresh record when none is stored or
-/// the stored one is unreadable), saves it, and reads it back as the next power-up does; the
-/// record read back, `None` (logged) when the flash refuses. Not inlined: the store's buffers
-/// stay out of `main`'s frame.
+/// The semihosting command-line word that commands a maintenance reset of the health record.
+const MAINTENANCE_WORD: &[u8] = b"--maintenance";
+
+/// Bytes of the command line read ([`maintenance_requested`]); a longer line is no command.
+const CMDLINE_LEN: usize = 256;
+
+/// `true` when the semihosting command line (`SYS_GET_CMDLINE`, 0x15: the host writes the line,
+/// NUL-terminated, into the buffer and its length into the block's second word) holds the word
+/// [`MAINTENANCE_WORD`], words separated by spaces. A host that refuses the call, or a line
+/// longer than [`CMDLINE_LEN`], is no command: the record stays.
 #[inline(never)]
-fn record_flight(flash: &mut RecordFlash, report: &HealthReport, cold: bool) -> Option<HealthRecord> {
+fn maintenance_requested() -> bool {
+    let mut line = [0u8; CMDLINE_LEN];
+    let mut block = [line.as_mut_ptr() as usize, CMDLINE_LEN];
+    // SAFETY: SYS_GET_CMDLINE writes at most `block[1]` bytes into `line`, which lives through
+    // the call, and its length into `block[1]`; both are read back volatile below, as the
+    // compiler does not see the host's writes.
+    let status =
+        unsafe { cortex_m_semihosting::syscall1(cortex_m_semihosting::nr::GET_CMDLINE, block.as_mut_ptr() as usize) };
+    if status != 0 {
+        return false;
+    }
+    // SAFETY: `block` is a live, aligned local.
+    let len = unsafe { core::ptr::read_volatile(block.as_ptr().wrapping_add(1)) };
+    // SAFETY: `line` is a live local array; volatile for the host's writes.
+    let line = unsafe { core::ptr::read_volatile(&line) };
+    line.get(..len.min(CMDLINE_LEN)).is_some_and(|l| l.split(|&b| b == b' ' || b == 0).any(|w| w == MAINTENANCE_WORD))
+}
+
+/// Maintenance reset ([`HealthStore::reset`]): erases the health record's flash, so that flight
+/// 1 finds no record and starts cold, and logs it; `false` (logged) when the flash refuses.
+#[inline(never)]
+fn maintenance_reset(flash: &mut RecordFlash) -> bool {
+    match HealthStore::new(flash, 0..RecordFlash::CAPACITY as u32).and_then(|mut store| store.reset()) {
+        Ok(()) => {
+            defmt::info!("maintenance: health record reset");
+            true
+        }
+        Err(e) => {
+            defmt::error!("maintenance: health record not reset: {}", e);
+            false
+        }
+    }
+}
+
+/// Adds a flight's report to the health record in `flash` (a fresh record when none is stored or
+/// the stored one is unreadable) through the evidence pooled over flights
+/// ([`monitor::evidence::record_flight_on`] on `trace`: the flight's evidence joins the record's
+/// accumulators, and a mode they declare while the report dropped it is refitted in and logged),
+/// saves it, and reads it back as the next power-up does; the record read back, `None` (logged)
+/// when the flash refuses. Not inlined: the store's buffers stay out of `main`'s frame.
+#[inline(never)]
+fn record_flight(
+    flash: &mut RecordFlash,
+    trace: &MeasuredTrace<ONBOARD_WINDOW>,
+    report: &HealthReport,
+    cold: bool,
+) -> Option<HealthRecord> {
     let mut store = match HealthStore::new(flash, 0..RecordFlash::CAPACITY as u32) {
         Ok(s) => s,
         Err(e) => {
@@ -212,7 +275,11 @@ fn record_flight(flash: &mut RecordFlash, report: &HealthReport, cold: bool) -> 
             HealthRecord::new()
         }
     };
-    record.new_flight(report, cold);
+    let config = IdentifyConfig { effects: MODEL_EFFECTS, ..IdentifyConfig::onboard() };
+    let pooled = monitor::evidence::record_flight_on(&mut record, trace, PARAMS, PROFILE, &config, report, cold);
+    if let Some(p) = pooled.filter(|p| p.any_declared()) {
+        log_declared(&p);
+    }
     if let Err(e) = store.save(&record) {
         defmt::error!("health record not saved: {}", e);
         return None;
@@ -233,6 +300,24 @@ fn record_flight(flash: &mut RecordFlash, report: &HealthReport, cold: bool) -> 
         Err(e) => {
             defmt::error!("health record unreadable after its save: {}", e);
             None
+        }
+    }
+}
+
+/// Logs each mode declared by the evidence pooled over flights (present by the accumulated
+/// evidence, dropped by the flight's own model selection) with its refitted severity. Not
+/// inlined: its formatting locals stay out of `main`'s frame.
+#[inline(never)]
+fn log_declared(pooled: &monitor::evidence::PooledFlight) {
+    for (m, (&declared, mode)) in pooled.declared.iter().zip(pooled.report.modes.iter()).enumerate() {
+        if declared {
+            defmt::info!(
+                "pooled evidence: {=str} declared after {=u32} flights (sum {=f32} nats), refitted severity {=f32}",
+                monitor::evidence::mode_name(m),
+                pooled.evidence.flights,
+                pooled.evidence.llr.get(m).copied().unwrap_or(0.0),
+                mode.severity
+            );
         }
     }
 }

@@ -35,12 +35,25 @@
 //! healthy series is found within `2·h_m/(λ − c_m)` flights.
 //!
 //! The state to persist is [`Evidence`]: the five sums and the flight count.
+//!
+//! **Declaration** ([`record_flight`], the one path of the firmware and of `ema history`). A mode
+//! the sum calls present while this flight's own diagnosis dropped it is *declared by pooled
+//! evidence*: its parameters are refitted on this flight's recording with the other groups held
+//! at the diagnosis ([`refit_mode`], at most [`MAX_REFIT_EVALUATIONS`] evaluations), and the
+//! diagnosis with the refitted mode is what the health record keeps (the prior of the next warm
+//! flight, the mode's history and trend). The refit needs only the current recording, so the
+//! board holds one trace, not the flights since the onset
+//! (`docs/decisions/0024-declaration-by-pooled-evidence.md`).
 
+use super::config::IdentifyConfig;
 use super::identification::Identification;
 use super::selection::{group_present, without_group, FAULT_GROUPS};
+use crate::conditioning::MeasuredTrace;
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::CurrentFit;
-use crate::health::FaultMode;
+use crate::health::{FaultMode, HealthReport};
+use crate::persist::HealthRecord;
+use crate::{Command, EmaParams};
 
 /// Fault modes with an accumulator: friction, backlash, short circuit, eccentricity, gain drift
 /// (the order of [`FaultMode::ALL`]).
@@ -229,7 +242,8 @@ fn quadratic_min(e0: f32, (a, ea): (f32, f32), (b, eb): (f32, f32), lo: f32, hi:
     if q.is_nan() || q <= 0.0 {
         return measured;
     }
-    let s = (-g / (2.0 * q)).clamp(lo, hi);
+    // max/min, not clamp: no panic path for bounds the optimizer cannot order
+    let s = (-g / (2.0 * q)).max(lo).min(hi);
     let e = e0 + g * s + q * s * s;
     if e.is_finite() && e < measured {
         e
@@ -283,7 +297,9 @@ pub fn flight_evidence<const W: usize>(fit: &CurrentFit<'_, W>, k: &FaultVector,
                     for (first, _) in groups {
                         let at = |s: f32| {
                             let mut x = k.0;
-                            x[first] = s;
+                            if let Some(v) = x.get_mut(first) {
+                                *v = s;
+                            }
                             x
                         };
                         let (e1, e2) = (eval(&at(step)), eval(&at(2.0 * step)));
@@ -339,6 +355,253 @@ fn eccentricity_probe(
     } else {
         measured
     }
+}
+
+/// Most evaluations [`refit_mode`] spends on one declared mode.
+pub const MAX_REFIT_EVALUATIONS: u32 = 32;
+
+/// Evaluations of each golden-section search of [`refit_mode`].
+pub const GOLDEN_EVALUATIONS: u32 = 14;
+
+/// Width of each refit's search, in probe steps ([`PROBE_STEP`]): severities up to 8 steps
+/// (friction 0.4, backlash 0.16, short 0.24, eccentricity 0.64; gain ±0.24 about the diagnosis),
+/// well beyond what a single flight fails to price.
+pub const REFIT_SPAN_STEPS: f32 = 8.0;
+
+/// One flight through the evidence pooled over flights ([`record_flight`]).
+#[derive(Clone, Copy, Debug)]
+pub struct PooledFlight {
+    /// The flight's evidence per mode.
+    pub flight: FlightEvidence,
+    /// The accumulated evidence after the flight (what the record now holds).
+    pub evidence: Evidence,
+    /// Per mode: present by the accumulated evidence while absent from the flight's own diagnosis.
+    pub declared: [bool; EVIDENCE_MODES],
+    /// The report the record keeps: the flight's own, with each declared mode refitted in.
+    pub report: HealthReport,
+    /// Evaluations of the refits.
+    pub refit_evaluations: u32,
+}
+
+impl PooledFlight {
+    /// `true` when a mode is declared by pooled evidence.
+    pub fn any_declared(&self) -> bool {
+        self.declared.iter().any(|&d| d)
+    }
+}
+
+/// Adds one flight to `record`, the one path of the firmware and of `ema history`: for a
+/// diagnosis, its evidence on `fit` (the fitness `report` was fitted on) joins the record's
+/// accumulators ([`Evidence::update`]); each mode the accumulators call present and the
+/// diagnosis lacks is declared and refitted ([`refit_mode`]); the report with the refitted
+/// modes ([`HealthReport::new`] of the new vector, the flight's fit check, acquisition counts and
+/// uncertainty kept) becomes the record's flight ([`HealthRecord::new_flight`]). A report that is
+/// no diagnosis, or no fitness, adds the flight as it is and no evidence: `None`.
+pub fn record_flight<const W: usize>(
+    record: &mut HealthRecord,
+    fit: Option<&CurrentFit<'_, W>>,
+    params: &EmaParams,
+    report: &HealthReport,
+    cold: bool,
+) -> Option<PooledFlight> {
+    let Some(fit) = fit.filter(|_| report.status.is_diagnosis()) else {
+        record.new_flight(report, cold);
+        return None;
+    };
+    let mut evidence = Evidence { llr: *record.evidence(), flights: record.pooled_flights() };
+    let flight = flight_evidence(fit, &report.faults, report.fitness);
+    evidence.update(&flight);
+    record.set_evidence(evidence.llr, evidence.flights);
+    let decisions = evidence.decisions(flight.effective_samples);
+    let mut declared = [false; EVIDENCE_MODES];
+    let (mut k, mut cost, mut refit_evaluations) = (report.faults, report.fitness, 0u32);
+    for (m, (d, decision)) in declared.iter_mut().zip(decisions).enumerate() {
+        if decision == Decision::Present && !mode_present(&report.faults, m) {
+            *d = true;
+            let (refit, e, n) = refit_mode(fit, &k, cost, m);
+            refit_evaluations += n;
+            if e < cost {
+                (k, cost) = (refit, e);
+            }
+        }
+    }
+    let pooled = if k == report.faults {
+        *report
+    } else {
+        let r = HealthReport::new(k, params, cost, report.evaluations, report.iterations, report.termination);
+        HealthReport {
+            fit_check: report.fit_check,
+            refused_frames: report.refused_frames,
+            uncertainty: report.uncertainty,
+            untested_groups: report.untested_groups,
+            ..r
+        }
+    };
+    record.new_flight(&pooled, cold);
+    Some(PooledFlight { flight, evidence, declared, report: pooled, refit_evaluations })
+}
+
+/// [`record_flight`] for a caller that no longer holds the identification (the firmware, which
+/// keeps these evaluations out of the identification's instruction count): the fitness of
+/// `trace` under `command` with `config`'s effects and fast-regime weight is built again, as
+/// [`super::with_uncertainty`] builds it. A fitness the configuration refuses adds the flight
+/// without evidence.
+pub fn record_flight_on<'a, const W: usize>(
+    record: &mut HealthRecord,
+    trace: &'a MeasuredTrace<W>,
+    params: EmaParams,
+    command: impl Into<Command<'a>>,
+    config: &IdentifyConfig,
+    report: &HealthReport,
+    cold: bool,
+) -> Option<PooledFlight> {
+    let fit = CurrentFit::new(trace, params, command)
+        .ok()
+        .map(|fit| fit.with_effects(config.effects))
+        .and_then(|fit| fit.with_fast_regime_weight(config.fast_regime_weight));
+    record_flight(record, fit.as_ref(), &params, report, cold)
+}
+
+/// The least of `f` over `[lo, hi]` by golden-section search in `evaluations` evaluations (at
+/// least 2): the point and its value.
+fn golden(f: &mut impl FnMut(f32) -> f32, lo: f32, hi: f32, evaluations: u32) -> (f32, f32) {
+    const R: f32 = 0.618_034;
+    let (mut a, mut b) = (lo, hi);
+    let (mut x1, mut x2) = (b - R * (b - a), a + R * (b - a));
+    let (mut f1, mut f2) = (f(x1), f(x2));
+    for _ in 2..evaluations {
+        if f1 <= f2 {
+            (b, x2, f2) = (x2, x1, f1);
+            x1 = b - R * (b - a);
+            f1 = f(x1);
+        } else {
+            (a, x1, f1) = (x1, x2, f2);
+            x2 = a + R * (b - a);
+            f2 = f(x2);
+        }
+    }
+    if f1 <= f2 {
+        (x1, f1)
+    } else {
+        (x2, f2)
+    }
+}
+
+/// Refits mode `mode` into `k` (cost `cost`) on `fit`, the other groups held: friction,
+/// backlash and gain by a golden-section search of the severity over [`REFIT_SPAN_STEPS`] probe
+/// steps; a short on the phase whose probe at one step costs least, then as friction; an
+/// eccentricity along the direction of least cost of the five-probe quadratic in
+/// `ζ·(cos φ, sin φ)` ([`flight_evidence`]'s), then its magnitude and phase in turn. The vector,
+/// its cost and the evaluations spent (at most [`MAX_REFIT_EVALUATIONS`]); `k` and `cost` when
+/// nothing lowers the cost.
+pub fn refit_mode<const W: usize>(
+    fit: &CurrentFit<'_, W>,
+    k: &FaultVector,
+    cost: f32,
+    mode: usize,
+) -> (FaultVector, f32, u32) {
+    let mut evaluations = 0u32;
+    let mut eval = |x: &[f32; FAULT_COUNT]| {
+        evaluations += 1;
+        fit.error(&FaultVector(*x))
+    };
+    let step = PROBE_STEP.get(mode).copied().unwrap_or(0.05);
+    let span = REFIT_SPAN_STEPS * step;
+    let base = k.0;
+    let severity = |eval: &mut dyn FnMut(&[f32; FAULT_COUNT]) -> f32, i: usize, lo: f32, hi: f32| {
+        let mut f = |s: f32| {
+            let mut x = base;
+            if let Some(v) = x.get_mut(i) {
+                *v = s;
+            }
+            eval(&x)
+        };
+        let (s, e) = golden(&mut f, lo, hi, GOLDEN_EVALUATIONS);
+        let mut x = base;
+        if let Some(v) = x.get_mut(i) {
+            *v = s;
+        }
+        (x, e)
+    };
+    let (x, e) = match mode {
+        0 | 1 => severity(&mut eval, mode, 0.0, span),
+        2 => {
+            // the phase whose probe at one step costs least
+            let mut phase = 2;
+            let mut least = f32::INFINITY;
+            for i in 2..5 {
+                let mut x = base;
+                if let Some(v) = x.get_mut(i) {
+                    *v = step;
+                }
+                let e = eval(&x);
+                if e < least {
+                    (phase, least) = (i, e);
+                }
+            }
+            severity(&mut eval, phase, 0.0, span)
+        }
+        3 => refit_eccentricity(&mut eval, &base, cost, step, span),
+        _ => {
+            let g = base[7];
+            severity(&mut eval, 7, (g - span).max(0.0), (g + span).min(1.0))
+        }
+    };
+    if e.is_finite() && e < cost {
+        (FaultVector(x), e, evaluations)
+    } else {
+        (*k, cost, evaluations)
+    }
+}
+
+/// The eccentricity of [`refit_mode`]: the direction of the five-probe quadratic's least
+/// (the probe of least cost when the quadratic has no minimum), the magnitude along it over
+/// `[0, span]`, then the phase over a quarter turn about it.
+fn refit_eccentricity(
+    eval: &mut dyn FnMut(&[f32; FAULT_COUNT]) -> f32,
+    k: &[f32; FAULT_COUNT],
+    cost: f32,
+    step: f32,
+    span: f32,
+) -> ([f32; FAULT_COUNT], f32) {
+    let at = |magnitude: f32, phase: f32| {
+        let mut x = *k;
+        x[5] = magnitude;
+        x[6] = phase;
+        x
+    };
+    let phases = [0.5, 1.0, 0.75, 0.25, 0.625];
+    let e: [f32; 5] = core::array::from_fn(|i| eval(&at(step, phases.get(i).copied().unwrap_or(0.5))));
+    let [px, mx, py, my, diagonal] = e;
+    let (gx, gy) = ((px - mx) / (2.0 * step), (py - my) / (2.0 * step));
+    let d2 = step * step;
+    let (hxx, hyy) = ((px + mx - 2.0 * cost) / (2.0 * d2), (py + my - 2.0 * cost) / (2.0 * d2));
+    let d = step * core::f32::consts::FRAC_1_SQRT_2;
+    let hxy = ((diagonal - cost - (gx + gy) * d) / (d * d) - hxx - hyy) / 2.0;
+    let det = hxx * hyy - hxy * hxy;
+    let mut phase = 0.5;
+    let mut least = f32::INFINITY;
+    for (&p, &v) in phases.iter().zip(&e) {
+        if v < least {
+            (phase, least) = (p, v);
+        }
+    }
+    if hxx > 0.0 && det > 0.0 {
+        let (vx, vy) = (-(hyy * gx - hxy * gy) / (2.0 * det), -(hxx * gy - hxy * gx) / (2.0 * det));
+        if vx.is_finite() && vy.is_finite() && (vx != 0.0 || vy != 0.0) {
+            // φ = 2π·k7 − π
+            phase = (libm::atan2f(vy, vx) + core::f32::consts::PI) / (2.0 * core::f32::consts::PI);
+        }
+    }
+    let (magnitude, _) = golden(&mut |s| eval(&at(s, phase)), 0.0, span, GOLDEN_EVALUATIONS);
+    let wrap = |p: f32| p - libm::floorf(p);
+    let (offset, e) = golden(
+        &mut |o| eval(&at(magnitude, wrap(phase + o))),
+        -0.125,
+        0.125,
+        MAX_REFIT_EVALUATIONS - 5 - GOLDEN_EVALUATIONS,
+    );
+    (at(magnitude, wrap(phase + offset)), e)
 }
 
 #[cfg(test)]
@@ -397,6 +660,22 @@ mod tests {
         // concave: the least measured value
         let m = quadratic_min(1.0, (0.03, 0.99), (0.06, 0.9), 0.0, 0.09);
         assert_eq!(m, 0.9);
+    }
+
+    #[test]
+    fn golden_section_finds_the_least_of_a_unimodal_function() {
+        let mut calls = 0;
+        let (x, e) = golden(
+            &mut |s: f32| {
+                calls += 1;
+                1.0 + (s - 0.13) * (s - 0.13)
+            },
+            0.0,
+            0.64,
+            GOLDEN_EVALUATIONS,
+        );
+        assert_eq!(calls, GOLDEN_EVALUATIONS);
+        assert!((x - 0.13).abs() < 0.01 && (e - 1.0).abs() < 1e-4, "{x} {e}");
     }
 
     #[test]

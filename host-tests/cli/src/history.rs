@@ -12,8 +12,14 @@
 //! for a cold one) with the on-board settings
 //! ([`IdentifyConfig::onboard`]: the firmware's iteration budget) and, when its status is a
 //! diagnosis, its five mode severities join the history of the core's [`HealthRecord`] (a ring
-//! of the last 16 flights per mode, the record the firmware persists). After each flight the core fits the trend of every mode and the flight
-//! at which it reaches the failing threshold, with its interval ([`ema_monitor::prognosis`]).
+//! of the last 16 flights per mode, the record the firmware persists). The flight joins the record
+//! through the evidence pooled over flights, by the core function the firmware calls
+//! ([`evidence::record_flight_on`]): the flight's log-likelihood ratio per mode joins the
+//! record's sequential sums, and a mode the sums call present while the flight's own model
+//! selection dropped it is *declared by pooled evidence* and refitted into the diagnosis the
+//! record keeps (`docs/decisions/0024-declaration-by-pooled-evidence.md`). After each flight the
+//! core fits the trend of every mode and the flight at which it reaches the failing threshold,
+//! with its interval ([`ema_monitor::prognosis`]).
 //!
 //! **Degradation campaign** (`--simulate LAW…`): instead of files, the reference model flies
 //! `--flights` flights of an actuator whose faults follow the laws, with sensor noise and a noise
@@ -26,17 +32,21 @@
 //! the warm flights (false alarms: a drift-only flight, no group present in the truth and absent
 //! from the prior, on which a probe fires; misses: a flight with a new fault on which none fires
 //! and the report misses it), the detection of each mode (first
-//! flight its group is reported after its onset, and reports of a mode that is absent), and the
-//! prognosis at the last flight against the true crossing of the failing threshold.
+//! flight its group is reported after its onset, and reports of a mode that is absent; the same
+//! for declarations by pooled evidence), and the prognosis at the last flight against the true
+//! crossing of the failing threshold.
 //!
 //! `--out DIR` writes `history.json` (the `--json` document) and `severity.svg` (severity against
-//! flight per mode, the trend lines, the failing threshold and the RUL band).
+//! flight per mode as the record keeps it, the flights a mode was declared by pooled evidence
+//! ringed, the trend lines, the failing threshold and the RUL band).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use clap::Args;
+use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::health::{FaultMode, HealthReport, DEGRADED_AT, FAILING_AT};
+use ema_monitor::monitor::evidence::{self, PooledFlight, EVIDENCE_MODES};
 use ema_monitor::monitor::{self as core_monitor, group_present, IdentifyConfig, WarmReport, FAULT_GROUPS};
 use ema_monitor::persist::HealthRecord;
 use ema_monitor::prognosis::{Prognosis, HISTORY_CAPACITY, RUL_CONFIDENCE};
@@ -45,7 +55,7 @@ use ema_reference::{simulate, SimConfig};
 use serde::Serialize;
 
 use crate::error::CliError;
-use crate::identify::{identify_recording_with, ModelCommand};
+use crate::identify::{condition_recording_checked_for, identify_trace, ModelCommand, HOST_WINDOW};
 use crate::output::{prepare_dir, write_files, OutputArgs};
 use crate::params::ParamsArgs;
 use crate::plots::{self, SeveritySeries};
@@ -120,6 +130,8 @@ pub struct FlightResult {
     pub seconds: f64,
     /// What the warm stages did (`None`: a cold flight).
     pub warm: Option<WarmReport>,
+    /// The conditioned recording (the evidence of the flight is measured on it).
+    pub trace: Box<MeasuredTrace<HOST_WINDOW>>,
 }
 
 /// Identifies one flight's `recording` (named `label` in errors) driven by `command`, as the
@@ -141,11 +153,13 @@ pub fn identify_flight(
         core_monitor::Start::Warm
     );
     let config = IdentifyConfig { prior: if warm { prior } else { None }, ..*config };
-    let outcome = identify_recording_with(recording, label, params, command, &config)?;
+    let (trace, acquired) = condition_recording_checked_for(recording, label, params, command)?;
+    let outcome = identify_trace(&trace, params, command.command(), &config, label)?;
     let warm = outcome.warm.map(|w| w.report);
     // a warm attempt that failed its fit check went on cold in the same call
     let start = if warm.is_some_and(|w| !w.cold_fallback) { Start::Warm } else { Start::Cold };
-    Ok(FlightResult { report: outcome.report, start, seconds: outcome.seconds, warm })
+    let report = outcome.report.with_acquisition(&acquired);
+    Ok(FlightResult { report, start, seconds: outcome.seconds, warm, trace })
 }
 
 /// A degradation law of one mode (`MODE=START[+RATE][@ONSET]`).
@@ -288,6 +302,19 @@ pub struct FlightJson {
     pub k: [f32; 8],
     /// Flights remaining to the failing threshold per mode after this flight (null: none).
     pub remaining_flights: [Option<f32>; 5],
+    /// This flight's log-likelihood ratio per mode (nats; null: no diagnosis, no evidence).
+    pub evidence_llr: Option<[f32; 5]>,
+    /// The record's sequential sum per mode after this flight (nats).
+    pub evidence_sum: [f32; 5],
+    /// Modes declared by pooled evidence on this flight: present by the sums, dropped by the
+    /// flight's own model selection, refitted into the diagnosis the record keeps.
+    pub declared: Vec<&'static str>,
+    /// The fault vector the record keeps when a declaration changed it (`k` with the declared
+    /// modes refitted in; absent: the record keeps `k`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub k_pooled: Option<[f32; 8]>,
+    /// Severity per mode as the record keeps it (`severity` with the declared modes refitted in).
+    pub pooled_severity: [f32; 5],
     /// The true fault vector (under `--simulate`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub k_true: Option<[f32; 8]>,
@@ -335,6 +362,11 @@ pub struct ModeJson {
     /// Flights reporting the mode before its onset or without one (under `--simulate`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub false_reports: Option<u32>,
+    /// First flight the mode was declared by pooled evidence (null: never).
+    pub declared_flight: Option<u32>,
+    /// Flights declaring the mode before its onset or without one (under `--simulate`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub false_declarations: Option<u32>,
 }
 
 /// The scores of a degradation campaign (under `--simulate`).
@@ -439,6 +471,8 @@ pub struct Series {
     /// Under `--simulate`: warm flights with a new fault on which no probe fired and the new
     /// group went unreported.
     pub probe_misses: u32,
+    /// The flights a mode was declared by pooled evidence, per mode.
+    pub declared: [Vec<u32>; 5],
 }
 
 /// Runs the series: every flight through [`identify_flight`], the history and prognosis after
@@ -453,6 +487,7 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
     let (mut probe_false_alarms, mut probe_misses) = (0u32, 0u32);
     let (mut flights, mut reports) = (Vec::new(), Vec::new());
     let mut prognosis = [None; 5];
+    let mut declared: [Vec<u32>; 5] = Default::default();
     for n in 0..count {
         let f = flight_source(args, laws, params, &profile, n)?;
         let config = IdentifyConfig { seed: f.seed, ..IdentifyConfig::onboard() };
@@ -471,7 +506,20 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
         bar.inc(1);
         let number = n as u32 + 1;
         let r = &result.report;
-        record.new_flight(r, result.start == Start::Cold);
+        let cold = result.start == Start::Cold;
+        let pooled: Option<PooledFlight> =
+            evidence::record_flight_on(&mut record, &*result.trace, *params, command.command(), &config, r, cold);
+        let names = pooled.map_or_else(Vec::new, |p| {
+            (0..EVIDENCE_MODES).filter(|&m| p.declared[m]).map(evidence::mode_name).collect::<Vec<_>>()
+        });
+        if let Some(p) = &pooled {
+            for (m, d) in declared.iter_mut().enumerate() {
+                if p.declared[m] {
+                    d.push(number);
+                }
+            }
+        }
+        let kept = pooled.map_or(*r, |p| p.report);
         for mode in FaultMode::ALL {
             prognosis[mode.index()] = Prognosis::of_record(&record, mode);
         }
@@ -493,13 +541,18 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
             severity: r.modes.map(|m| m.severity),
             k: r.faults.0,
             remaining_flights: prognosis.map(|p| p.and_then(|p| p.remaining()).map(|r| r.0)),
+            evidence_llr: pooled.map(|p| p.flight.llr),
+            evidence_sum: *record.evidence(),
+            declared: names,
+            k_pooled: (kept.faults != r.faults).then_some(kept.faults.0),
+            pooled_severity: kept.modes.map(|m| m.severity),
             k_true: f.truth.map(|t| t.0),
             err_percent: f.truth.map(|t| r.faults.paper_error_percent(&t)),
         });
         reports.push(result.report);
     }
     bar.finish_and_clear();
-    Ok(Series { flights, record, prognosis, reports, probe_false_alarms, probe_misses })
+    Ok(Series { flights, record, prognosis, reports, probe_false_alarms, probe_misses, declared })
 }
 
 /// The per-mode block of the document.
@@ -524,6 +577,8 @@ fn modes_json(series: &Series, laws: &[Law], params: &EmaParams) -> Vec<ModeJson
             let truth = true_crossing(laws, i, f64::from(FAILING_AT));
             let false_reports =
                 series.flights.iter().filter(|f| reported(f) && onset.is_none_or(|o| f.flight < o)).count() as u32;
+            let declarations = &series.declared[i];
+            let false_declarations = declarations.iter().filter(|&&f| onset.is_none_or(|o| f < o)).count() as u32;
             ModeJson {
                 mode: mode.name(),
                 points: series.record.history(mode).len() as u16,
@@ -541,6 +596,12 @@ fn modes_json(series: &Series, laws: &[Law], params: &EmaParams) -> Vec<ModeJson
                 onset_flight: simulated.then_some(onset),
                 detected_flight: simulated.then_some(detected),
                 false_reports: simulated.then_some(false_reports),
+                declared_flight: if simulated {
+                    onset.and_then(|o| declarations.iter().copied().find(|&f| f >= o))
+                } else {
+                    declarations.first().copied()
+                },
+                false_declarations: simulated.then_some(false_declarations),
             }
         })
         .collect()
@@ -584,13 +645,26 @@ fn opt(v: Option<f32>, digits: usize) -> String {
 pub fn text(doc: &HistoryJson) -> String {
     let mut out = String::new();
     let names: Vec<&str> = FaultMode::ALL.iter().map(|m| m.name()).collect();
-    let _ = writeln!(out, "| flight | start | evaluations | status | {} |", names.join(" | "));
-    let _ = writeln!(out, "|{}", "---|".repeat(4 + names.len()));
+    let _ = writeln!(
+        out,
+        "| flight | start | evaluations | status | {} | declared by pooled evidence |",
+        names.join(" | ")
+    );
+    let _ = writeln!(out, "|{}", "---|".repeat(5 + names.len()));
     for f in &doc.flights {
         let sev: Vec<String> = f.severity.iter().map(|s| format!("{s:.3}")).collect();
+        let declared: Vec<String> = f
+            .declared
+            .iter()
+            .map(|&name| {
+                let i = FaultMode::ALL.iter().position(|m| m.name() == name).unwrap_or(0);
+                format!("{name} {:.3}", f.pooled_severity[i])
+            })
+            .collect();
+        let declared = if declared.is_empty() { "–".to_owned() } else { declared.join(", ") };
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {declared} |",
             f.flight,
             match f.start {
                 Start::Cold => "cold",
@@ -604,13 +678,14 @@ pub fn text(doc: &HistoryJson) -> String {
     let simulated = doc.campaign.is_some();
     let _ = write!(
         out,
-        "\n| mode | slope /flight | crossing flight | {:.0} % interval | flights left |",
+        "\n| mode | slope /flight | crossing flight | {:.0} % interval | flights left | declared (pooled) |",
         100.0 * doc.confidence
     );
     if simulated {
-        let _ = write!(out, " true crossing | crossing error | onset | detected | false reports |");
+        let _ =
+            write!(out, " true crossing | crossing error | onset | detected | false reports | false declarations |");
     }
-    let _ = writeln!(out, "\n|{}", "---|".repeat(if simulated { 10 } else { 5 }));
+    let _ = writeln!(out, "\n|{}", "---|".repeat(if simulated { 12 } else { 6 }));
     for m in &doc.modes {
         let interval = match (m.crossing_flight, m.crossing_lower_flight, m.crossing_upper_flight) {
             (None, ..) => "–".to_owned(),
@@ -626,17 +701,20 @@ pub fn text(doc: &HistoryJson) -> String {
             (Some(b), Some(se)) => format!("{b:.4} ± {se:.4}"),
             _ => "–".to_owned(),
         };
-        let _ = write!(out, "| {} | {slope} | {} | {interval} | {left} |", m.mode, opt(m.crossing_flight, 2));
+        let declared = m.declared_flight.map_or("–".to_owned(), |f| format!("flight {f}"));
+        let _ =
+            write!(out, "| {} | {slope} | {} | {interval} | {left} | {declared} |", m.mode, opt(m.crossing_flight, 2));
         if simulated {
             let flight = |v: Option<Option<u32>>| v.flatten().map_or("–".to_owned(), |f| f.to_string());
             let _ = write!(
                 out,
-                " {} | {} | {} | {} | {} |",
+                " {} | {} | {} | {} | {} | {} |",
                 m.true_crossing_flight.flatten().map_or("–".to_owned(), |f| format!("{f:.2}")),
                 m.crossing_error_flights.flatten().map_or("–".to_owned(), |e| format!("{e:+.2}")),
                 flight(m.onset_flight),
                 flight(m.detected_flight),
-                m.false_reports.unwrap_or(0)
+                m.false_reports.unwrap_or(0),
+                m.false_declarations.unwrap_or(0)
             );
         }
         out.push('\n');
@@ -658,7 +736,8 @@ pub fn text(doc: &HistoryJson) -> String {
     let _ = write!(
         out,
         "\ntrend: least-squares line over the last {} diagnoses; interval: Fieller's at {:.0} %; failing at severity {}; \
-         degraded from {DEGRADED_AT}",
+         degraded from {DEGRADED_AT}; declared by pooled evidence: present by the per-mode sequential sum of \
+         log-likelihood ratios, dropped by the flight's own model selection, refitted into what the record keeps",
         doc.history_capacity,
         100.0 * doc.confidence,
         doc.failing_at
@@ -669,7 +748,8 @@ pub fn text(doc: &HistoryJson) -> String {
 /// Colours of the five modes in the plot.
 const MODE_COLOURS: [(u8, u8, u8); 5] = [(31, 119, 180), (214, 39, 40), (44, 160, 44), (148, 103, 189), (255, 127, 14)];
 
-/// `severity.svg`: the modes that were ever reported or have a trend that rises.
+/// `severity.svg`: the modes that were ever reported or declared, or have a trend that rises; the
+/// flights a mode was declared by pooled evidence ringed.
 pub fn plot(doc: &HistoryJson, series: &Series) -> std::io::Result<String> {
     let last = doc.flights.last().map_or(1.0, |f| f64::from(f.flight));
     let mut x_max = last + 1.0;
@@ -679,9 +759,19 @@ pub fn plot(doc: &HistoryJson, series: &Series) -> std::io::Result<String> {
             series.record.history(mode).iter().map(|e| (f64::from(e.flight), f64::from(e.severity))).collect::<Vec<_>>()
         })
         .collect();
+    // the flights a mode was declared by pooled evidence, at the severity the record keeps
+    let declared: Vec<Vec<(f64, f64)>> = (0..FaultMode::ALL.len())
+        .map(|i| {
+            doc.flights
+                .iter()
+                .filter(|f| series.declared[i].contains(&f.flight))
+                .map(|f| (f64::from(f.flight), f64::from(f.pooled_severity[i])))
+                .collect()
+        })
+        .collect();
     let mut shown = Vec::new();
     for (i, mode) in FaultMode::ALL.iter().enumerate() {
-        let ever = points[i].iter().any(|p| p.1 > f64::from(PRESENT_SEVERITY));
+        let ever = points[i].iter().any(|p| p.1 > f64::from(PRESENT_SEVERITY)) || !declared[i].is_empty();
         let p = series.prognosis[i];
         let crossing = p.and_then(|p| p.failing);
         if !ever && crossing.is_none() {
@@ -701,7 +791,14 @@ pub fn plot(doc: &HistoryJson, series: &Series) -> std::io::Result<String> {
     }
     let series_list: Vec<SeveritySeries> = shown
         .iter()
-        .map(|&(name, colour, i, trend, band)| SeveritySeries { name, colour, points: &points[i], trend, band })
+        .map(|&(name, colour, i, trend, band)| SeveritySeries {
+            name,
+            colour,
+            points: &points[i],
+            declared: &declared[i],
+            trend,
+            band,
+        })
         .collect();
     plots::severity_plot("Severity per flight, trend and RUL band", &series_list, f64::from(FAILING_AT), x_max)
 }

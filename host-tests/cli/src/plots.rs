@@ -284,6 +284,8 @@ pub struct SeveritySeries<'a> {
     pub colour: (u8, u8, u8),
     /// `(flight, severity)` of each diagnosis.
     pub points: &'a [(f64, f64)],
+    /// The points of `points` at which the mode was declared by pooled evidence (ringed).
+    pub declared: &'a [(f64, f64)],
     /// The trend line, from `(flight, severity)` to `(flight, severity)`.
     pub trend: Option<((f64, f64), (f64, f64))>,
     /// The flights of the interval on the failing-threshold crossing (the RUL band), the upper
@@ -316,6 +318,9 @@ fn draw_severity(
         }
     }
     items.push(("failing threshold", Swatch::Line(ZERO)));
+    if series.iter().any(|s| !s.declared.is_empty()) {
+        items.push(("ringed: declared by pooled evidence", Swatch::Line(ZERO)));
+    }
     let plot = with_legend(root, 960, 460, &items)?;
     let x_max = if last_flight.is_finite() && last_flight > 1.0 { last_flight } else { 2.0 };
     let mut chart = ChartBuilder::on(&plot)
@@ -343,6 +348,7 @@ fn draw_severity(
         let c = colour(s);
         chart.draw_series(LineSeries::new(s.points.iter().copied(), c.stroke_width(2)))?;
         chart.draw_series(s.points.iter().map(|&p| Circle::new(p, 3, c.filled())))?;
+        chart.draw_series(s.declared.iter().map(|&p| Circle::new(p, 7, c.stroke_width(2))))?;
         if let Some((a, b)) = s.trend {
             chart.draw_series(LineSeries::new([a, b], c.mix(0.6).stroke_width(1)))?;
         }
