@@ -27,7 +27,7 @@
 //! polish, fast-regime weight 0.1) of the noise-free healthy recording, whose largest spurious
 //! severity `b = max(k1, …, k6, |k8 − 0.5|)` is the fault the model's mismatch alone makes up.
 //! A candidate is ranked by `criterion + b`: the bound of the noise plus the bias of the model.
-//! The bias can depend on the fault, which `b` does not see: the best-ranked candidates are
+//! The error can depend on the fault, which `b` does not see: the best-ranked candidates are
 //! decided by a small campaign (`docs/pbit.md`).
 //!
 //! From `host-tests/`:
