@@ -125,26 +125,27 @@ impl Profile {
         Profile { segments, len: 5, duration_s: 0.85 }
     };
 
-    /// The pre-flight built-in test manoeuvre `pbit` (1.0 s), designed for the weak modes
+    /// The pre-flight built-in test manoeuvre `pbit` (0.88 s), designed for the weak modes
     /// (eccentricity and its phase, low short circuits, gain drift; `docs/pbit.md`,
-    /// decision 0023): a step to 0.1 rad and a reversal to −0.1 rad (gain, current saturation,
-    /// backlash; the motor near its no-load speed), then four constant-rate segments of 0.2 s at
-    /// ±0.4 rad/s at the surface (200 rad/s at the motor, below the fast regime's 300 rad/s, so
+    /// decision 0023): a step to 0.05 rad and a reversal to −0.05 rad (gain, current saturation,
+    /// backlash; the standard manoeuvre's step), then four constant-rate segments of 0.17 s at
+    /// ±0.3 rad/s at the surface (150 rad/s at the motor, half the fast regime's 300 rad/s, so
     /// every sample weighs fully in the fitness), each change of sign a reversal. The
-    /// eccentricity's current ripple is periodic in the rotor angle: the 0.8 s at constant rate
-    /// hold 25 motor turns of it, against 4.8 in the standard's ramp. Of the candidates of the
+    /// eccentricity's current ripple is periodic in the rotor angle: the 0.68 s at constant rate
+    /// hold 16 motor turns of it, against 4.8 in the standard's ramp. Of the candidates of the
     /// design (steps of 0.02–0.1 rad, one to four constant-rate segments of 0.1–0.55 rad/s), it
-    /// has the smallest largest Cramér–Rao bound among the weak modes, within the stroke, rate
-    /// and current limits.
+    /// is chosen by its Cramér–Rao bounds on the weak modes *and* by the monitor model's bias on
+    /// it: a larger step or faster ramps carry more information but run the motor where the
+    /// monitor model departs from the actuator, and the identification's error follows the bias.
     pub const PBIT: Profile = {
         let mut segments = [EMPTY; MAX_SEGMENTS];
         segments[0] = Segment::Hold { start_s: 0.0, value_rad: 0.0 };
-        segments[1] = Segment::Hold { start_s: 0.01, value_rad: 0.1 };
-        segments[2] = Segment::Hold { start_s: 0.10, value_rad: -0.1 };
-        segments[3] = Segment::Ramp { start_s: 0.20, start_rad: -0.1, rate_rad_per_s: 0.4 };
-        segments[4] = Segment::Ramp { start_s: 0.37, start_rad: -0.032, rate_rad_per_s: -0.4 };
-        segments[5] = Segment::Ramp { start_s: 0.54, start_rad: -0.1, rate_rad_per_s: 0.4 };
-        segments[6] = Segment::Ramp { start_s: 0.71, start_rad: -0.032, rate_rad_per_s: -0.4 };
+        segments[1] = Segment::Hold { start_s: 0.01, value_rad: 0.05 };
+        segments[2] = Segment::Hold { start_s: 0.10, value_rad: -0.05 };
+        segments[3] = Segment::Ramp { start_s: 0.20, start_rad: -0.05, rate_rad_per_s: 0.3 };
+        segments[4] = Segment::Ramp { start_s: 0.37, start_rad: 0.001, rate_rad_per_s: -0.3 };
+        segments[5] = Segment::Ramp { start_s: 0.54, start_rad: -0.05, rate_rad_per_s: 0.3 };
+        segments[6] = Segment::Ramp { start_s: 0.71, start_rad: 0.001, rate_rad_per_s: -0.3 };
         Profile { segments, len: 7, duration_s: 0.88 }
     };
 
@@ -279,7 +280,7 @@ mod tests {
 
     /// `pbit` passes the checks of a profile file, lasts at most 1.0 s and fits the on-board
     /// window, and its command is continuous from the reversal on (each ramp starts where the
-    /// previous one ends).
+    /// previous one ends); its ramps stay at half the fast regime's motor speed.
     #[test]
     fn pbit_is_a_valid_manoeuvre_that_fits_on_board() {
         let p = Profile::PBIT;
@@ -292,7 +293,7 @@ mod tests {
             assert!((pair[0].value_rad(t) - pair[1].value_rad(t)).abs() < 1e-6, "jump at {t} s");
         }
         assert!(p.segments().iter().all(|s| match *s {
-            Segment::Ramp { rate_rad_per_s, .. } => rate_rad_per_s.abs() <= 0.4,
+            Segment::Ramp { rate_rad_per_s, .. } => rate_rad_per_s.abs() <= 0.3,
             _ => true,
         }));
     }

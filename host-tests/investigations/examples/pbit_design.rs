@@ -21,6 +21,15 @@
 //! design criterion is the largest Err%-weighted bound among the weak modes,
 //! `max(σ_k3, σ_k4, σ_k5, σ_k6, k6·σ_k7, σ_k8)` (the phase error counts in Err% times k6).
 //!
+//! The bounds hold for an unbiased model; the monitor model departs from the actuator where the
+//! motor runs fast (steps near the no-load speed, fast ramps). The healthy bias measures that:
+//! the identification (the on-board search budget of 30 iterations, no model selection, the
+//! polish, fast-regime weight 0.1) of the noise-free healthy recording, whose largest spurious
+//! severity `b = max(k1, …, k6, |k8 − 0.5|)` is the fault the model's mismatch alone makes up.
+//! A candidate is ranked by `criterion + b`: the bound of the noise plus the bias of the model.
+//! The error can depend on the fault, which `b` does not see: the best-ranked candidates are
+//! decided by a small campaign (`docs/pbit.md`).
+//!
 //! From `host-tests/`:
 //!
 //! ```text
@@ -32,8 +41,10 @@ use std::path::Path;
 
 use ema_cli::discover::series;
 use ema_cli::identify::condition_recording;
+use ema_cli::identify::identify_trace;
 use ema_cli::recording::Recording;
 use ema_monitor::fitness::{FAST_REGIME_SPEED_RAD_S, FAST_REGIME_WEIGHT};
+use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::profile::Segment;
 use ema_monitor::{EmaParams, FaultVector, ModelEffects, Profile};
 use ema_reference::{simulate, SimConfig};
@@ -58,6 +69,7 @@ struct Assessment {
     sigma_a: f64,
     crb: [f64; 8],
     criterion: f64,
+    bias: f64,
     within_limits: bool,
 }
 
@@ -167,6 +179,10 @@ fn assess(profile: &Profile) -> Result<Assessment, Box<dyn std::error::Error>> {
     let crb: [f64; 8] = std::array::from_fn(|j| sigma_a * cov[j][j].max(0.0).sqrt());
     let criterion =
         [crb[2], crb[3], crb[4], crb[5], f64::from(DESIGN_POINT[5]) * crb[6], crb[7]].into_iter().fold(0.0, f64::max);
+    let config = IdentifyConfig { max_iterations: 30, model_selection: false, ..IdentifyConfig::default() };
+    let healthy_fit = identify_trace(&clean_trace, &params, profile, &config, Path::new("in-memory.csv"))?;
+    let k = healthy_fit.report.faults.0;
+    let bias = k[..6].iter().map(|&x| f64::from(x)).fold(f64::from((k[7] - 0.5).abs()), f64::max);
     Ok(Assessment {
         duration_s: profile.duration_s(),
         peak_position_rad,
@@ -175,6 +191,7 @@ fn assess(profile: &Profile) -> Result<Assessment, Box<dyn std::error::Error>> {
         sigma_a,
         crb,
         criterion,
+        bias,
         within_limits,
     })
 }
@@ -204,7 +221,7 @@ fn candidate(step: f32, rates: &[f32], segment_s: f32, duration_s: f32) -> Optio
 fn row(name: &str, a: &Assessment) {
     let crb: Vec<String> = a.crb.iter().map(|c| format!("{c:.4}")).collect();
     println!(
-        "| {name} | {:.2} | {:.3} | {:.3} | {:.1} | {:.4} | {} | {:.4} | {} |",
+        "| {name} | {:.2} | {:.3} | {:.3} | {:.1} | {:.4} | {} | {:.4} | {:.4} | {:.4} | {} |",
         a.duration_s,
         a.peak_position_rad,
         a.peak_rate_rad_s,
@@ -212,6 +229,8 @@ fn row(name: &str, a: &Assessment) {
         a.sigma_a,
         crb.join(" | "),
         a.criterion,
+        a.bias,
+        a.criterion + a.bias,
         if a.within_limits { "yes" } else { "NO" }
     );
 }
@@ -219,8 +238,8 @@ fn row(name: &str, a: &Assessment) {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let short = std::env::args().any(|a| a == "--short");
     println!("design point k_d = {DESIGN_POINT:?}; h = {H}\n");
-    println!("| manoeuvre | T (s) | max θ_u (rad) | max ω_u (rad/s) | max i (A) | σ (A) | CRB k1 | k2 | k3 | k4 | k5 | k6 | k7 | k8 | criterion | limits |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| manoeuvre | T (s) | max θ_u (rad) | max ω_u (rad/s) | max i (A) | σ (A) | CRB k1 | k2 | k3 | k4 | k5 | k6 | k7 | k8 | criterion | bias b | criterion + b | limits |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     row("standard", &assess(&Profile::STANDARD)?);
     row("pbit", &assess(&Profile::PBIT)?);
     if short {
@@ -230,6 +249,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for step in [0.02f32, 0.05, 0.1] {
         for rates in [
             vec![0.2, -0.2, 0.2, -0.2],
+            vec![0.3, -0.3, 0.3, -0.3],
             vec![0.4, -0.4, 0.4, -0.4],
             vec![0.5, -0.5, 0.5, -0.5],
             vec![0.55, -0.55, 0.55, -0.55],
@@ -246,13 +266,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let a = assess(&p)?;
             let name = format!("step {step}, rates {rates:?}");
             row(&name, &a);
-            if a.within_limits && best.as_ref().is_none_or(|b| a.criterion < b.0) {
-                best = Some((a.criterion, name));
+            if a.within_limits && best.as_ref().is_none_or(|b| a.criterion + a.bias < b.0) {
+                best = Some((a.criterion + a.bias, name));
             }
         }
     }
     if let Some((c, name)) = best {
-        println!("\nbest candidate within the limits: {name} (criterion {c:.4})");
+        println!("\nbest candidate within the limits: {name} (criterion + b {c:.4})");
     }
     Ok(())
 }
