@@ -47,6 +47,15 @@ pub const PROBE_SEVERITY: f32 = 0.1;
 /// probe) down to the polish's 2e-4, at most 250 evaluations.
 pub const TARGETED_REFIT: PatternConfig = PatternConfig { initial_step: 0.05, min_step: 2.0e-4, max_evaluations: 250 };
 
+/// The drift polish of a warm start, before model selection: a compass search over the prior's
+/// present groups, steps from 0.02 (a flight's drift is a few hundredths) down to 2e-3, at most
+/// 120 evaluations. Model selection judges a group by `E` with it against `E` of the refit
+/// without it; at the unmoved prior, `E` with it is stale by the drift, and a refit of the other
+/// groups that absorbs the drift can beat it, so a group the flight still has is dropped (and
+/// its probe then fires). After the drift polish, `E` with the group is near its best, as after
+/// a cold global search.
+pub const DRIFT_POLISH: PatternConfig = PatternConfig { initial_step: 0.02, min_step: 2.0e-3, max_evaluations: 120 };
+
 /// Targeted refits one warm identification runs at most (new faults found in one flight).
 pub const MAX_NEW_FAULTS: u8 = 2;
 
@@ -177,6 +186,9 @@ pub(super) enum WarmStage {
     /// Evaluates `n` of the information criterion at the prior (one evaluation), then hands over
     /// to model selection.
     Samples,
+    /// Follows the drift of the prior's groups before model selection ([`DRIFT_POLISH`]; one
+    /// evaluation per step).
+    Drift(PatternSearch<FAULT_COUNT>),
     /// Runs probe `next` on (one evaluation each); bit `i` of `fired` marks probe `i` fired.
     Probe {
         /// Next probe index.
@@ -215,6 +227,16 @@ fn group_free(group: usize) -> [bool; FAULT_COUNT] {
     free
 }
 
+/// The parameters of the groups present in `k` free, the others fixed.
+fn present_free(k: &[f32; FAULT_COUNT]) -> [bool; FAULT_COUNT] {
+    let mut free = [false; FAULT_COUNT];
+    for &(first, last) in FAULT_GROUPS.iter() {
+        let present = group_present(k, (first, last));
+        free.iter_mut().enumerate().filter(|(i, _)| (first..=last).contains(i)).for_each(|(_, f)| *f = present);
+    }
+    free
+}
+
 impl<const W: usize, const P: usize> Identification<'_, W, P> {
     /// One step of the warm stages (see [`WarmStage`] for what each spends).
     pub(super) fn warm_step(&mut self) {
@@ -230,10 +252,27 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
                 let effective_samples = self.fit.effective_samples(&FaultVector(self.best));
                 warm.effective_samples = effective_samples;
                 warm.report.evaluations += 1;
-                if self.config.model_selection {
-                    self.stage = Stage::Select(Selection::NextGroup { group: 0, effective_samples });
-                } else {
+                if !self.config.model_selection {
                     self.start_polish(TerminationReason::FunctionTolerance);
+                    return;
+                }
+                let free = present_free(&self.best);
+                match PatternSearch::new(fault_bounds(), DRIFT_POLISH, self.best, Some(self.best_cost), free) {
+                    Ok(search) if free.iter().any(|&f| f) => *stage = WarmStage::Drift(search),
+                    _ => self.stage = Stage::Select(Selection::NextGroup { group: 0, effective_samples }),
+                }
+            }
+            WarmStage::Drift(search) => {
+                let before = search.evaluations();
+                let status = search.step(&mut self.fit);
+                warm.report.evaluations += search.evaluations() - before;
+                if let Status::Done(_) = status {
+                    let (x, c) = search.best();
+                    if c <= self.best_cost {
+                        (self.best, self.best_cost) = (*x, c);
+                    }
+                    let effective_samples = warm.effective_samples;
+                    self.stage = Stage::Select(Selection::NextGroup { group: 0, effective_samples });
                 }
             }
             WarmStage::Probe { next, fired } => {
@@ -319,12 +358,7 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
             self.end_warm(TerminationReason::MaxIterations);
             return;
         }
-        let mut free = [false; FAULT_COUNT];
-        for &(first, last) in FAULT_GROUPS.iter() {
-            let present = group_present(&x, (first, last));
-            free.iter_mut().enumerate().filter(|(i, _)| (first..=last).contains(i)).for_each(|(_, f)| *f = present);
-        }
-        match PatternSearch::new(fault_bounds(), TARGETED_REFIT, x, Some(cost), free) {
+        match PatternSearch::new(fault_bounds(), TARGETED_REFIT, x, Some(cost), present_free(&x)) {
             Ok(search) => self.stage = Stage::Warm(WarmStage::Refit(search)),
             Err(_) => self.end_warm(TerminationReason::FunctionTolerance),
         }
