@@ -461,8 +461,7 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
 mod tests {
     use super::super::identification::tests::noisy_self_trace;
     use super::*;
-    use crate::conditioning::{MeasuredTrace, DECIMATION};
-    use crate::fitness::simulate_window;
+    use crate::conditioning::MeasuredTrace;
     use crate::monitor::{MonitorError, ONBOARD_POPULATION, ONBOARD_WINDOW};
     use crate::params::EmaParams;
     use crate::profile::Profile;
