@@ -22,7 +22,7 @@
 //!    still absent run again (at most [`MAX_NEW_FAULTS`] refits per flight);
 //! 5. **model selection and the polish**, as after a cold global search (only the present groups
 //!    move): a group the new flight no longer supports is dropped, the others are polished.
-
+//!
 //! A probe of severity `s` lowers the cost when the fault is larger than about `s/2` (`E` is
 //! nearly quadratic in a fault's severity), so the probe severity sets the smallest new fault
 //! one flight detects; smaller ones are left to the evidence pooled over flights. The choice and
