@@ -4,20 +4,24 @@
 //! (the last diagnosis) the warm identification ([`Identification::warm`]) runs, in order:
 //! 1. **start**: the prior with its absent groups exactly healthy, its cost and the effective
 //!    sample count `n` of the information criterion (two evaluations);
-//! 2. **model selection and the polish** from the prior, as after a cold global search (only
-//!    the groups present in the prior move): a group the new flight no longer supports is
-//!    dropped, the others follow their drift;
-//! 3. **new-fault probes**: for each group absent from the result, one evaluation with the group
-//!    at [`PROBE_SEVERITY`] (the eccentricity at each of the four basin phases of
-//!    [`super::starting_guesses`], the gain drift on both sides of nominal). A probe **fires** when
+//! 2. **drift polish** ([`DRIFT_POLISH`]): a coarse compass search over the prior's present
+//!    groups, each parameter within [`MAX_DRIFT`] of the prior, so that the cost the probes and
+//!    model selection compare with is that of the prior's groups followed by their drift;
+//! 3. **new-fault probes**: for each group absent from the prior, one evaluation with the group
+//!    at [`PROBE_SEVERITY`] (the eccentricity at [`ECCENTRICITY_PROBES`] phases, the gain drift
+//!    on both sides of nominal). A probe **fires** when
 //!    the same Bayesian information criterion as model selection says the group pays for its
 //!    parameters at the probe point: [`group_pays`]`(E_probe, E_best, m, n)`. The probe's model
 //!    run is abandoned as soon as its cost exceeds the criterion's threshold, so a quiet probe
-//!    costs a fraction of an evaluation;
+//!    costs a fraction of an evaluation. The probes run before the present groups move freely:
+//!    a new fault that a present group can imitate (a new short on phase B by a known short on C
+//!    grown threefold) is then still seen as the probe's gain;
 //! 4. **targeted refit** when one fires: each fired probe is scouted by a short compass search
 //!    over its group alone ([`PROBE_SCOUT`]), and a compass search ([`TARGETED_REFIT`]) from the
 //!    best scouted point moves that group and the present ones; then the probes of the groups
-//!    still absent run again (at most [`MAX_NEW_FAULTS`] refits per flight).
+//!    still absent run again (at most [`MAX_NEW_FAULTS`] refits per flight);
+//! 5. **model selection and the polish**, as after a cold global search (only the present groups
+//!    move): a group the new flight no longer supports is dropped, the others are polished.
 //!
 //! A probe of severity `s` lowers the cost when the fault is larger than about `s/2` (`E` is
 //! nearly quadratic in a fault's severity), so the probe severity sets the smallest new fault
@@ -36,7 +40,7 @@ use super::selection::{group_pays, group_present, Selection, FAULT_GROUPS};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::health::HealthReport;
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
-use crate::optimizer::{Objective, Optimizer, Status, TerminationReason};
+use crate::optimizer::{Bounds, Objective, Optimizer, Status, TerminationReason};
 
 /// Severity of a new-fault probe (normalized, the scale of the fault vector): 0.1. A probe
 /// fires for a new fault above about half of it (0.05, the campaign's smallest "low" fault);
@@ -47,6 +51,23 @@ pub const PROBE_SEVERITY: f32 = 0.1;
 /// probe) down to the polish's 2e-4, at most 250 evaluations.
 pub const TARGETED_REFIT: PatternConfig = PatternConfig { initial_step: 0.05, min_step: 2.0e-4, max_evaluations: 250 };
 
+/// The drift polish of a warm start, before the probes and model selection: a compass search over the prior's
+/// present groups, steps from 0.02 (a flight's drift is a few hundredths) down to 2e-3, at most
+/// 120 evaluations. Model selection judges a group by `E` with it against `E` of the refit
+/// without it; at the unmoved prior, `E` with it is stale by the drift, and a refit of the other
+/// groups that absorbs the drift can beat it, so a group the flight still has is dropped (and
+/// its probe then fires). After the drift polish, `E` with the group is near its best, as after
+/// a cold global search.
+///
+/// The drift polish stays within [`MAX_DRIFT`] of the prior: a larger move is not a drift but a
+/// new fault another group imitates (a new short on phase B fitted by a known short on phase C
+/// grown threefold), which the probes must see against the prior's groups, not after them.
+pub const DRIFT_POLISH: PatternConfig = PatternConfig { initial_step: 0.02, min_step: 2.0e-3, max_evaluations: 120 };
+
+/// The largest change of a fault parameter between two flights the drift polish follows
+/// (normalized): 0.05, above the few hundredths a fault grows by in one flight.
+pub const MAX_DRIFT: f32 = 0.05;
+
 /// Targeted refits one warm identification runs at most (new faults found in one flight).
 pub const MAX_NEW_FAULTS: u8 = 2;
 
@@ -54,9 +75,16 @@ pub const MAX_NEW_FAULTS: u8 = 2;
 /// bounds how long a wrong prior (a basin the probes cannot leave) can persist.
 pub const COLD_EVERY_FLIGHTS: u32 = 20;
 
-/// Probe points: friction, backlash, the three shorts (one each), eccentricity at four phases,
-/// gain drift up and down.
-const PROBES: usize = 11;
+/// Phases of the eccentricity probes: eight, at `(2j + 1)/16` of a turn. The gain of an
+/// eccentricity is narrow in phase (at a severity near the probe's, a probe a quarter of a turn
+/// from the fault's phase barely lowers the cost), so a probe grid of a quarter of a turn leaves
+/// faults between its points unseen (an eccentricity of 0.18 halfway between two of them);
+/// an eighth of a turn halves the largest phase gap.
+const ECCENTRICITY_PROBES: usize = 8;
+
+/// Probe points: friction, backlash, the three shorts (one each), eccentricity at
+/// [`ECCENTRICITY_PROBES`] phases, gain drift up and down.
+const PROBES: usize = 7 + ECCENTRICITY_PROBES;
 
 /// The probe `index` (`0..PROBES`): its group (index into [`FAULT_GROUPS`]) and the parameters it
 /// sets, applied to `k`.
@@ -67,16 +95,16 @@ fn probe_point(k: &[f32; FAULT_COUNT], index: usize) -> Option<(usize, [f32; FAU
             *x.get_mut(index)? = PROBE_SEVERITY;
             index
         }
-        5..=8 => {
+        5..=12 => {
             x[5] = PROBE_SEVERITY;
-            x[PHASE_INDEX] = 0.125 + 0.25 * (index - 5) as f32;
+            x[PHASE_INDEX] = (2 * (index - 5) + 1) as f32 / (2 * ECCENTRICITY_PROBES) as f32;
             5
         }
-        9 => {
+        13 => {
             x[7] = 0.5 + 0.5 * PROBE_SEVERITY;
             6
         }
-        10 => {
+        14 => {
             x[7] = 0.5 - 0.5 * PROBE_SEVERITY;
             6
         }
@@ -175,8 +203,11 @@ pub(super) enum WarmStage {
     /// Evaluates the prior's cost (one evaluation).
     Start,
     /// Evaluates `n` of the information criterion at the prior (one evaluation), then hands over
-    /// to model selection.
+    /// to the drift polish (or, with model selection off, to the polish).
     Samples,
+    /// Follows the drift of the prior's groups before the probes ([`DRIFT_POLISH`]; one
+    /// evaluation per step).
+    Drift(PatternSearch<FAULT_COUNT>),
     /// Runs probe `next` on (one evaluation each); bit `i` of `fired` marks probe `i` fired.
     Probe {
         /// Next probe index.
@@ -197,13 +228,15 @@ pub(super) enum WarmStage {
     Refit(PatternSearch<FAULT_COUNT>),
 }
 
-/// The warm identification's state beside the stage: its report, `n`, and whether the stages
-/// of model selection and the polish are over (then the probes run).
+/// The warm identification's state beside the stage: its report, `n`, whether the probes have
+/// started (`probing`: the polish then ends the warm stages) and whether model selection has
+/// started (`selected`: the end of the probes then ends them).
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct WarmState {
     pub(super) report: WarmReport,
     pub(super) effective_samples: f32,
     pub(super) probing: bool,
+    pub(super) selected: bool,
 }
 
 /// The parameters of `FAULT_GROUPS[group]` free, the others fixed.
@@ -215,8 +248,33 @@ fn group_free(group: usize) -> [bool; FAULT_COUNT] {
     free
 }
 
+/// The box of the drift polish around `prior`: each parameter within [`MAX_DRIFT`] of the
+/// prior's value (and within the fault bounds), the eccentricity phase free on its circle.
+fn drift_bounds(prior: &[f32; FAULT_COUNT]) -> Bounds<FAULT_COUNT> {
+    let mut bounds = fault_bounds();
+    for (i, &x) in prior.iter().enumerate() {
+        if i != PHASE_INDEX {
+            bounds.lower[i] = (x - MAX_DRIFT).max(bounds.lower[i]);
+            bounds.upper[i] = (x + MAX_DRIFT).min(bounds.upper[i]);
+        }
+    }
+    bounds
+}
+
+/// The parameters of the groups present in `k` free, the others fixed.
+fn present_free(k: &[f32; FAULT_COUNT]) -> [bool; FAULT_COUNT] {
+    let mut free = [false; FAULT_COUNT];
+    for &(first, last) in FAULT_GROUPS.iter() {
+        let present = group_present(k, (first, last));
+        free.iter_mut().enumerate().filter(|(i, _)| (first..=last).contains(i)).for_each(|(_, f)| *f = present);
+    }
+    free
+}
+
 impl<const W: usize, const P: usize> Identification<'_, W, P> {
-    /// One step of the warm stages (see [`WarmStage`] for what each spends).
+    /// One step of the warm stages (see [`WarmStage`] for what each spends). Not inlined: the
+    /// cold path's `step` stays as compact as without the warm stages.
+    #[inline(never)]
     pub(super) fn warm_step(&mut self) {
         let Some(warm) = self.warm.as_mut() else { return };
         let Stage::Warm(stage) = &mut self.stage else { return };
@@ -230,10 +288,31 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
                 let effective_samples = self.fit.effective_samples(&FaultVector(self.best));
                 warm.effective_samples = effective_samples;
                 warm.report.evaluations += 1;
-                if self.config.model_selection {
-                    self.stage = Stage::Select(Selection::NextGroup { group: 0, effective_samples });
-                } else {
+                if !self.config.model_selection {
                     self.start_polish(TerminationReason::FunctionTolerance);
+                    return;
+                }
+                let free = present_free(&self.best);
+                let bounds = drift_bounds(&self.best);
+                match PatternSearch::new(bounds, DRIFT_POLISH, self.best, Some(self.best_cost), free) {
+                    Ok(search) if free.iter().any(|&f| f) => *stage = WarmStage::Drift(search),
+                    _ => {
+                        warm.probing = true;
+                        *stage = WarmStage::Probe { next: 0, fired: 0 };
+                    }
+                }
+            }
+            WarmStage::Drift(search) => {
+                let before = search.evaluations();
+                let status = search.step(&mut self.fit);
+                warm.report.evaluations += search.evaluations() - before;
+                if let Status::Done(_) = status {
+                    let (x, c) = search.best();
+                    if c <= self.best_cost {
+                        (self.best, self.best_cost) = (*x, c);
+                    }
+                    warm.probing = true;
+                    *stage = WarmStage::Probe { next: 0, fired: 0 };
                 }
             }
             WarmStage::Probe { next, fired } => {
@@ -312,21 +391,30 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
     fn start_refit(&mut self, best: Option<([f32; FAULT_COUNT], f32)>) {
         let refits = self.warm.map_or(MAX_NEW_FAULTS, |w| w.report.refits);
         let Some((x, cost)) = best else {
-            self.end_warm(TerminationReason::FunctionTolerance);
+            self.probes_done(TerminationReason::FunctionTolerance);
             return;
         };
         if refits >= MAX_NEW_FAULTS {
-            self.end_warm(TerminationReason::MaxIterations);
+            self.probes_done(TerminationReason::MaxIterations);
             return;
         }
-        let mut free = [false; FAULT_COUNT];
-        for &(first, last) in FAULT_GROUPS.iter() {
-            let present = group_present(&x, (first, last));
-            free.iter_mut().enumerate().filter(|(i, _)| (first..=last).contains(i)).for_each(|(_, f)| *f = present);
-        }
-        match PatternSearch::new(fault_bounds(), TARGETED_REFIT, x, Some(cost), free) {
+        match PatternSearch::new(fault_bounds(), TARGETED_REFIT, x, Some(cost), present_free(&x)) {
             Ok(search) => self.stage = Stage::Warm(WarmStage::Refit(search)),
-            Err(_) => self.end_warm(TerminationReason::FunctionTolerance),
+            Err(_) => self.probes_done(TerminationReason::FunctionTolerance),
+        }
+    }
+
+    /// Where a warm identification goes once the probes (and their refits) are over: model
+    /// selection and the polish when they have not run yet (the probes ran after the drift
+    /// polish), the end otherwise.
+    fn probes_done(&mut self, reason: TerminationReason) {
+        match self.warm.as_mut() {
+            Some(warm) if self.config.model_selection && !warm.selected => {
+                warm.selected = true;
+                let effective_samples = warm.effective_samples;
+                self.stage = Stage::Select(Selection::NextGroup { group: 0, effective_samples });
+            }
+            _ => self.end_warm(reason),
         }
     }
 
@@ -354,8 +442,8 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
         self.stage = Stage::Global;
     }
 
-    /// Where a warm identification goes once model selection and the polish are over: the
-    /// probes (the first time), or the end.
+    /// Where a warm identification goes once the polish is over: the probes when they have not
+    /// run yet (model selection off), or the end.
     pub(super) fn finish(&mut self, reason: TerminationReason) {
         match self.warm.as_mut() {
             Some(warm) if warm.report.cold_fallback => self.stage = Stage::Done(reason),
@@ -373,8 +461,7 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
 mod tests {
     use super::super::identification::tests::noisy_self_trace;
     use super::*;
-    use crate::conditioning::{MeasuredTrace, DECIMATION};
-    use crate::fitness::simulate_window;
+    use crate::conditioning::MeasuredTrace;
     use crate::monitor::{MonitorError, ONBOARD_POPULATION, ONBOARD_WINDOW};
     use crate::params::EmaParams;
     use crate::profile::Profile;
