@@ -119,7 +119,8 @@ pub struct CampaignArgs {
     /// algorithm, reported separately (`multi-low`).
     #[arg(long, default_value_t = 0)]
     pub multi_low: u32,
-    /// Sensor noise of the reference model's recordings (`off`: the paper's conditions).
+    /// Sensor noise of the reference model's recordings (`off`: the paper's conditions; the
+    /// monitor then identifies with its sensor noise set to 0, as for sensors calibrated noiseless).
     #[arg(long, value_enum, default_value_t = Noise::On)]
     pub noise: Noise,
     /// Recordings per run (flights of the same actuator with the same fault vector), identified
