@@ -135,7 +135,7 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
     let csv = runs_csv(&one);
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().expect("header").split(',').collect();
-    assert_eq!(header.len(), 5 + 16 + 4 + 8 + 2);
+    assert_eq!(header.len(), 5 + 16 + 4 + 8 + 2 + 1);
     assert_eq!(header[21..25], ["err_percent", "identification_s", "evaluations", "floor_err_percent"]);
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), plans.len());
