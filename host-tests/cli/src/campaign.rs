@@ -16,7 +16,17 @@
 //!   [0.05, 0.15] (small simultaneous faults), reported as their own row (`multi-low`);
 //! - `--audit`: the master seed is [`AUDIT_SEED`], which no test uses, so its draws are fault
 //!   vectors the method was never tuned on;
-//! - the sensor-noise seed of the reference model and the optimizer's seed come from the same draw.
+//! - the sensor-noise seed of the reference model and the optimizer's seed come from the same draw;
+//! - `--flights N`: each run records the same fault vector N times (same manoeuvre, the sensor
+//!   noise of flight `f > 0` seeded by [`flight_seed`]) and identifies the N recordings together
+//!   with the pooled fitness (`CurrentFit::pooled_with`, as `ema identify A.csv B.csv …` does),
+//!   so the cell measures what pooling evidence over flights buys.
+//!
+//! **Noise off.** `--noise off` is the paper's conditions: the recordings carry no sensor noise,
+//! and the monitor is told so, as a user who calibrated the sensors as noiseless would: its
+//! parameters' `current_noise_a` and `position_noise_rad` are 0 ([`monitor_params`]), so the
+//! measured envelope, the verdict's noise model and the 1σ assume only the controller's
+//! resolution jitter and the sensed hysteresis ripple that a noiseless recording still has.
 //!
 //! **Coverage.** Each report carries the 1σ of every parameter (`src/monitor/uncertainty.rs`);
 //! a run counts how many of its true values lie within ±2σ of the estimate ([`coverage`]), and
@@ -34,9 +44,12 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 use ema_monitor::conditioning::MeasuredTrace;
-use ema_monitor::fitness::CurrentFit;
-use ema_monitor::monitor::{group_pays, group_present, without_group, Algorithm, IdentifyConfig, FAULT_GROUPS};
-use ema_monitor::{EmaParams, FaultVector, Profile};
+use ema_monitor::fitness::{CurrentFit, PooledTrace, MAX_POOLED_RECORDINGS};
+use ema_monitor::monitor::{
+    group_pays, group_present, without_group, Algorithm, Identification, IdentifyConfig, FAULT_GROUPS,
+    ONBOARD_POPULATION,
+};
+use ema_monitor::{Command, EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -106,9 +119,14 @@ pub struct CampaignArgs {
     /// algorithm, reported separately (`multi-low`).
     #[arg(long, default_value_t = 0)]
     pub multi_low: u32,
-    /// Sensor noise of the reference model's recordings (`off`: the paper's conditions).
+    /// Sensor noise of the reference model's recordings (`off`: the paper's conditions; the
+    /// monitor then identifies with its sensor noise set to 0, as for sensors calibrated noiseless).
     #[arg(long, value_enum, default_value_t = Noise::On)]
     pub noise: Noise,
+    /// Recordings per run (flights of the same actuator with the same fault vector), identified
+    /// together by the pooled identification; 1 is the paper's protocol.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=MAX_POOLED_RECORDINGS as i64))]
+    pub flights: u32,
     /// Iteration limit of each identification (the paper: 200).
     #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(1..))]
     pub max_iterations: u32,
@@ -169,6 +187,8 @@ pub struct Plan {
     pub seed: u64,
     /// The injected fault vector.
     pub truth: FaultVector,
+    /// Recordings of the truth identified together (`--flights`).
+    pub flights: u32,
 }
 
 /// One finished run.
@@ -236,10 +256,24 @@ pub fn detectability_floor<const W: usize>(
     config: &IdentifyConfig,
     truth: &FaultVector,
 ) -> FaultVector {
+    detectability_floor_pooled(trace, &[], params, profile, config, truth)
+}
+
+/// [`detectability_floor`] of the pooled fitness over `trace` and the recordings `more` (every
+/// one under `profile`): the criterion weighs the evidence of every flight at once.
+pub fn detectability_floor_pooled<'a, const W: usize>(
+    trace: &'a MeasuredTrace<W>,
+    more: &'a [PooledTrace<'a, W>],
+    params: &EmaParams,
+    profile: &Profile,
+    config: &IdentifyConfig,
+    truth: &FaultVector,
+) -> FaultVector {
     let Some(fit) = CurrentFit::new(trace, *params, *profile)
         .ok()
         .map(|fit| fit.with_effects(config.effects))
         .and_then(|fit| fit.with_fast_regime_weight(config.fast_regime_weight))
+        .and_then(|fit| if more.is_empty() { Some(fit) } else { fit.pooled_with(more).ok() })
     else {
         return *truth;
     };
@@ -327,7 +361,15 @@ pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
                     let severity = rng.range(lo, hi);
                     inject(&mut truth, mode, severity, &mut rng);
                     let seed = rng.next_u64() ^ alg_key;
-                    out.push(Plan { algorithm, mode: MODES[mode].to_string(), level, run, seed, truth });
+                    out.push(Plan {
+                        algorithm,
+                        mode: MODES[mode].to_string(),
+                        level,
+                        run,
+                        seed,
+                        truth,
+                        flights: args.flights,
+                    });
                 }
             }
         }
@@ -350,7 +392,15 @@ pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
             }
             let names: Vec<&str> = chosen.iter().map(|&m| MODES[m]).collect();
             let seed = rng.next_u64() ^ alg_key;
-            out.push(Plan { algorithm, mode: names.join("+"), level: "multi", run, seed, truth });
+            out.push(Plan {
+                algorithm,
+                mode: names.join("+"),
+                level: "multi",
+                run,
+                seed,
+                truth,
+                flights: args.flights,
+            });
         }
         for run in 0..args.multi_low {
             let key = 8u64 << 40 | u64::from(run);
@@ -361,7 +411,15 @@ pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
                 inject(&mut truth, m, severity, &mut rng);
             }
             let seed = rng.next_u64() ^ alg_key;
-            out.push(Plan { algorithm, mode: "all-low".to_string(), level: "multi-low", run, seed, truth });
+            out.push(Plan {
+                algorithm,
+                mode: "all-low".to_string(),
+                level: "multi-low",
+                run,
+                seed,
+                truth,
+                flights: args.flights,
+            });
         }
     }
     Ok(out)
@@ -382,9 +440,33 @@ pub fn identify_config(args: &CampaignArgs) -> IdentifyConfig {
     crate::identify::method_flags(base, args.paper_only, args.fast_regime_weight)
 }
 
+/// The parameters the monitor identifies with: the actuator's `params`, with the sensor noise
+/// (`current_noise_a`, `position_noise_rad`) set to 0 when the recordings carry none (`noise`
+/// false), as a user who calibrated the sensors as noiseless would declare them.
+pub fn monitor_params(params: &EmaParams, noise: bool) -> EmaParams {
+    if noise {
+        *params
+    } else {
+        EmaParams { current_noise_a: 0.0, position_noise_rad: 0.0, ..*params }
+    }
+}
+
+/// Seed of the sensor noise of flight `flight` of a run seeded `seed`: `seed` itself for the
+/// first flight (so one flight is the single-recording protocol), an independent SplitMix64
+/// draw for the others.
+pub fn flight_seed(seed: u64, flight: u32) -> u64 {
+    if flight == 0 {
+        seed
+    } else {
+        SplitMix(seed ^ u64::from(flight).wrapping_mul(0x9FB2_1C65_1E98_DF25)).next_u64()
+    }
+}
+
 /// Simulates (sensor noise on when `noise`) and identifies one planned run of the actuator
-/// `params` under `profile`. `base` gives the identification's settings; the algorithm and the
-/// seed come from the plan.
+/// `params` under `profile`: `p.flights` recordings of its truth, identified together by the
+/// pooled identification when more than one. `base` gives the identification's settings; the
+/// algorithm and the seed come from the plan. Without noise the monitor identifies with
+/// [`monitor_params`].
 pub fn execute(
     p: &Plan,
     base: &IdentifyConfig,
@@ -392,15 +474,34 @@ pub fn execute(
     profile: &Profile,
     noise: bool,
 ) -> Result<RunResult, CliError> {
-    let config =
-        SimConfig { params: *params, faults: p.truth, seed: p.seed, profile: *profile, noise, ..SimConfig::default() };
-    let rec = simulate(&config).map_err(|e| CliError::Simulation(e.to_string()))?;
-    let recording = Recording::from_reference(&rec, Vec::new());
     let identify = IdentifyConfig { algorithm: Algorithm::from(p.algorithm), seed: p.seed, ..*base };
     let label = PathBuf::from(format!("campaign run {} {} {} #{}", alg_name(p.algorithm), p.mode, p.level, p.run));
-    let trace = condition_recording(&recording, &label, params, profile)?;
-    let outcome = identify_trace(&trace, params, profile, &identify, &label)?;
-    let floor = detectability_floor(&trace, params, profile, &identify, &p.truth);
+    let mut traces = Vec::new();
+    for flight in 0..p.flights.max(1) {
+        let config = SimConfig {
+            params: *params,
+            faults: p.truth,
+            seed: flight_seed(p.seed, flight),
+            profile: *profile,
+            noise,
+            ..SimConfig::default()
+        };
+        let rec = simulate(&config).map_err(|e| CliError::Simulation(e.to_string()))?;
+        let recording = Recording::from_reference(&rec, Vec::new());
+        traces.push(condition_recording(&recording, &label, params, profile)?);
+    }
+    let params = &monitor_params(params, noise);
+    let (first, rest) = traces.split_first().ok_or_else(|| CliError::Simulation("no flight".into()))?;
+    let more: Vec<PooledTrace<'_, { crate::identify::HOST_WINDOW }>> =
+        rest.iter().map(|t| PooledTrace { trace: &**t, command: Command::Profile(*profile) }).collect();
+    let (outcome, floor) = if more.is_empty() {
+        let outcome = identify_trace(&**first, params, profile, &identify, &label)?;
+        (outcome, detectability_floor(&**first, params, profile, &identify, &p.truth))
+    } else {
+        let outcome = identify_pooled(first, &more, params, profile, &identify)
+            .map_err(|e| CliError::Simulation(format!("{}: {e}", label.display())))?;
+        (outcome, detectability_floor_pooled(&**first, &more, params, profile, &identify, &p.truth))
+    };
     let estimate = outcome.report.faults;
     let sigma = outcome.report.uncertainty.map_or([f32::NAN; 8], |u| u.sigma);
     Ok(RunResult {
@@ -413,6 +514,23 @@ pub fn execute(
         sigma,
         coverage: coverage(&p.truth, &estimate, &sigma),
     })
+}
+
+/// The pooled identification of `first` and `more` (every recording under `profile`) to its
+/// end, as `ema identify A.csv B.csv …` runs it, with the report's 1σ on the pooled fitness.
+fn identify_pooled<'a, const W: usize>(
+    first: &'a MeasuredTrace<W>,
+    more: &'a [PooledTrace<'a, W>],
+    params: &EmaParams,
+    profile: &Profile,
+    config: &IdentifyConfig,
+) -> Result<crate::identify::Outcome, ema_monitor::monitor::MonitorError> {
+    let start = std::time::Instant::now();
+    let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> =
+        Box::new(Identification::new(first, *params, *profile, config)?.pooled_with(more)?);
+    id.run(u32::MAX);
+    let report = id.with_uncertainty(id.report());
+    Ok(crate::identify::Outcome { report, seconds: start.elapsed().as_secs_f64(), warm: None })
 }
 
 fn alg_name(a: AlgorithmArg) -> &'static str {
@@ -581,9 +699,12 @@ fn table(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> String {
     out.push_str(&coverage_table(summary));
     let _ = write!(
         out,
-        "\nErr% by the paper's formula; ours: {} runs per cell, reference model with sensor noise {}, profile {}, max {} iterations, {}, fast-regime weight {}, seed {}{}.",
+        "\nErr% by the paper's formula; ours: {} runs per cell, {} flight{} per run{}, reference model with sensor noise {}, profile {}, max {} iterations, {}, fast-regime weight {}, seed {}{}.",
         args.runs,
-        if args.noise == Noise::On { "on" } else { "off" },
+        args.flights,
+        if args.flights == 1 { "" } else { "s" },
+        if args.flights == 1 { "" } else { " (pooled identification)" },
+        if args.noise == Noise::On { "on" } else { "off (monitor told: sensor noise 0)" },
         args.profile,
         args.max_iterations,
         if args.paper_only { "global search only" } else { "then model selection and polish" },
@@ -657,6 +778,8 @@ pub struct SummaryJson<'a> {
     pub seed: u64,
     /// `--noise`: whether the recordings carry sensor noise.
     pub noise: bool,
+    /// `--flights`: recordings per run, identified together.
+    pub flights: u32,
     /// False with `--paper-only`.
     pub model_selection_and_polish: bool,
     /// The fitness's fast-regime weight.
@@ -679,6 +802,7 @@ pub fn summary_json(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> S
             max_iterations: args.max_iterations,
             seed: master_seed(args),
             noise: args.noise == Noise::On,
+            flights: args.flights,
             model_selection_and_polish: !args.paper_only,
             fast_regime_weight: identify_config(args).fast_regime_weight,
             cells,
@@ -723,7 +847,7 @@ pub fn runs_csv(results: &[RunResult]) -> String {
     for i in 1..=8 {
         let _ = write!(out, ",k{i}_sigma");
     }
-    out.push_str(",coverage_counted,coverage_covered\n");
+    out.push_str(",coverage_counted,coverage_covered,flights\n");
     for r in results {
         let p = &r.plan;
         let _ = write!(out, "{},{},{},{},{}", alg_name(p.algorithm), p.mode, p.level, p.run, p.seed);
@@ -734,7 +858,7 @@ pub fn runs_csv(results: &[RunResult]) -> String {
         for s in &r.sigma {
             let _ = write!(out, ",{s}");
         }
-        let _ = writeln!(out, ",{},{}", r.coverage.0, r.coverage.1);
+        let _ = writeln!(out, ",{},{},{}", r.coverage.0, r.coverage.1, p.flights);
     }
     out
 }

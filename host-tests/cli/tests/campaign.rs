@@ -16,6 +16,7 @@ fn args(runs: u32, modes: &[&str]) -> CampaignArgs {
         algorithms: vec![AlgorithmArg::Pso],
         multi: 0,
         multi_low: 0,
+        flights: 1,
         noise: ema_cli::simulate::Noise::On,
         max_iterations: 2,
         paper_only: false,
@@ -134,7 +135,7 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
     let csv = runs_csv(&one);
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().expect("header").split(',').collect();
-    assert_eq!(header.len(), 5 + 16 + 4 + 8 + 2);
+    assert_eq!(header.len(), 5 + 16 + 4 + 8 + 2 + 1);
     assert_eq!(header[21..25], ["err_percent", "identification_s", "evaluations", "floor_err_percent"]);
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), plans.len());
@@ -232,6 +233,34 @@ fn differential_evolution_runs_on_the_same_recordings_and_gets_its_own_rows() {
         assert!(!row("pso", level).ends_with("| – | – |"), "{}", row("pso", level));
     }
     assert!(!table.contains("| ga |"), "{table}");
+}
+
+/// `--flights 2`: every run records its truth twice (the second flight's noise seeded apart),
+/// identifies both recordings together, and the outputs say 2 flights.
+#[test]
+fn two_flights_are_pooled_and_the_summary_says_so() {
+    let dir = scratch("campaign", "flights");
+    let a = CampaignArgs {
+        flights: 2,
+        output: ema_cli::output::OutputArgs { out: Some(dir.clone()), force: true },
+        ..args(1, &["gain"])
+    };
+    assert!(plan(&a).expect("valid").iter().all(|p| p.flights == 2));
+    assert_eq!(campaign::flight_seed(7, 0), 7, "the first flight is the single-recording protocol");
+    assert_ne!(campaign::flight_seed(7, 1), campaign::flight_seed(7, 2));
+    let table = campaign::run(&a).expect("runs");
+    assert!(table.contains("2 flights per run (pooled identification)"), "{table}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).expect("written")).expect("json");
+    assert_eq!(json["flights"], 2, "{json}");
+    let runs = std::fs::read_to_string(dir.join("runs.csv")).expect("written");
+    let mut lines = runs.lines();
+    assert!(lines.next().expect("header").ends_with(",flights"));
+    for row in lines {
+        assert!(row.ends_with(",2"), "{row}");
+        let evaluations: u32 = row.split(',').nth(23).expect("evaluations").parse().expect("integer");
+        assert!(evaluations > 0, "{row}");
+    }
 }
 
 /// `--profile FILE`: every run flies that manoeuvre (its length) and is identified under it,

@@ -38,6 +38,7 @@ fn two_sigma_covers_the_true_values_of_a_small_campaign() {
         algorithms: vec![AlgorithmArg::Pso],
         multi: 4,
         multi_low: 0,
+        flights: 1,
         noise: Noise::On,
         audit: false,
         max_iterations: 30,

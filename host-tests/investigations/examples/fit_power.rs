@@ -37,6 +37,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         algorithms: vec![AlgorithmArg::Pso],
         multi: 0,
         multi_low: 0,
+        flights: 1,
         noise: ema_cli::simulate::Noise::On,
         max_iterations: 200,
         paper_only: false,
