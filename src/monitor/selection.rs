@@ -398,7 +398,7 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
         }
         let mut index = next;
         while let Some(&mv) = PHASE_MOVES.get(index) {
-            if index % 2 == 0 {
+            if index.is_multiple_of(2) {
                 origin = self.best; // the first move of a phase
             }
             index += 1;
