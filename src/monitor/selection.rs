@@ -12,7 +12,9 @@
 //!    where it gains most ([`helps_without_its_best_window`], two evaluations;
 //!    `docs/decisions/0002-window-check.md`).
 //!
-//! Groups refused are set back to healthy before the polish. Every step spends from the budget of
+//! Groups refused are set back to healthy. Then each short circuit left is tried on the other
+//! phases ([`PHASE_MOVES`], at most 7 evaluations), and a move that lowers `E` is kept, before the
+//! polish. Every step spends from the budget of
 //! [`IdentifyConfig::selection_polish_max_evaluations`](super::IdentifyConfig); the groups it has
 //! no budget left to test stay and are counted in the report.
 
@@ -114,6 +116,31 @@ pub fn refit_replaces(with: &[f32; FAULT_COUNT], without: &[f32; FAULT_COUNT], t
     })
 }
 
+/// The phase moves of the short circuits, as `(from, to)` indices into the fault vector (`k3`,
+/// `k4`, `k5`: shorts on phases A, B, C): each short moved to each other phase, in this order,
+/// the two moves of a phase side by side (both start from the same vector, and the better one is
+/// kept).
+/// The three shorts are separate basins of `E` (`docs/decisions/0010-basin-seeds.md`): a short
+/// budget of the global search can end in the wrong one, where the severity is right and the
+/// phase is not, and no local step (refit, polish) crosses from one basin to the other. A move
+/// tries the other basin at once (`docs/decisions/0026-short-phase-move.md`).
+pub const PHASE_MOVES: [(usize, usize); 6] = [(2, 3), (2, 4), (3, 2), (3, 4), (4, 2), (4, 3)];
+
+/// `k` with the short of the move `(from, to)` ([`PHASE_MOVES`]) moved onto the phase `to`: its
+/// severity is added to that phase's (a short split over two phases merges into one), capped at 1,
+/// and the phase `from` set healthy. `None` when there is no short on `from` to move (or an index
+/// is outside the vector).
+pub fn phase_moved(k: &[f32; FAULT_COUNT], (from, to): (usize, usize)) -> Option<[f32; FAULT_COUNT]> {
+    let (&severity, &there) = (k.get(from)?, k.get(to)?);
+    if from == to || severity <= PRESENT_ABOVE {
+        return None;
+    }
+    let mut out = *k;
+    *out.get_mut(from)? = 0.0;
+    *out.get_mut(to)? = (severity + there).min(1.0);
+    Some(out)
+}
+
 /// Where model selection is. `group` indexes [`FAULT_GROUPS`]; `effective_samples` is the `n` of
 /// the information criterion, evaluated once on the global search's best vector.
 #[derive(Clone, Debug)]
@@ -154,6 +181,16 @@ pub(super) enum Selection {
         effective_samples: f32,
         /// Which of the check's two evaluations is next.
         check: WindowCheck,
+    },
+    /// After the groups are judged: scores the vector when selection changed it (one
+    /// evaluation), then tries the next possible move of [`PHASE_MOVES`] from `next` on (one
+    /// evaluation each, abandoned above the best cost) and keeps it when it lowers `E`.
+    PhaseMove {
+        /// First move of [`PHASE_MOVES`] not tried yet.
+        next: usize,
+        /// The vector the moves of `next`'s phase start from: the best one before the first of
+        /// them, so the second competes with the first instead of moving its result.
+        origin: [f32; FAULT_COUNT],
     },
 }
 
@@ -202,6 +239,10 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
                     let (group, effective_samples) = (*group, *effective_samples);
                     self.refit_done(group, effective_samples);
                 }
+            }
+            Selection::PhaseMove { next, origin } => {
+                let (next, origin) = (*next, *origin);
+                self.phase_move_step(next, origin);
             }
             Selection::WindowCheck { group, effective_samples, check } => {
                 self.selection_polish_evaluations += 1;
@@ -333,6 +374,46 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
             group += 1;
         }
         self.drop_unpaid_groups();
+        if PHASE_MOVES.iter().any(|&mv| phase_moved(&self.best, mv).is_some()) {
+            self.stage = Stage::Select(Selection::PhaseMove { next: 0, origin: self.best });
+        } else {
+            self.start_polish(self.global_reason());
+        }
+    }
+
+    /// One step of the phase moves ([`Selection::PhaseMove`]): at most one evaluation, so the
+    /// moves spend at most 1 + [`PHASE_MOVES`]`.len()` = 7 evaluations, from the budget of
+    /// selection and the polish. A move is kept only when `E` falls: no threshold, and the
+    /// number of parameters does not change (a merge of two shorts removes one). The group a
+    /// short moves to is kept, so the polish refines it.
+    fn phase_move_step(&mut self, next: usize, mut origin: [f32; FAULT_COUNT]) {
+        if selection_polish_left(&self.config, self.selection_polish_evaluations) == 0 {
+            self.start_polish(self.global_reason());
+            return;
+        }
+        if self.best_cost.is_nan() {
+            self.best_cost = self.fit.error(&FaultVector(self.best));
+            self.selection_polish_evaluations += 1;
+            return;
+        }
+        let mut index = next;
+        while let Some(&mv) = PHASE_MOVES.get(index) {
+            if index.is_multiple_of(2) {
+                origin = self.best; // the first move of a phase
+            }
+            index += 1;
+            let Some(x) = phase_moved(&origin, mv) else { continue };
+            let cost = self.fit.error_abandoning(&FaultVector(x), self.best_cost);
+            self.selection_polish_evaluations += 1;
+            if cost < self.best_cost {
+                (self.best, self.best_cost) = (x, cost);
+                if let Some(kept) = self.kept.get_mut(mv.1) {
+                    *kept = true; // the groups of the shorts are indexed as their parameters
+                }
+            }
+            self.stage = Stage::Select(Selection::PhaseMove { next: index, origin });
+            return;
+        }
         self.start_polish(self.global_reason());
     }
 
@@ -412,5 +493,20 @@ mod tests {
         assert!(!group_pays(1.0, 0.99, 1, 2000.0), "a group that makes E worse never pays");
         assert!(group_pays(0.0, 1e-9, 1, 2000.0), "an exact fit keeps what it needs");
         assert!(!group_pays(1.0, f32::NAN, 1, 2000.0));
+    }
+
+    #[test]
+    fn a_phase_move_carries_the_severity_and_merges_a_split_short() {
+        let k = [0.2, 0.0, 0.0, 0.3, 0.0, 0.0, 0.5, 0.5]; // friction, short B
+        assert_eq!(phase_moved(&k, (3, 2)), Some([0.2, 0.0, 0.3, 0.0, 0.0, 0.0, 0.5, 0.5]));
+        assert_eq!(phase_moved(&k, (3, 4)), Some([0.2, 0.0, 0.0, 0.0, 0.3, 0.0, 0.5, 0.5]));
+        assert_eq!(phase_moved(&k, (2, 3)), None, "no short on A to move");
+        let split = [0.0, 0.0, 0.6, 0.0, 0.7, 0.0, 0.5, 0.5];
+        assert_eq!(phase_moved(&split, (2, 4)), Some([0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.5, 0.5]), "capped");
+        assert_eq!(phase_moved(&split, (3, 3)), None);
+        assert_eq!(phase_moved(&split, (4, 9)), None);
+        assert!(PHASE_MOVES.iter().all(|&(from, to)| from != to && (2..=4).contains(&from) && (2..=4).contains(&to)));
+        // the two moves of a phase side by side, starting at an even index
+        assert!(PHASE_MOVES.chunks(2).all(|pair| pair[0].0 == pair[1].0));
     }
 }
