@@ -38,6 +38,7 @@ use super::config::{fault_bounds, IdentifyConfig, PHASE_INDEX};
 use super::identification::{Identification, Stage};
 use super::selection::{group_pays, group_present, Selection, FAULT_GROUPS};
 use crate::faults::{FaultVector, FAULT_COUNT};
+use crate::fitness::CurrentFit;
 use crate::health::HealthReport;
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
 use crate::optimizer::{Bounds, Objective, Optimizer, Status, TerminationReason};
@@ -271,6 +272,25 @@ fn present_free(k: &[f32; FAULT_COUNT]) -> [bool; FAULT_COUNT] {
     free
 }
 
+/// One step of a warm stage's compass search, its evaluations added to `evaluations`; the
+/// search's best point and cost once it is done.
+fn step_counted<const W: usize>(
+    search: &mut PatternSearch<FAULT_COUNT>,
+    fit: &mut CurrentFit<'_, W>,
+    evaluations: &mut u32,
+) -> Option<([f32; FAULT_COUNT], f32)> {
+    let before = search.evaluations();
+    let status = search.step(fit);
+    *evaluations += search.evaluations() - before;
+    match status {
+        Status::Done(_) => {
+            let (x, c) = search.best();
+            Some((*x, c))
+        }
+        _ => None,
+    }
+}
+
 impl<const W: usize, const P: usize> Identification<'_, W, P> {
     /// One step of the warm stages (see [`WarmStage`] for what each spends). Not inlined: the
     /// cold path's `step` stays as compact as without the warm stages.
@@ -303,13 +323,9 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
                 }
             }
             WarmStage::Drift(search) => {
-                let before = search.evaluations();
-                let status = search.step(&mut self.fit);
-                warm.report.evaluations += search.evaluations() - before;
-                if let Status::Done(_) = status {
-                    let (x, c) = search.best();
+                if let Some((x, c)) = step_counted(search, &mut self.fit, &mut warm.report.evaluations) {
                     if c <= self.best_cost {
-                        (self.best, self.best_cost) = (*x, c);
+                        (self.best, self.best_cost) = (x, c);
                     }
                     warm.probing = true;
                     *stage = WarmStage::Probe { next: 0, fired: 0 };
@@ -342,27 +358,19 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
                 self.next_scout(fired, None);
             }
             WarmStage::Scout { left, search, best } => {
-                let before = search.evaluations();
-                let status = search.step(&mut self.fit);
-                warm.report.evaluations += search.evaluations() - before;
-                if let Status::Done(_) = status {
-                    let (x, c) = search.best();
+                if let Some((x, c)) = step_counted(search, &mut self.fit, &mut warm.report.evaluations) {
                     let best = match *best {
                         Some((_, b)) if b <= c => *best,
-                        _ => Some((*x, c)),
+                        _ => Some((x, c)),
                     };
                     let left = *left;
                     self.next_scout(left, best);
                 }
             }
             WarmStage::Refit(search) => {
-                let before = search.evaluations();
-                let status = search.step(&mut self.fit);
-                warm.report.evaluations += search.evaluations() - before;
-                if let Status::Done(_) = status {
-                    let (x, c) = search.best();
+                if let Some((x, c)) = step_counted(search, &mut self.fit, &mut warm.report.evaluations) {
                     if c <= self.best_cost {
-                        (self.best, self.best_cost) = (*x, c);
+                        (self.best, self.best_cost) = (x, c);
                     }
                     warm.report.refits += 1;
                     *stage = WarmStage::Probe { next: 0, fired: 0 };
