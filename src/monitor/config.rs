@@ -1,12 +1,15 @@
 //! What an identification runs with: the optimizer, its budget, the stages after the global
 //! search, and the on-board constants; the search box and the swarm's seeded starting points.
 
+use super::MonitorError;
+use crate::conditioning::MeasuredTrace;
 use crate::conditioning::DECIMATION;
 use crate::effects::ModelEffects;
 use crate::faults::{FaultVector, FAULT_COUNT};
-use crate::fitness::FAST_REGIME_WEIGHT;
+use crate::fitness::{CurrentFit, FAST_REGIME_WEIGHT};
 use crate::optimizer::pattern::PatternConfig;
 use crate::optimizer::Bounds;
+use crate::{Command, EmaParams};
 
 /// Window capacity of the on-board identification: the standard 0.85 s manoeuvre is 2125 window
 /// samples at 2.5 kHz; 2200 leaves room for a slightly longer recording.
@@ -135,6 +138,21 @@ impl IdentifyConfig {
 
 /// Evaluations of [`IdentifyConfig::selection_polish_max_evaluations`] left after `used` (a free
 /// function: one of its callers holds the selection stage borrowed).
+/// The fitness of `trace` under `command` as `config` sets it (its effect terms and fast-regime
+/// weight): what the identification minimises, and what its uncertainty and the evidence over
+/// flights evaluate again after it.
+pub(super) fn configured_fit<'a, const W: usize>(
+    trace: &'a MeasuredTrace<W>,
+    params: EmaParams,
+    command: impl Into<Command<'a>>,
+    config: &IdentifyConfig,
+) -> Result<CurrentFit<'a, W>, MonitorError> {
+    CurrentFit::new(trace, params, command)?
+        .with_effects(config.effects)
+        .with_fast_regime_weight(config.fast_regime_weight)
+        .ok_or(MonitorError::FastRegimeWeight)
+}
+
 pub(super) fn selection_polish_left(config: &IdentifyConfig, used: u32) -> u32 {
     config.selection_polish_max_evaluations.saturating_sub(used)
 }

@@ -45,7 +45,7 @@
 //! board holds one trace, not the flights since the onset
 //! (`docs/decisions/0024-declaration-by-pooled-evidence.md`).
 
-use super::config::IdentifyConfig;
+use super::config::{configured_fit, IdentifyConfig};
 use super::identification::Identification;
 use super::selection::{group_present, without_group, FAULT_GROUPS};
 use crate::conditioning::MeasuredTrace;
@@ -295,13 +295,7 @@ pub fn flight_evidence<const W: usize>(fit: &CurrentFit<'_, W>, k: &FaultVector,
                 _ => {
                     let mut best = cost;
                     for (first, _) in groups {
-                        let at = |s: f32| {
-                            let mut x = k.0;
-                            if let Some(v) = x.get_mut(first) {
-                                *v = s;
-                            }
-                            x
-                        };
+                        let at = |s: f32| with_parameter(&k.0, first, s);
                         let (e1, e2) = (eval(&at(step)), eval(&at(2.0 * step)));
                         best = best.min(quadratic_min(cost, (step, e1), (2.0 * step, e2), 0.0, 3.0 * step));
                     }
@@ -455,11 +449,17 @@ pub fn record_flight_on<'a, const W: usize>(
     report: &HealthReport,
     cold: bool,
 ) -> Option<PooledFlight> {
-    let fit = CurrentFit::new(trace, params, command)
-        .ok()
-        .map(|fit| fit.with_effects(config.effects))
-        .and_then(|fit| fit.with_fast_regime_weight(config.fast_regime_weight));
+    let fit = configured_fit(trace, params, command, config).ok();
     record_flight(record, fit.as_ref(), &params, report, cold)
+}
+
+/// `k` with parameter `i` set to `value` (`k` unchanged when `i` is out of range).
+fn with_parameter(k: &[f32; FAULT_COUNT], i: usize, value: f32) -> [f32; FAULT_COUNT] {
+    let mut x = *k;
+    if let Some(v) = x.get_mut(i) {
+        *v = value;
+    }
+    x
 }
 
 /// The least of `f` over `[lo, hi]` by golden-section search in `evaluations` evaluations (at
@@ -509,19 +509,8 @@ pub fn refit_mode<const W: usize>(
     let span = REFIT_SPAN_STEPS * step;
     let base = k.0;
     let severity = |eval: &mut dyn FnMut(&[f32; FAULT_COUNT]) -> f32, i: usize, lo: f32, hi: f32| {
-        let mut f = |s: f32| {
-            let mut x = base;
-            if let Some(v) = x.get_mut(i) {
-                *v = s;
-            }
-            eval(&x)
-        };
-        let (s, e) = golden(&mut f, lo, hi, GOLDEN_EVALUATIONS);
-        let mut x = base;
-        if let Some(v) = x.get_mut(i) {
-            *v = s;
-        }
-        (x, e)
+        let (s, e) = golden(&mut |s| eval(&with_parameter(&base, i, s)), lo, hi, GOLDEN_EVALUATIONS);
+        (with_parameter(&base, i, s), e)
     };
     let (x, e) = match mode {
         0 | 1 => severity(&mut eval, mode, 0.0, span),
@@ -530,11 +519,7 @@ pub fn refit_mode<const W: usize>(
             let mut phase = 2;
             let mut least = f32::INFINITY;
             for i in 2..5 {
-                let mut x = base;
-                if let Some(v) = x.get_mut(i) {
-                    *v = step;
-                }
-                let e = eval(&x);
+                let e = eval(&with_parameter(&base, i, step));
                 if e < least {
                     (phase, least) = (i, e);
                 }

@@ -5,7 +5,7 @@
 //! cannot fail; [`Identification::run`] steps to the end or a budget; [`Identification::report`]
 //! gives the health report of the best vector so far at any point.
 
-use super::config::{fault_bounds, selection_polish_left, starting_guesses, Algorithm, IdentifyConfig};
+use super::config::{configured_fit, fault_bounds, selection_polish_left, starting_guesses, Algorithm, IdentifyConfig};
 use super::selection::{group_present, without_group, Selection, FAULT_GROUPS};
 use super::warm::{WarmReport, WarmStage, WarmState};
 use super::MonitorError;
@@ -178,10 +178,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             Some(prior) => Some(warm_start_point(&prior)?),
             None => None,
         };
-        let fit = CurrentFit::new(trace, params, command)?
-            .with_effects(config.effects)
-            .with_fast_regime_weight(config.fast_regime_weight)
-            .ok_or(MonitorError::FastRegimeWeight)?;
+        let fit = configured_fit(trace, params, command, config)?;
         Ok(Self {
             fit,
             solver,

@@ -52,7 +52,7 @@
 //! phase). For the short circuit the largest of the three phases' values is reported, so that a
 //! short below it may hide on any phase.
 
-use super::config::{IdentifyConfig, PHASE_INDEX};
+use super::config::{configured_fit, IdentifyConfig, PHASE_INDEX};
 use super::identification::Identification;
 use super::selection::{group_present, FAULT_GROUPS};
 use super::verdict::{window_noise_variance_a2, MODEL_MISMATCH_A};
@@ -375,10 +375,7 @@ pub fn with_uncertainty<'a, const W: usize>(
     config: &IdentifyConfig,
     report: HealthReport,
 ) -> HealthReport {
-    let fit = CurrentFit::new(trace, params, command)
-        .ok()
-        .map(|fit| fit.with_effects(config.effects))
-        .and_then(|fit| fit.with_fast_regime_weight(config.fast_regime_weight));
+    let fit = configured_fit(trace, params, command, config).ok();
     match fit {
         Some(fit) => {
             let u = uncertainty_at(&fit, &params, &report.faults, config.independent_frames_per_block);
