@@ -261,6 +261,35 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         self.status()
     }
 
+    /// The particles of the PSO global search still to be evaluated in its current sweep, each with
+    /// the cost it must beat ([`ParticleSwarm::pending`]); empty outside the PSO global search.
+    /// A host may evaluate them in parallel on clones of [`Identification::fitness`] and hand the
+    /// costs back in order through [`Identification::step_with_global_cost`]: the identification
+    /// is the same, bit for bit, as with [`Identification::step`].
+    pub fn pending_global(&self) -> impl Iterator<Item = (&[f32; FAULT_COUNT], f32)> {
+        let swarm = match (&self.stage, &self.solver) {
+            (Stage::Global, Solver::Pso(s)) => Some(s.pending()),
+            _ => None,
+        };
+        swarm.into_iter().flatten()
+    }
+
+    /// [`Identification::step`] with the cost of the next [`Identification::pending_global`]
+    /// particle computed elsewhere; outside the PSO global search an ordinary step.
+    pub fn step_with_global_cost(&mut self, cost: f32) -> Status {
+        let Solver::Pso(swarm) = &mut self.solver else {
+            return self.step();
+        };
+        if !matches!(self.stage, Stage::Global) {
+            return self.step();
+        }
+        if let Status::Done(reason) = swarm.step_with_cost(cost) {
+            (self.best, self.best_cost) = self.solver.best();
+            self.after_global_search(reason);
+        }
+        self.status()
+    }
+
     /// Moves on from the global search's best (`self.best`, `self.best_cost`): model selection,
     /// the polish, or the end, as the configuration asks.
     fn after_global_search(&mut self, reason: TerminationReason) {

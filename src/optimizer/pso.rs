@@ -310,6 +310,50 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
         self.state.status()
     }
 
+    /// The particles still to be evaluated in the current sweep, from the next one on, each with the
+    /// cost it must beat (its personal best, the `abandon_above` that [`Optimizer::step`] passes).
+    /// Their costs depend on nothing the sweep changes, so a caller may compute them in any order,
+    /// or in parallel on a host, and hand them back in this order through
+    /// [`ParticleSwarm::step_with_cost`]: the search is the same as with [`Optimizer::step`].
+    /// Empty once the search has stopped.
+    pub fn pending(&self) -> impl Iterator<Item = (&[f32; D], f32)> {
+        let from = if self.state.is_running() { self.next } else { P };
+        self.position.iter().zip(self.best_cost.iter().copied()).skip(from)
+    }
+
+    /// Records `cost` as the next particle's, computed elsewhere with its [`ParticleSwarm::pending`]
+    /// threshold: [`Optimizer::step`] without the evaluation.
+    pub fn step_with_cost(&mut self, cost: f32) -> Status {
+        if !self.state.is_running() {
+            return self.state.status();
+        }
+        let i = self.next;
+        let (Some(&x), Some(&personal)) = (self.position.get(i), self.best_cost.get(i)) else {
+            // Unreachable (`next < P` always); restart the sweep rather than panic.
+            self.next = 0;
+            return self.state.status();
+        };
+        // The global best is never above a personal best, so only a personal improvement can improve it.
+        let (cost, improved) = self.state.record(&x, cost);
+        self.improved |= improved;
+        // Strict improvements only: an abandoned result (> personal) can never get in.
+        if cost < personal {
+            if let (Some(c), Some(p)) = (self.best_cost.get_mut(i), self.best_position.get_mut(i)) {
+                *c = cost;
+                *p = x;
+            }
+        }
+        if !self.state.is_running() {
+            return self.state.status();
+        }
+        self.next = i + 1;
+        if self.next >= P {
+            self.next = 0;
+            self.end_iteration();
+        }
+        self.state.status()
+    }
+
     /// Bookkeeping after the `P`-th evaluation of an iteration: stopping rule, adaptation, move.
     fn end_iteration(&mut self) {
         if self.state.end_iteration() {
@@ -422,34 +466,10 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
 
 impl<const P: usize, const D: usize> Optimizer<D> for ParticleSwarm<P, D> {
     fn step<O: Objective<D>>(&mut self, objective: &mut O) -> Status {
-        if !self.state.is_running() {
-            return self.state.status();
-        }
-        let i = self.next;
-        let (Some(&x), Some(&personal)) = (self.position.get(i), self.best_cost.get(i)) else {
-            // Unreachable (`next < P` always); restart the sweep rather than panic.
-            self.next = 0;
+        let Some((x, personal)) = self.pending().next().map(|(x, c)| (*x, c)) else {
             return self.state.status();
         };
-        // The global best is never above a personal best, so only a personal improvement can improve it.
-        let (cost, improved) = self.state.record(&x, objective.cost(&x, personal));
-        self.improved |= improved;
-        // Strict improvements only: an abandoned result (> personal) can never get in.
-        if cost < personal {
-            if let (Some(c), Some(p)) = (self.best_cost.get_mut(i), self.best_position.get_mut(i)) {
-                *c = cost;
-                *p = x;
-            }
-        }
-        if !self.state.is_running() {
-            return self.state.status();
-        }
-        self.next = i + 1;
-        if self.next >= P {
-            self.next = 0;
-            self.end_iteration();
-        }
-        self.state.status()
+        self.step_with_cost(objective.cost(&x, personal))
     }
 
     fn best(&self) -> (&[f32; D], f32) {
@@ -487,6 +507,34 @@ pub(crate) mod tests {
     }
 
     // ---- known answers (paper budget: P = 50, ≤ 200 iterations = 10 000 evaluations) ----
+
+    /// Costs computed outside the swarm, a sweep at a time and in reverse order, then handed back
+    /// in order through `step_with_cost`, give the search `step` gives, bit for bit.
+    #[test]
+    fn costs_computed_outside_give_the_same_search() {
+        let bounds = symmetric(5.12);
+        let mut stepped = ParticleSwarm::<20, 8>::new(bounds, PsoConfig::default(), 7).unwrap();
+        let status = run(&mut stepped, &mut Rastrigin, u32::MAX);
+        let mut outside = ParticleSwarm::<20, 8>::new(bounds, PsoConfig::default(), 7).unwrap();
+        let mut sweeps = 0;
+        while outside.status() == Status::Running {
+            let batch: std::vec::Vec<([f32; 8], f32)> = outside.pending().map(|(x, above)| (*x, above)).collect();
+            let mut costs: std::vec::Vec<f32> =
+                batch.iter().rev().map(|(x, above)| Rastrigin.cost(x, *above)).collect();
+            costs.reverse();
+            for c in costs {
+                outside.step_with_cost(c);
+            }
+            sweeps += 1;
+        }
+        assert!(sweeps > 1);
+        assert_eq!(outside.status(), status);
+        assert_eq!(outside.evaluations(), stepped.evaluations());
+        let (a, b) = (stepped.best(), outside.best());
+        assert_eq!(a.0.map(f32::to_bits), b.0.map(f32::to_bits));
+        assert_eq!(a.1.to_bits(), b.1.to_bits());
+        assert_eq!(outside.pending().count(), 0);
+    }
 
     #[test]
     fn sphere_8d_within_default_budget() {

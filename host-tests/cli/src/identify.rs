@@ -40,8 +40,11 @@ use ema_monitor::monitor::{
     self, AcquisitionSummary, Algorithm, Identification, IdentifyConfig, WarmReport, GROUP_NAMES, ONBOARD_POPULATION,
     ONBOARD_WINDOW,
 };
+use ema_monitor::optimizer::{Objective, Status as SearchStatus};
 use ema_monitor::trace::{packed_len, PackedTrace};
+use ema_monitor::FAULT_COUNT;
 use ema_monitor::{Command, EmaParams, FaultVector, Profile, SampledCommand};
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::error::CliError;
@@ -614,11 +617,36 @@ fn run_identification<const W: usize>(
     let start = Instant::now();
     let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> =
         Box::new(Identification::new(trace, *params, command, config)?);
-    id.run(u32::MAX);
+    run_to_end(&mut id);
     let warm = config.prior.zip(id.warm_report()).map(|(prior, report)| WarmStart { prior, report });
     let seconds = start.elapsed().as_secs_f64();
     // the 1σ and detectable-below severities of the reported vector, as the firmware logs them
     Ok(Outcome { report: id.with_uncertainty(id.report()), seconds, warm })
+}
+
+/// Runs `id` to its end as [`Identification::run`] does, with each sweep of the PSO global search
+/// evaluated in parallel on the current rayon pool (on clones of the fitness) and the costs handed
+/// back in order ([`Identification::pending_global`]): a particle's cost depends on nothing its
+/// sweep changes, so the identification is bit for bit the firmware's sequential one. The
+/// particles after the one whose cost ends the global search are evaluated and not recorded.
+pub fn run_to_end<const W: usize, const P: usize>(id: &mut Identification<'_, W, P>) {
+    loop {
+        let batch: Vec<([f32; FAULT_COUNT], f32)> = id.pending_global().map(|(x, above)| (*x, above)).collect();
+        if batch.len() > 1 {
+            let costs: Vec<f32> =
+                batch.par_iter().map_with(id.fitness().clone(), |fit, (x, above)| fit.cost(x, *above)).collect();
+            for cost in costs {
+                if let SearchStatus::Done(_) = id.step_with_global_cost(cost) {
+                    return;
+                }
+                if id.pending_global().next().is_none() {
+                    break; // the global search ended inside the sweep
+                }
+            }
+        } else if let SearchStatus::Done(_) = id.step() {
+            return;
+        }
+    }
 }
 
 /// Largest packed trace the on-board window takes, in bytes: [`ONBOARD_WINDOW`] blocks of

@@ -239,3 +239,51 @@ fn differential_evolution_is_selectable_and_deterministic() {
     let pso = check_json(&accepted(&["identify", s(&p), "--json", "--max-iterations", "20", "--paper-only"]), 20);
     assert_ne!(de["k"], pso["k"]);
 }
+
+/// The host's parallel global search (`identify::run_to_end`: each PSO sweep evaluated on the
+/// rayon pool, the costs handed back in order) gives the firmware's sequential identification bit
+/// for bit: faults, cost and evaluations, on a healthy and two faulty recordings, two seeds each.
+#[test]
+fn parallel_global_search_is_the_sequential_one() {
+    use ema_cli::identify::{condition_recording, run_to_end, HOST_WINDOW};
+    use ema_cli::recording::Recording;
+    use ema_monitor::monitor::{Identification, IdentifyConfig};
+    use ema_monitor::{EmaParams, FaultVector, Profile};
+    use ema_reference::{simulate, SimConfig};
+
+    let vectors = [
+        FaultVector::HEALTHY,
+        FaultVector([0.25, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]),
+        FaultVector([0.0, 0.3, 0.0, 0.2, 0.0, 0.4, 0.7, 0.5]),
+    ];
+    for (i, truth) in vectors.iter().enumerate() {
+        let rec =
+            simulate(&SimConfig { faults: *truth, seed: 40 + i as u64, ..SimConfig::default() }).expect("simulates");
+        let recording = Recording::from_reference(&rec, Vec::new());
+        let trace = condition_recording(&recording, Path::new("parallel"), &EmaParams::NOMINAL, &Profile::STANDARD)
+            .expect("conditions");
+        for seed in [1, 2] {
+            let config = IdentifyConfig { seed, max_iterations: 10, ..IdentifyConfig::onboard() };
+            let new = || {
+                Box::new(
+                    Identification::<'_, HOST_WINDOW, ONBOARD_POPULATION>::new(
+                        &trace,
+                        EmaParams::NOMINAL,
+                        Profile::STANDARD,
+                        &config,
+                    )
+                    .expect("configures"),
+                )
+            };
+            let mut sequential = new();
+            sequential.run(u32::MAX);
+            let mut parallel = new();
+            run_to_end(&mut parallel);
+            let (a, b) = (sequential.report(), parallel.report());
+            let bits = |r: &ema_monitor::health::HealthReport| r.faults.0.map(f32::to_bits);
+            assert_eq!(bits(&a), bits(&b), "recording {i}, seed {seed}");
+            assert_eq!(a.fitness.to_bits(), b.fitness.to_bits(), "recording {i}, seed {seed}");
+            assert_eq!(a.evaluations, b.evaluations, "recording {i}, seed {seed}");
+        }
+    }
+}

@@ -10,6 +10,7 @@ use ema_monitor::monitor::{fault_bounds, group_pays, group_present, without_grou
 use ema_monitor::optimizer::pattern::{PatternConfig, PatternSearch};
 use ema_monitor::optimizer::{self, Bounds, Objective, Optimizer};
 use ema_monitor::{Command, EffectId, EmaParams, FaultVector, ModelEffects, FAULT_COUNT};
+use rayon::prelude::*;
 
 /// Blocks per chunk of the fit / held-out split (62 × 0.4 ms ≈ 25 ms, the length of the "where"
 /// windows): a signature confined to one transient, such as a Stribeck dip at the ramp's start,
@@ -256,7 +257,8 @@ fn fit_d<const W: usize, const D: usize>(
     part: Part,
     n_eff: f64,
 ) -> ModelFit {
-    let mut objective = PartFit::new(trace, *params, *profile, ModelEffects::NONE, free.to_vec(), part);
+    let fresh = || PartFit::new(trace, *params, *profile, ModelEffects::NONE, free.to_vec(), part);
+    let mut objective = fresh();
     let fb = fault_bounds();
     let mut bounds = Bounds::<D>::unit();
     bounds.periodic[..FAULT_COUNT].copy_from_slice(&fb.periodic);
@@ -283,25 +285,37 @@ fn fit_d<const W: usize, const D: usize>(
         reset_groups(start, &MECHANICAL_GROUPS),
         FaultVector::HEALTHY,
     ];
+    // Each fault start's scan and each start's compass search depend on that start alone, so they
+    // run in parallel (on the caller's rayon pool) and come back in order: the fit is the same for
+    // any thread count.
     let mut starts: Vec<[f32; D]> = vec![point(start, 0.0)];
-    for (j, k) in fault_starts.iter().enumerate() {
-        if D == FAULT_COUNT {
-            if j > 0 && !starts.contains(&point(k, 0.0)) {
+    if D == FAULT_COUNT {
+        for k in &fault_starts[1..] {
+            if !starts.contains(&point(k, 0.0)) {
                 starts.push(point(k, 0.0));
             }
-            continue;
         }
-        let mut best_scan = (f32::INFINITY, point(k, 0.0));
-        for step in 1..=SEVERITY_SCAN {
-            let x = point(k, step as f32 / SEVERITY_SCAN as f32);
-            let c = Objective::<D>::cost(&mut objective, &x, best_scan.0);
-            evaluations += 1;
-            if c < best_scan.0 {
-                best_scan = (c, x);
+    } else {
+        let scans: Vec<([f32; D], u32)> = fault_starts
+            .par_iter()
+            .map(|k| {
+                let mut objective = fresh();
+                let mut best_scan = (f32::INFINITY, point(k, 0.0));
+                for step in 1..=SEVERITY_SCAN {
+                    let x = point(k, step as f32 / SEVERITY_SCAN as f32);
+                    let c = Objective::<D>::cost(&mut objective, &x, best_scan.0);
+                    if c < best_scan.0 {
+                        best_scan = (c, x);
+                    }
+                }
+                (best_scan.1, SEVERITY_SCAN as u32)
+            })
+            .collect();
+        for (x, spent) in scans {
+            evaluations += spent;
+            if !starts.contains(&x) {
+                starts.push(x); // a start already searched would end where it ended
             }
-        }
-        if !starts.contains(&best_scan.1) {
-            starts.push(best_scan.1); // a start already searched would end where it ended
         }
     }
     let local = PatternConfig { initial_step: 0.05, min_step: 1e-3, max_evaluations: 300 };
@@ -314,20 +328,25 @@ fn fit_d<const W: usize, const D: usize>(
     };
     let mut ends: Vec<([f32; D], f32, f64)> = Vec::new();
     let mut best_bic = f64::INFINITY;
-    for x in starts {
-        if let Ok(mut search) = PatternSearch::new(bounds, local, x, None, [true; D]) {
-            optimizer::run(&mut search, &mut objective, u32::MAX);
-            evaluations += search.evaluations();
+    let searched: Vec<Option<([f32; D], f32, u32)>> = starts
+        .par_iter()
+        .map(|x| {
+            let mut search = PatternSearch::new(bounds, local, *x, None, [true; D]).ok()?;
+            optimizer::run(&mut search, &mut fresh(), u32::MAX);
             let (x, c) = search.best();
-            if !c.is_finite() || n_eff * f64::from(c).ln() >= best_bic {
-                continue; // its fit alone scores worse than the best: no parameter count can save it
-            }
-            let (x, c) = select_groups(&mut objective, bounds, *x, c, n_eff, false, &mut evaluations);
-            let score = bic(&x, c);
-            if c.is_finite() {
-                best_bic = best_bic.min(score);
-                ends.push((x, c, score));
-            }
+            Some((*x, c, search.evaluations()))
+        })
+        .collect();
+    for (x, c, spent) in searched.into_iter().flatten() {
+        evaluations += spent;
+        if !c.is_finite() || n_eff * f64::from(c).ln() >= best_bic {
+            continue; // its fit alone scores worse than the best: no parameter count can save it
+        }
+        let (x, c) = select_groups(&mut objective, bounds, x, c, n_eff, false, &mut evaluations);
+        let score = bic(&x, c);
+        if c.is_finite() {
+            best_bic = best_bic.min(score);
+            ends.push((x, c, score));
         }
     }
     // an end point that fits better than the BIC winner but counts more parameters is priced with

@@ -63,7 +63,7 @@ use ema_monitor::command::CommandSource;
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::fitness::CurrentFit;
 use ema_monitor::monitor::IdentifyConfig;
-use ema_monitor::{EffectId, EmaParams, FaultVector, ModelEffects};
+use ema_monitor::{Command, EffectId, EmaParams, FaultVector, ModelEffects};
 use indicatif::ProgressBar;
 
 pub use fitting::{
@@ -236,14 +236,37 @@ pub fn discover_with_progress<'c, const W: usize>(
     threads: usize,
     bar: &ProgressBar,
 ) -> Result<Discovery, CliError> {
-    let start = Instant::now();
+    // One rayon pool of `threads` workers for every parallel part; without one (the system
+    // refuses threads) the work runs on rayon's global pool.
     let profile = &command.into_command();
+    match rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build() {
+        Ok(pool) => pool.install(|| discover_in_pool(trace, params, profile, file, seed, bar)),
+        Err(_) => discover_in_pool(trace, params, profile, file, seed, bar),
+    }
+}
+
+/// [`discover_with_progress`] on the current rayon pool.
+fn discover_in_pool<const W: usize>(
+    trace: &MeasuredTrace<W>,
+    params: &EmaParams,
+    profile: &Command<'_>,
+    file: &Path,
+    seed: u64,
+    bar: &ProgressBar,
+) -> Result<Discovery, CliError> {
+    let start = Instant::now();
     bar.set_length(4);
     bar.set_message("fitting the current model");
     // 1. the current model, as on board (whole recording)
     // Every sample at full weight: the discrepancies discover looks for live in the fast regime too.
     let config = IdentifyConfig { seed, fast_regime_weight: 1.0, ..IdentifyConfig::onboard() };
-    let report = identify_trace(trace, params, profile, &config, file)?.report;
+    // step 6's diagnosis before promotion depends on nothing else: it runs beside this fit
+    let onboard = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
+    let (report, onboard_before) = rayon::join(
+        || identify_trace(trace, params, profile, &config, file),
+        || identify_trace(trace, params, profile, &onboard, file),
+    );
+    let (report, onboard_before) = (report?.report, onboard_before?.report);
     bar.inc(1);
     let mut evaluations = u64::from(report.evaluations);
     let whole = PartFit::new(trace, *params, *profile, ModelEffects::NONE, vec![], Part::All);
@@ -269,7 +292,7 @@ pub fn discover_with_progress<'c, const W: usize>(
     bar.inc(1);
     evaluations += u64::from(base_fit.evaluations);
     while named.len() < MAX_NAMED {
-        let (round, reference) = search_round(trace, params, profile, &on, &base_fit, n_eff_part, threads, bar);
+        let (round, reference) = search_round(trace, params, profile, &on, &base_fit, n_eff_part, bar);
         evaluations += round.evaluations();
         let winner = round.named;
         let winner_fit = winner.and(round.candidates.first()).map(|c| c.fit.clone());
@@ -286,8 +309,7 @@ pub fn discover_with_progress<'c, const W: usize>(
                 if let Some((p, p_fit, p_confidence)) = pinned.filter(|_| named.len() + 2 <= MAX_NAMED) {
                     let mut trial: Vec<EffectId> = on.clone();
                     trial.push(p);
-                    let (pair_round, _) =
-                        search_round(trace, params, profile, &trial, &p_fit, n_eff_part, threads, bar);
+                    let (pair_round, _) = search_round(trace, params, profile, &trial, &p_fit, n_eff_part, bar);
                     evaluations += pair_round.evaluations();
                     let pair = pair_round.named.zip(pair_round.candidates.first().map(|c| c.fit.clone()));
                     let p_severity = pair.as_ref().map_or(0.0, |(_, fit)| fit.effects.get(p));
@@ -344,8 +366,6 @@ pub fn discover_with_progress<'c, const W: usize>(
     };
     // 5. the diagnosis the firmware gives, before and after promoting the named effects
     bar.set_message("the on-board diagnosis");
-    let onboard = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
-    let onboard_before = identify_trace(trace, params, profile, &onboard, file)?.report;
     bar.inc(1);
     evaluations += u64::from(onboard_before.evaluations);
     let onboard_after = if on.is_empty() {

@@ -200,7 +200,6 @@ pub(super) fn search_round<const W: usize>(
     on: &[EffectId],
     base_fit: &ModelFit,
     n_eff_part: f64,
-    threads: usize,
     bar: &ProgressBar,
 ) -> (Round, ModelFit) {
     let effects: Vec<EffectId> = EffectId::ALL.iter().copied().filter(|e| !on.contains(e)).collect();
@@ -216,15 +215,11 @@ pub(super) fn search_round<const W: usize>(
         bar.inc(1);
         (*effect, fit)
     };
-    // A rayon pool of `threads` workers; without one (the system refuses threads) the fits run
-    // here, one after the other. Either way the fits come back in library order (`collect` keeps
-    // the input's order), so ties (candidates whose effect ended at 0, the reference among equal
-    // errors) come out the same on every run and for every thread count.
-    let mut fits: Vec<(EffectId, ModelFit)> = match rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build()
-    {
-        Ok(pool) => pool.install(|| effects.par_iter().map(fit_one).collect()),
-        Err(_) => effects.iter().map(fit_one).collect(),
-    };
+    // On the caller's rayon pool ([`super::discover_with_progress`] installs one of `--threads`
+    // workers); the fits come back in library order (`collect` keeps the input's order), so ties
+    // (candidates whose effect ended at 0, the reference among equal errors) come out the same on
+    // every run and for every thread count.
+    let mut fits: Vec<(EffectId, ModelFit)> = effects.par_iter().map(fit_one).collect();
     fits.sort_by_key(|(effect, _)| *effect);
     let fit_part = PartFit::new(trace, *params, *profile, ModelEffects::NONE, vec![], Part::Fit);
     let held = PartFit::new(trace, *params, *profile, ModelEffects::NONE, vec![], Part::HeldOut);
