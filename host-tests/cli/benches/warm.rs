@@ -3,6 +3,8 @@
 //! the built-in trace's fault (friction k1 = 0.25, noise seed 1), cold, and warm from the cold
 //! diagnosis (the same recording: model selection, the polish and the new-fault probes,
 //! `src/monitor/warm.rs`). The ratio of the two times is the figure; the machine's speed cancels.
+//! A third line times the cold identification as `ema identify` runs it, each PSO sweep on a pool
+//! of 2 threads (`identify::run_to_end`; the same result bit for bit).
 //!
 //! `cd host-tests && cargo bench -p ema-cli --bench warm`. Run without `--bench` (e.g.
 //! `cargo test --all-targets`) it runs once as a smoke test.
@@ -10,7 +12,7 @@
 use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use ema_cli::identify::{condition_recording, HOST_WINDOW};
+use ema_cli::identify::{condition_recording, run_to_end, HOST_WINDOW};
 use ema_cli::recording::Recording;
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::health::HealthReport;
@@ -39,6 +41,19 @@ fn bench(c: &mut Criterion) {
     for (name, config) in [("cold", cold), ("warm", warm)] {
         group.bench_function(name, |b| b.iter(|| identify(&trace, std::hint::black_box(&config))));
     }
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().expect("a pool of 2 threads");
+    group.bench_function("cold, PSO sweeps on 2 threads", |b| {
+        b.iter(|| {
+            pool.install(|| {
+                let mut id: Box<Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>> = Box::new(
+                    Identification::new(&trace, EmaParams::NOMINAL, Profile::STANDARD, std::hint::black_box(&cold))
+                        .expect("accepted"),
+                );
+                run_to_end(&mut id);
+                id.report()
+            })
+        })
+    });
     group.finish();
 }
 
