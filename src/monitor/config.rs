@@ -136,8 +136,6 @@ impl IdentifyConfig {
     }
 }
 
-/// Evaluations of [`IdentifyConfig::selection_polish_max_evaluations`] left after `used` (a free
-/// function: one of its callers holds the selection stage borrowed).
 /// The fitness of `trace` under `command` as `config` sets it (its effect terms and fast-regime
 /// weight): what the identification minimises, and what its uncertainty and the evidence over
 /// flights evaluate again after it.
@@ -153,6 +151,8 @@ pub(super) fn configured_fit<'a, const W: usize>(
         .ok_or(MonitorError::FastRegimeWeight)
 }
 
+/// Evaluations of [`IdentifyConfig::selection_polish_max_evaluations`] left after `used` (a free
+/// function: one of its callers holds the selection stage borrowed).
 pub(super) fn selection_polish_left(config: &IdentifyConfig, used: u32) -> u32 {
     config.selection_polish_max_evaluations.saturating_sub(used)
 }

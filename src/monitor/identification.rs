@@ -234,10 +234,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                     Solver::Ga(s) => s.step(&mut self.fit),
                     Solver::De(s) => s.step(&mut self.fit),
                 };
-                if let Status::Done(reason) = status {
-                    (self.best, self.best_cost) = self.solver.best();
-                    self.after_global_search(reason);
-                }
+                self.after_global_step(status);
             }
             Stage::Select(_) => self.selection_step(),
             Stage::Warm(_) => self.warm_step(),
@@ -283,11 +280,17 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         if !matches!(self.stage, Stage::Global) {
             return self.step();
         }
-        if let Status::Done(reason) = swarm.step_with_cost(cost) {
+        let status = swarm.step_with_cost(cost);
+        self.after_global_step(status);
+        self.status()
+    }
+
+    /// After one step of the global search: once it is done, its best moves on to the later stages.
+    fn after_global_step(&mut self, status: Status) {
+        if let Status::Done(reason) = status {
             (self.best, self.best_cost) = self.solver.best();
             self.after_global_search(reason);
         }
-        self.status()
     }
 
     /// Moves on from the global search's best (`self.best`, `self.best_cost`): model selection,

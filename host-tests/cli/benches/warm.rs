@@ -20,11 +20,21 @@ use ema_monitor::monitor::{Identification, IdentifyConfig, ONBOARD_POPULATION};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 
-fn identify(trace: &MeasuredTrace<HOST_WINDOW>, config: &IdentifyConfig) -> HealthReport {
+/// The on-board identification of `trace`, run to its end by `run`.
+fn identify(
+    trace: &MeasuredTrace<HOST_WINDOW>,
+    config: &IdentifyConfig,
+    run: impl FnOnce(&mut Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>),
+) -> HealthReport {
     let mut id: Box<Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>> =
         Box::new(Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, config).expect("accepted"));
-    id.run(u32::MAX);
+    run(&mut id);
     id.report()
+}
+
+/// As the firmware runs it: one evaluation after the other.
+fn sequential(id: &mut Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>) {
+    id.run(u32::MAX);
 }
 
 fn bench(c: &mut Criterion) {
@@ -34,25 +44,16 @@ fn bench(c: &mut Criterion) {
     let trace = condition_recording(&recording, Path::new("standard.csv"), &EmaParams::NOMINAL, &Profile::STANDARD)
         .expect("conditions");
     let cold = IdentifyConfig::onboard();
-    let prior = identify(&trace, &cold).faults;
+    let prior = identify(&trace, &cold, sequential).faults;
     let warm = IdentifyConfig { prior: Some(prior.0), ..cold };
     let mut group = c.benchmark_group("identification");
     group.sample_size(10);
     for (name, config) in [("cold", cold), ("warm", warm)] {
-        group.bench_function(name, |b| b.iter(|| identify(&trace, std::hint::black_box(&config))));
+        group.bench_function(name, |b| b.iter(|| identify(&trace, std::hint::black_box(&config), sequential)));
     }
     let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().expect("a pool of 2 threads");
     group.bench_function("cold, PSO sweeps on 2 threads", |b| {
-        b.iter(|| {
-            pool.install(|| {
-                let mut id: Box<Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>> = Box::new(
-                    Identification::new(&trace, EmaParams::NOMINAL, Profile::STANDARD, std::hint::black_box(&cold))
-                        .expect("accepted"),
-                );
-                run_to_end(&mut id);
-                id.report()
-            })
-        })
+        b.iter(|| pool.install(|| identify(&trace, std::hint::black_box(&cold), run_to_end)))
     });
     group.finish();
 }

@@ -296,7 +296,7 @@ fn fit_d<const W: usize, const D: usize>(
             }
         }
     } else {
-        let scans: Vec<([f32; D], u32)> = fault_starts
+        let scans: Vec<[f32; D]> = fault_starts
             .par_iter()
             .map(|k| {
                 let mut objective = fresh();
@@ -308,11 +308,11 @@ fn fit_d<const W: usize, const D: usize>(
                         best_scan = (c, x);
                     }
                 }
-                (best_scan.1, SEVERITY_SCAN as u32)
+                best_scan.1
             })
             .collect();
-        for (x, spent) in scans {
-            evaluations += spent;
+        evaluations += (SEVERITY_SCAN * fault_starts.len()) as u32;
+        for x in scans {
             if !starts.contains(&x) {
                 starts.push(x); // a start already searched would end where it ended
             }
