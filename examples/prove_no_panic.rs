@@ -6,7 +6,9 @@
 //! The path covered is the firmware's: a packed trace of any content (the bytes pass through
 //! `black_box`, so nothing is folded from the built-in trace) behind the replay ADC → timer-paced
 //! sampler (the interrupt's producer, ticked here from the consumer's wait hook, with a trigger
-//! level and settings of any value) → acquisition → identification → health report. The calibration, the acquisition and identification settings,
+//! level and settings of any value) → the flight API (`HealthMonitor`: acquisition, the plan from
+//! a health record decoded from bytes of any content, identification, the report with its
+//! uncertainty, the flight recorded with its pooled evidence) → health report. The calibration, the acquisition and identification settings,
 //! the actuator parameters and the command profile pass through `black_box` too: the proof holds
 //! for any of them (the solver, the polish, model selection and the effect terms included), not
 //! only for the on-board defaults. The command that drives the model is the profile or, chosen
@@ -28,7 +30,8 @@ use ema_monitor::acquisition::{
 };
 use ema_monitor::command::ONBOARD_COMMAND_SAMPLES;
 use ema_monitor::conditioning::MeasuredTrace;
-use ema_monitor::monitor::{self, Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
+use ema_monitor::flight::{HealthMonitor, NoHooks};
+use ema_monitor::monitor::{Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::persist::{HealthRecord, RamFlash};
 use ema_monitor::trace::PackedTrace;
 use ema_monitor::{Command, EmaParams, Profile, SampledCommand};
@@ -55,26 +58,31 @@ fn main() -> ! {
             }
         });
         producer.set(Some(p));
-        let mut measured = MeasuredTrace::<ONBOARD_WINDOW>::new();
-        monitor::acquire(&mut live, &mut measured).ok()?;
-        live.outcome().ok()?;
-        let config = black_box(IdentifyConfig { max_iterations: 30, ..IdentifyConfig::onboard() });
         let params = black_box(EmaParams::NOMINAL);
         let profile = black_box(Profile::STANDARD);
         let sampled = SampledCommand::<ONBOARD_COMMAND_SAMPLES>::sampled(&profile, black_box(1), &params).ok()?;
         let command = if black_box(true) { Command::Profile(profile) } else { sampled.as_command() };
+        // the flight API both firmwares call: acquisition, then plan, identification, report
+        // with its uncertainty and record with the pooled evidence, over a record of any content
+        let config = black_box(IdentifyConfig { max_iterations: 30, ..IdentifyConfig::onboard() });
+        let monitor = HealthMonitor::<'_, ONBOARD_WINDOW, ONBOARD_POPULATION>::new(params, command, config).ok()?;
+        let mut measured = MeasuredTrace::<ONBOARD_WINDOW>::new();
+        let acquired = monitor.acquire(&mut live, &mut measured, black_box(10_000.0)).ok()?;
+        live.outcome().ok()?;
+        let mut bytes = [0u8; HealthRecord::ENCODED_LEN];
+        black_box(&mut bytes);
+        let mut record = HealthRecord::decode(&bytes).unwrap_or_default();
+        let flight = monitor.diagnose(&measured, &acquired, &mut record, &mut NoHooks).ok()?;
+        black_box(&record);
+        // the identification's public calls in any order: a report before the first
+        // evaluation, the search, then a step after the end
         let mut id =
             Identification::<ONBOARD_WINDOW, ONBOARD_POPULATION>::new(&measured, params, command, &config).ok()?;
-        // The public calls in any order: a report before the first evaluation, the search, then a
-        // step after the end.
         let early = id.report();
         id.run(black_box(u32::MAX));
         id.step();
-        let report = id.report();
-        // the record path: the flight's evidence, the declarations and their refits
-        let mut record = HealthRecord::new();
-        black_box(monitor::evidence::record_flight(&mut record, Some(id.fitness()), &params, &report, black_box(true)));
-        black_box(&record);
+        black_box(id.report());
+        let report = flight.report;
         Some((early, report))
     });
     black_box(&report);

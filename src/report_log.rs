@@ -4,7 +4,55 @@
 //! and the one-line summary that `scripts/parity` compares
 //! with the host's `ema identify --firmware-trace FILE --bits`. Built with the `defmt` feature.
 
+use crate::flight::Flight;
 use crate::health::{FaultMode, HealthReport};
+use crate::monitor::evidence::{mode_name, PooledFlight};
+use crate::monitor::{ColdReason, Start};
+
+/// Logs how flight `number` starts: `flight 2: warm start from the health record's diagnosis`,
+/// or `flight 1: cold identification` with the reason when it is not the missing prior.
+pub fn log_start(number: u32, start: Start) {
+    match start {
+        Start::Warm => defmt::info!("flight {=u32}: warm start from the health record's diagnosis", number),
+        Start::Cold(ColdReason::NoPrior) => defmt::info!("flight {=u32}: cold identification", number),
+        Start::Cold(reason) => defmt::info!("flight {=u32}: cold identification ({})", number, reason),
+    }
+}
+
+/// Logs a diagnosed flight: its report ([`log_report`]), what the warm stages did when it started
+/// warm, and each mode declared by the evidence pooled over flights.
+pub fn log_flight(flight: &Flight) {
+    log_report(&flight.report);
+    if let Some(warm) = &flight.warm {
+        defmt::info!(
+            "warm start: probes fired {=u8:07b} (groups), {=u16} probes, {=u8} refits, {=u32} evaluations of the warm stages; cold next: {=bool}",
+            warm.fired,
+            warm.probes,
+            warm.refits,
+            warm.evaluations,
+            warm.needs_cold(&flight.report)
+        );
+    }
+    if let Some(pooled) = flight.pooled.as_ref().filter(|p| p.any_declared()) {
+        log_declared(pooled);
+    }
+}
+
+/// Logs each mode declared by the evidence pooled over flights (present by the summed evidence,
+/// dropped by the flight's own model selection) with its refitted severity.
+fn log_declared(pooled: &PooledFlight) {
+    for (m, (&declared, mode)) in pooled.declared.iter().zip(pooled.report.modes.iter()).enumerate() {
+        if declared {
+            defmt::info!(
+                "pooled evidence: {=str} declared after {=u32} flights (sum {=f32} nats), refitted severity {=f32}",
+                mode_name(m),
+                pooled.evidence.flights,
+                pooled.evidence.llr.get(m).copied().unwrap_or(0.0),
+                mode.severity
+            );
+        }
+    }
+}
 
 /// Logs the health report: the status (with its reason when the monitor abstains), one line per
 /// fault mode under a diagnosis, the fault vector (its bits always), the fit, and the summary line

@@ -15,26 +15,90 @@ use crate::conditioning::{ConditioningError, MeasuredTrace, DECIMATION};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::{CurrentFit, PooledTrace};
 use crate::health::{window_score, Abstain, FitCheck, HealthReport, Status as HealthStatus};
+#[cfg(feature = "de")]
 use crate::optimizer::de::{DeConfig, DifferentialEvolution};
+#[cfg(feature = "ga")]
 use crate::optimizer::ga::{GaConfig, Genetic};
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
 use crate::optimizer::pso::{ParticleSwarm, PsoConfig};
-use crate::optimizer::{Optimizer, Status, TerminationReason};
+use crate::optimizer::{Bounds, ConfigError, Optimizer, Status, TerminationReason};
 use crate::params::EmaParams;
 
 /// The global search's optimizer.
 #[derive(Clone, Debug)]
 enum Solver<const P: usize> {
     Pso(ParticleSwarm<P, FAULT_COUNT>),
+    #[cfg(feature = "ga")]
     Ga(Genetic<P, FAULT_COUNT>),
+    #[cfg(feature = "de")]
     De(DifferentialEvolution<P, FAULT_COUNT>),
 }
 
 impl<const P: usize> Solver<P> {
+    /// The global search's optimizer as `config` chooses it, seeded with [`starting_guesses`].
+    /// Each optimizer is built in a frame of its own, not inlined: their temporaries stay out of
+    /// the identification's frame, which lies under every model run.
+    fn new(bounds: Bounds<FAULT_COUNT>, config: &IdentifyConfig) -> Result<Self, MonitorError> {
+        Ok(match config.algorithm {
+            Algorithm::Pso => Self::pso(bounds, config)?,
+            #[cfg(feature = "ga")]
+            Algorithm::Ga => Self::ga(bounds, config)?,
+            #[cfg(feature = "de")]
+            Algorithm::De => Self::de(bounds, config)?,
+            #[cfg(not(all(feature = "ga", feature = "de")))]
+            _ => return Err(MonitorError::Optimizer(ConfigError::NotBuilt)),
+        })
+    }
+
+    /// The particle swarm of `config`.
+    #[inline(never)]
+    fn pso(bounds: Bounds<FAULT_COUNT>, config: &IdentifyConfig) -> Result<Self, ConfigError> {
+        let c = PsoConfig {
+            max_iterations: config.max_iterations,
+            function_tolerance: config.function_tolerance,
+            stall_iterations: config.stall_iterations,
+            ..PsoConfig::default()
+        };
+        let mut swarm = Solver::Pso(ParticleSwarm::new(bounds, c, config.seed)?);
+        #[allow(irrefutable_let_patterns, reason = "refutable when GA or DE is built in")]
+        if let Solver::Pso(s) = &mut swarm {
+            s.set_initial_guesses(&starting_guesses());
+        }
+        Ok(swarm)
+    }
+
+    /// The genetic algorithm of `config`.
+    #[cfg(feature = "ga")]
+    #[inline(never)]
+    fn ga(bounds: Bounds<FAULT_COUNT>, config: &IdentifyConfig) -> Result<Self, ConfigError> {
+        let c = GaConfig {
+            max_iterations: config.max_iterations,
+            function_tolerance: config.function_tolerance,
+            stall_iterations: config.stall_iterations,
+            ..GaConfig::default()
+        };
+        Ok(Solver::Ga(Genetic::new(bounds, c, config.seed)?.with_initial_guesses(&starting_guesses())))
+    }
+
+    /// The differential evolution of `config`.
+    #[cfg(feature = "de")]
+    #[inline(never)]
+    fn de(bounds: Bounds<FAULT_COUNT>, config: &IdentifyConfig) -> Result<Self, ConfigError> {
+        let c = DeConfig {
+            max_iterations: config.max_iterations,
+            function_tolerance: config.function_tolerance,
+            stall_iterations: config.stall_iterations,
+            ..DeConfig::default()
+        };
+        Ok(Solver::De(DifferentialEvolution::new(bounds, c, config.seed)?.with_initial_guesses(&starting_guesses())))
+    }
+
     fn best(&self) -> ([f32; FAULT_COUNT], f32) {
         match self {
             Solver::Pso(s) => (*s.best().0, s.best().1),
+            #[cfg(feature = "ga")]
             Solver::Ga(s) => (*s.best().0, s.best().1),
+            #[cfg(feature = "de")]
             Solver::De(s) => (*s.best().0, s.best().1),
         }
     }
@@ -42,7 +106,9 @@ impl<const P: usize> Solver<P> {
     fn evaluations(&self) -> u32 {
         match self {
             Solver::Pso(s) => s.evaluations(),
+            #[cfg(feature = "ga")]
             Solver::Ga(s) => s.evaluations(),
+            #[cfg(feature = "de")]
             Solver::De(s) => s.evaluations(),
         }
     }
@@ -50,7 +116,9 @@ impl<const P: usize> Solver<P> {
     fn iterations(&self) -> u32 {
         match self {
             Solver::Pso(s) => s.iterations(),
+            #[cfg(feature = "ga")]
             Solver::Ga(s) => s.iterations(),
+            #[cfg(feature = "de")]
             Solver::De(s) => s.iterations(),
         }
     }
@@ -141,37 +209,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             // Refuse a bad polish now, not after the global search.
             PatternSearch::new(bounds, polish, healthy, None, [true; FAULT_COUNT])?;
         }
-        let solver = match config.algorithm {
-            Algorithm::Pso => {
-                let c = PsoConfig {
-                    max_iterations: config.max_iterations,
-                    function_tolerance: config.function_tolerance,
-                    stall_iterations: config.stall_iterations,
-                    ..PsoConfig::default()
-                };
-                Solver::Pso(ParticleSwarm::new(bounds, c, config.seed)?.with_initial_guesses(&starting_guesses()))
-            }
-            Algorithm::Ga => {
-                let c = GaConfig {
-                    max_iterations: config.max_iterations,
-                    function_tolerance: config.function_tolerance,
-                    stall_iterations: config.stall_iterations,
-                    ..GaConfig::default()
-                };
-                Solver::Ga(Genetic::new(bounds, c, config.seed)?.with_initial_guesses(&starting_guesses()))
-            }
-            Algorithm::De => {
-                let c = DeConfig {
-                    max_iterations: config.max_iterations,
-                    function_tolerance: config.function_tolerance,
-                    stall_iterations: config.stall_iterations,
-                    ..DeConfig::default()
-                };
-                Solver::De(
-                    DifferentialEvolution::new(bounds, c, config.seed)?.with_initial_guesses(&starting_guesses()),
-                )
-            }
-        };
+        let solver = Solver::new(bounds, config)?;
         // a warm start replaces the global search by the prior (checked here, set in place: the
         // identification is built once, never moved, so the stack holds one copy of it)
         let start = match config.prior {
@@ -231,7 +269,9 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             Stage::Global => {
                 let status = match &mut self.solver {
                     Solver::Pso(s) => s.step(&mut self.fit),
+                    #[cfg(feature = "ga")]
                     Solver::Ga(s) => s.step(&mut self.fit),
+                    #[cfg(feature = "de")]
                     Solver::De(s) => s.step(&mut self.fit),
                 };
                 self.after_global_step(status);
@@ -274,7 +314,9 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     /// [`Identification::step`] with the cost of the next [`Identification::pending_global`]
     /// particle computed elsewhere; outside the PSO global search an ordinary step.
     pub fn step_with_global_cost(&mut self, cost: f32) -> Status {
-        let Solver::Pso(swarm) = &mut self.solver else {
+        #[allow(irrefutable_let_patterns, reason = "refutable when GA or DE is built in")]
+        let Solver::Pso(swarm) = &mut self.solver
+        else {
             return self.step();
         };
         if !matches!(self.stage, Stage::Global) {
@@ -381,7 +423,9 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         }
         let status = match &self.solver {
             Solver::Pso(s) => s.status(),
+            #[cfg(feature = "ga")]
             Solver::Ga(s) => s.status(),
+            #[cfg(feature = "de")]
             Solver::De(s) => s.status(),
         };
         match status {

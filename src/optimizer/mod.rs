@@ -158,6 +158,8 @@ pub enum ConfigError {
     /// Zero iterations, a stall window of zero or above [`MAX_STALL_ITERATIONS`], a negative or NaN tolerance,
     /// or a NaN / `+∞` target cost.
     Termination,
+    /// The optimizer is not built into this binary (the core's cargo features `ga` and `de`).
+    NotBuilt,
 }
 
 impl core::fmt::Display for ConfigError {
@@ -166,6 +168,7 @@ impl core::fmt::Display for ConfigError {
             ConfigError::Bounds => "bounds must be finite with lower < upper",
             ConfigError::Coefficient => "optimizer coefficients must be finite and non-negative",
             ConfigError::Termination => "iterations and stall window must be > 0 and the tolerance >= 0",
+            ConfigError::NotBuilt => "this optimizer is not built in (cargo features `ga`, `de`)",
         })
     }
 }

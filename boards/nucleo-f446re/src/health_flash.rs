@@ -12,7 +12,6 @@
 
 use core::ops::Range;
 
-use ema_monitor::health::HealthReport;
 use ema_monitor::persist::{HealthRecord, HealthStore, StoreError};
 use stm32f4xx_hal::flash::{FlashExt, LockedFlash};
 use stm32f4xx_hal::prelude::*;
@@ -68,16 +67,9 @@ pub fn start(flash: &mut LockedFlash, watchdog: &mut IndependentWatchdog, mainte
     }
 }
 
-/// After the report: the flight joins the record, which is saved (a failure is logged; the
-/// monitor goes on).
-pub fn save(
-    flash: &mut LockedFlash,
-    watchdog: &mut IndependentWatchdog,
-    record: &mut HealthRecord,
-    report: &HealthReport,
-    cold: bool,
-) {
-    record.new_flight(report, cold);
+/// After the flight (which the core's `HealthMonitor::diagnose` added to `record`): the record
+/// is saved (a failure is logged; the monitor goes on).
+pub fn save(flash: &mut LockedFlash, watchdog: &mut IndependentWatchdog, record: &HealthRecord) {
     match with_store(flash, watchdog, |s| s.save(record)) {
         Ok(()) => defmt::info!("health record saved: flight {=u32}", record.flights()),
         Err(e) => defmt::error!("health record not saved: {}", e),

@@ -1,0 +1,121 @@
+//! Failure and the safe state: a refused configuration idles with the watchdog fed; a panic, a
+//! fault or a lost state parks without feeding it, so that the IWDG resets the chip.
+
+use cortex_m::peripheral::DWT;
+use cortex_m_rt::{exception, ExceptionFrame};
+use ema_monitor::flight::FlightHooks;
+use ema_monitor::monitor::Start;
+use ema_monitor::report_log;
+use stm32f4xx_hal::watchdog::IndependentWatchdog;
+
+use stm32f4xx_hal::pac::{DBGMCU, IWDG, RCC};
+use stm32f4xx_hal::prelude::*;
+
+use crate::{SYSCLK_HZ, WATCHDOG_MS};
+
+/// Starts the independent watchdog (`WATCHDOG_MS`), stopped while a probe halts the core, and
+/// says when the last reset came from it (the previous run ended in the safe state or hung).
+pub fn start_watchdog(iwdg: IWDG, dbgmcu: &DBGMCU, rcc: &RCC) -> IndependentWatchdog {
+    let mut watchdog = IndependentWatchdog::new(iwdg);
+    watchdog.stop_on_debug(dbgmcu, true);
+    watchdog.start(WATCHDOG_MS.millis());
+    defmt::info!("ema-monitor on NUCLEO-F446RE: watchdog {=u32} ms", WATCHDOG_MS);
+    if rcc.csr().read().wdgrstf().bit_is_set() {
+        defmt::warn!("reset by the watchdog: the previous run ended in the safe state or hung");
+    }
+    rcc.csr().modify(|_, w| w.rmvf().set_bit()); // clear the reset flags for the next boot
+    watchdog
+}
+
+/// Logs `what` and its error `e`, then idles failed ([`idle_failed`]).
+pub fn refused(what: &str, e: impl defmt::Format, watchdog: IndependentWatchdog) -> ! {
+    defmt::error!("{=str}: {}", what, e);
+    idle_failed(watchdog)
+}
+
+/// A refused configuration or recording: no report (`ema-monitor: FAILED`), but the firmware
+/// itself is sound, so it idles with the watchdog fed every 100 ms (timed by the DWT cycle
+/// counter, so no timer is needed).
+pub fn idle_failed(mut watchdog: IndependentWatchdog) -> ! {
+    defmt::error!("ema-monitor: FAILED (no health report)");
+    loop {
+        watchdog.feed();
+        let start = DWT::cycle_count();
+        while DWT::cycle_count().wrapping_sub(start) < SYSCLK_HZ / 10 {}
+    }
+}
+
+/// Logs a failure that leaves the firmware's state unknown, then parks (see [`park`]).
+pub fn failsafe(what: &str) -> ! {
+    defmt::error!("FAILSAFE: {=str}: monitor output invalid", what);
+    park()
+}
+
+/// The safe state: interrupts off, the core asleep, the watchdog no longer fed, so the IWDG
+/// resets the chip within `WATCHDOG_MS`. The monitor gives no report rather than a wrong one.
+fn park() -> ! {
+    cortex_m::interrupt::disable();
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// A panic (panic-probe logs its message, then executes `udf`), a stack overflow (flip-link: the
+/// stack hits the bottom of RAM) or any other fault: log the status and park.
+#[exception]
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    defmt::error!(
+        "FAILSAFE: panic or hard fault at pc {=u32:#010x}: monitor output invalid, parked until the watchdog resets",
+        frame.pc()
+    );
+    park()
+}
+
+/// `defmt::panic!` and friends: straight to the HardFault path (panic-probe's advice, so that the
+/// message is not printed twice).
+#[defmt::panic_handler]
+fn defmt_panic() -> ! {
+    panic_probe::hard_fault()
+}
+
+/// The board's flight hooks: the watchdog fed before each objective evaluation, and each
+/// evaluation timed by the DWT cycle counter (32-bit, read per step: a step lasts far less than
+/// the 23.8 s wrap at 180 MHz).
+pub struct WatchdogHooks<'a> {
+    /// The watchdog, fed before each evaluation.
+    pub watchdog: &'a mut IndependentWatchdog,
+    /// DWT count at the current step's start.
+    pub step_start: u32,
+    /// Cycles of the identification so far.
+    pub total_cycles: u64,
+    /// The longest step's cycles.
+    pub longest_step_cycles: u32,
+}
+
+impl FlightHooks for WatchdogHooks<'_> {
+    fn identification_start(&mut self, flight: u32, start: Start) {
+        report_log::log_start(flight, start);
+    }
+
+    fn before_step(&mut self) {
+        self.watchdog.feed();
+        self.step_start = DWT::cycle_count();
+    }
+
+    fn after_step(&mut self) {
+        let cycles = DWT::cycle_count().wrapping_sub(self.step_start);
+        self.total_cycles += u64::from(cycles);
+        self.longest_step_cycles = self.longest_step_cycles.max(cycles);
+    }
+
+    fn identification_end(&mut self) {
+        defmt::info!(
+            "identification: {=u64} cycles ({=u32} ms at {=u32} Hz), longest step {=u32} cycles (watchdog {=u32} ms)",
+            self.total_cycles,
+            (self.total_cycles / u64::from(SYSCLK_HZ / 1000)) as u32,
+            SYSCLK_HZ,
+            self.longest_step_cycles,
+            WATCHDOG_MS
+        );
+    }
+}

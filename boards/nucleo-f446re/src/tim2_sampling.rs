@@ -1,0 +1,86 @@
+//! TIM2's interrupt: one frame into the sampler per control period, with the start trigger's
+//! level, and a count of the ticks whose handler overran the period.
+
+use core::cell::RefCell;
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use cortex_m::interrupt::Mutex;
+use cortex_m::peripheral::NVIC;
+use ema_monitor::acquisition::{AcquisitionConfig, Calibration, ConfigError};
+use ema_monitor::acquisition::{PhaseCurrentReader, SamplerProducer};
+use stm32f4xx_hal::adc::config::{AdcConfig, Clock, SampleTime};
+use stm32f4xx_hal::adc::Adc;
+use stm32f4xx_hal::gpio::{Analog, Input, PA0, PA1, PA10, PA4};
+use stm32f4xx_hal::pac::{self, interrupt, ADC1, TIM2};
+use stm32f4xx_hal::prelude::*;
+use stm32f4xx_hal::rcc::Rcc;
+use stm32f4xx_hal::timer::{CounterUs, Event, Flag};
+
+/// The reader of the three phase pins.
+pub type Reader = PhaseCurrentReader<Adc<ADC1>, PA0<Analog>, PA1<Analog>, PA4<Analog>, ADC1>;
+
+/// What TIM2's interrupt handler owns while an acquisition runs.
+pub struct Isr {
+    pub producer: SamplerProducer<'static, Reader>,
+    pub timer: CounterUs<TIM2>,
+    /// The start trigger: PA10 (Arduino D2), pulled down, driven high by the flight-control
+    /// computer when it starts the manoeuvre's command.
+    pub trigger: PA10<Input>,
+}
+
+/// The handler's state, handed over by `main` (a critical section on either side).
+pub static ISR: Mutex<RefCell<Option<Isr>>> = Mutex::new(RefCell::new(None));
+
+/// Ticks whose handler ran past the next update (the frames are then no longer evenly spaced).
+pub static LATE: AtomicU32 = AtomicU32::new(0);
+
+/// TIM2 update, every `FRAME_PERIOD_US`: one frame into the sampler, with the trigger's level.
+#[interrupt]
+fn TIM2() {
+    cortex_m::interrupt::free(|cs| {
+        if let Some(isr) = ISR.borrow(cs).borrow_mut().as_mut() {
+            isr.timer.clear_flags(Flag::Update);
+            let trigger = isr.trigger.is_high();
+            isr.producer.tick(trigger);
+            if isr.timer.flags().contains(Flag::Update) {
+                LATE.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    });
+}
+
+/// Blocks until TIM2's next update (a busy wait in thread mode; the counter itself keeps the
+/// period, so the wait does not drift).
+pub fn wait_tick(timer: &mut CounterUs<TIM2>) {
+    while timer.wait().is_err() {}
+}
+
+/// The phase-current reader on ADC1 and `pins` (PA0, PA1, PA4: phases A, B, C). ADC clock
+/// 90/4 = 22.5 MHz (≤ 36 MHz); 56 + 12 cycles = 3 µs per conversion, 9 µs per frame, well inside
+/// the 100 µs period. Nominal sensors (±20 A over the 12-bit range, zero at mid-scale): a real
+/// front end gives its measured offsets and gains to `Calibration::new`.
+pub fn phase_reader(
+    adc1: ADC1,
+    pins: (PA0<Analog>, PA1<Analog>, PA4<Analog>),
+    rcc: &mut Rcc,
+) -> Result<Reader, ConfigError> {
+    let config = AdcConfig::default().clock(Clock::Pclk2_div_4).default_sample_time(SampleTime::Cycles_56);
+    let adc = Adc::new(adc1, true, config, rcc);
+    PhaseCurrentReader::new(adc, pins, Calibration::NOMINAL, AcquisitionConfig::DEFAULT)
+}
+
+/// Hands `isr` to TIM2's interrupt and starts it.
+pub fn arm(mut isr: Isr) {
+    isr.timer.listen(Event::Update);
+    cortex_m::interrupt::free(|cs| ISR.borrow(cs).replace(Some(isr)));
+    // SAFETY: the handler only touches `ISR`, through a critical section.
+    unsafe { NVIC::unmask(pac::Interrupt::TIM2) };
+}
+
+/// Stops TIM2's interrupt and takes its timer back (`None` if the state was lost).
+pub fn disarm() -> Option<CounterUs<TIM2>> {
+    NVIC::mask(pac::Interrupt::TIM2);
+    let Isr { mut timer, .. } = cortex_m::interrupt::free(|cs| ISR.borrow(cs).take())?;
+    timer.unlisten(Event::Update);
+    Some(timer)
+}
