@@ -37,9 +37,6 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
-#[macro_use]
-mod fmt;
-
 pub mod acquisition;
 pub mod command;
 pub mod conditioning;

@@ -1,7 +1,8 @@
 //! On-target self-test (`cargo test` runs it in QEMU through `scripts/qemu-run`).
 //!
 //! A tiny harness: [`TESTS`] is a table of `(name, fn() -> Result<(), &'static str>)`; each test
-//! runs in turn and prints `PASS name` or `FAIL name: reason`, then one plain summary line
+//! runs in turn and prints `PASS name` or `FAIL name: reason` (after one line naming where the
+//! core's host unit tests are), then one plain summary line
 //! `selftest: N passed, N failed`, and the binary exits 0 if every test passed, 1 otherwise.
 //!
 //! **Adding a test** = writing a `fn my_test() -> Result<(), &'static str>` (use [`ensure`]) and one
@@ -72,6 +73,8 @@ const TESTS: &[(&str, Test)] = &[
 
 #[entry]
 fn main() -> ! {
+    // `cargo test` at the root builds for the MCU and runs only this binary: say where the rest is.
+    defmt::println!("on-target self-test; the core's unit tests: cargo host-test; every suite: scripts/test-all");
     let (mut passed, mut failed) = (0u32, 0u32);
     for (name, test) in TESTS {
         match test() {
