@@ -88,9 +88,9 @@ pub struct SampledCommand<const N: usize> {
 }
 
 /// Samples of a [`SampledCommand`] for the on-board window at the control rate:
-/// [`crate::monitor::ONBOARD_WINDOW`] window samples of [`crate::conditioning::DECIMATION`]
+/// [`crate::conditioning::ONBOARD_WINDOW`] window samples of [`crate::conditioning::DECIMATION`]
 /// control periods (8800 samples, 35 200 bytes; the standard manoeuvre uses 8500).
-pub const ONBOARD_COMMAND_SAMPLES: usize = crate::monitor::ONBOARD_WINDOW * crate::conditioning::DECIMATION;
+pub const ONBOARD_COMMAND_SAMPLES: usize = crate::conditioning::ONBOARD_WINDOW * crate::conditioning::DECIMATION;
 
 impl<const N: usize> SampledCommand<N> {
     /// No sample: a zero-length manoeuvre, which every trace is longer than (an identification

@@ -26,6 +26,10 @@ const _: () = assert!(ENVELOPE_TABLE_LEN.is_power_of_two(), "indices are masked 
 /// Frames averaged into one window sample (10 kHz control rate → 2.5 kHz fitness rate).
 pub const DECIMATION: usize = 4;
 
+/// Window capacity of the on-board identification: the standard 0.85 s manoeuvre is 2125 window
+/// samples at 2.5 kHz; 2200 leaves room for a slightly longer recording.
+pub const ONBOARD_WINDOW: usize = 2200;
+
 /// Fewest window samples an identification accepts (20 ms at 2.5 kHz).
 pub const MIN_SAMPLES: usize = 50;
 
@@ -633,4 +637,12 @@ mod tests {
         }
         assert_eq!(last, Err(ConditioningError::WindowFull));
     }
+}
+
+/// `true` when `samples` window samples cover a manoeuvre of `duration_s` at the control period of
+/// `params`, up to one window sample (the partial block conditioning drops) and half a sample
+/// for the rounding of the product.
+pub fn covers(samples: usize, duration_s: f32, params: &EmaParams) -> bool {
+    let sample_s = DECIMATION as f32 * params.control_period_s;
+    (samples as f32 + 1.5) * sample_s >= duration_s
 }

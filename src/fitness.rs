@@ -355,10 +355,10 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
         self.trace.len() + self.more.iter().map(|p| p.trace.len()).sum::<usize>()
     }
 
-    /// `true` when every recording covers its whole command ([`crate::monitor::covers`]).
+    /// `true` when every recording covers its whole command ([`crate::conditioning::covers`]).
     pub fn covers_commands(&self) -> bool {
         recordings(self.trace, &self.command, self.more)
-            .all(|(t, c)| crate::monitor::covers(t.len(), c.duration_s(&self.params), &self.params))
+            .all(|(t, c)| crate::conditioning::covers(t.len(), c.duration_s(&self.params), &self.params))
     }
 
     /// The fast-regime intervals `[start, end)` in window samples, and their weight.

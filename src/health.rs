@@ -16,12 +16,12 @@
 //! recording does not cover the manoeuvre ([`Abstain::PartialCoverage`]) or when its declared
 //! sample rate is not the monitor's ([`Abstain::RateMismatch`]); it reports
 //! [`Status::SensorFault`] when acquisition refused too many frames
-//! ([`crate::monitor::AcquisitionSummary::is_sensor_fault`]). Under either, the fault values are
+//! ([`crate::acquisition::AcquisitionSummary::is_sensor_fault`]). Under either, the fault values are
 //! not a diagnosis: the text report withholds the mode lines (`docs/identification.md`, "Status
 //! and when the monitor abstains").
 
+use crate::acquisition::AcquisitionSummary;
 use crate::faults::{FaultVector, BACKLASH_SPAN, FRICTION_SPAN, MAX_ECCENTRICITY, MAX_SHORTED_FRACTION};
-use crate::monitor::AcquisitionSummary;
 use crate::optimizer::TerminationReason;
 use crate::params::EmaParams;
 
@@ -695,23 +695,5 @@ mod tests {
             }
         );
         assert!(text.contains("worst window 3 z 5.4 (limit 5.34)"), "{text}");
-    }
-
-    #[test]
-    fn sensor_fault_coverage_and_rate_rules() {
-        use crate::monitor::{covers, rate_matches, MAX_REFUSED_RUN};
-        let p = EmaParams::NOMINAL;
-        assert!(covers(2125, 0.85, &p) && covers(2124, 0.85, &p) && !covers(2125 / 6, 0.85, &p));
-        assert!(rate_matches(10_000.0, &p) && !rate_matches(1_000.0, &p) && !rate_matches(f32::NAN, &p));
-        let run = AcquisitionSummary {
-            frames: 100_000,
-            refused: MAX_REFUSED_RUN + 1,
-            longest_refused_run: MAX_REFUSED_RUN + 1,
-        };
-        assert!(run.is_sensor_fault());
-        let scattered = AcquisitionSummary { frames: 8500, refused: 86, longest_refused_run: 1 };
-        assert!(scattered.is_sensor_fault());
-        let few = AcquisitionSummary { frames: 8500, refused: 85, longest_refused_run: 1 };
-        assert!(!few.is_sensor_fault());
     }
 }

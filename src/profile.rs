@@ -287,7 +287,7 @@ mod tests {
         assert!(Profile::new(p.segments(), p.duration_s(), 0.6).is_ok());
         assert!(p.duration_s() <= 1.0);
         let samples = libm::roundf(p.duration_s() / 1e-4) as usize / crate::conditioning::DECIMATION;
-        assert!(samples <= crate::monitor::ONBOARD_WINDOW, "{samples} window samples");
+        assert!(samples <= crate::conditioning::ONBOARD_WINDOW, "{samples} window samples");
         for pair in p.segments()[3..].windows(2) {
             let t = pair[1].start_s();
             assert!((pair[0].value_rad(t) - pair[1].value_rad(t)).abs() < 1e-6, "jump at {t} s");

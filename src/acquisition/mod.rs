@@ -64,6 +64,7 @@ mod detect;
 mod limit;
 mod replay;
 mod sampler;
+mod summary;
 
 use core::convert::Infallible;
 use core::fmt;
@@ -75,6 +76,7 @@ pub use calibration::{AmpsFixed, Calibration, GainAmpsPerCount, OffsetCounts, Ph
 pub use limit::{manoeuvre_frames, FrameLimit};
 pub use replay::{ReplayAdc, ReplayError};
 pub use sampler::{Sample, Sampler, SamplerConfig, SamplerConsumer, SamplerProducer, SamplerState, SAMPLER_QUEUE};
+pub use summary::{AcquisitionSummary, MAX_REFUSED_RUN, MAX_REFUSED_SHARE};
 
 use crate::trace::ADC_MAX;
 use detect::{StuckDetector, SumDetector};

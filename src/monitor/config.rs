@@ -11,9 +11,7 @@ use crate::optimizer::pattern::PatternConfig;
 use crate::optimizer::Bounds;
 use crate::{Command, EmaParams};
 
-/// Window capacity of the on-board identification: the standard 0.85 s manoeuvre is 2125 window
-/// samples at 2.5 kHz; 2200 leaves room for a slightly longer recording.
-pub const ONBOARD_WINDOW: usize = 2200;
+pub use crate::conditioning::ONBOARD_WINDOW;
 
 /// Swarm (population) size of the on-board identification: the paper's 50.
 pub const ONBOARD_POPULATION: usize = 50;
