@@ -46,8 +46,8 @@
 //! (`docs/decisions/0024-declaration-by-pooled-evidence.md`).
 
 use super::config::{configured_fit, IdentifyConfig};
+use super::groups::{group_present, without_group, FAULT_GROUPS};
 use super::identification::Identification;
-use super::selection::{group_present, without_group, FAULT_GROUPS};
 use crate::conditioning::MeasuredTrace;
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::CurrentFit;

@@ -6,8 +6,8 @@
 //! gives the health report of the best vector so far at any point.
 
 use super::config::{configured_fit, fault_bounds, selection_polish_left, starting_guesses, Algorithm, IdentifyConfig};
-use super::selection::{group_present, without_group, Selection, FAULT_GROUPS};
-use super::warm::{WarmReport, WarmStage, WarmState};
+use super::groups::{group_present, without_group, FAULT_GROUPS};
+use super::stage::{Selection, Stage, WarmReport, WarmStage, WarmState};
 use super::MonitorError;
 use super::MODEL_MISMATCH_A;
 use crate::command::Command;
@@ -122,25 +122,6 @@ impl<const P: usize> Solver<P> {
             Solver::De(s) => s.iterations(),
         }
     }
-}
-
-/// Where an identification is (each stage spends one evaluation per [`Identification::step`],
-/// except the selection state that only picks the next group).
-#[derive(Clone, Debug)]
-#[allow(clippy::large_enum_variant, reason = "held once, inline in the identification: no allocator to box into")]
-pub(super) enum Stage {
-    /// The global search (PSO, GA or DE).
-    Global,
-    /// Model selection ([`Selection`]).
-    Select(Selection),
-    /// The compass-search polish.
-    Polish(PatternSearch<FAULT_COUNT>),
-    /// No polish, but selection changed the vector: evaluate it once, then finish.
-    Rescore(TerminationReason),
-    /// The stages of a warm start ([`WarmStage`]).
-    Warm(WarmStage),
-    /// Finished with this reason.
-    Done(TerminationReason),
 }
 
 /// The start point of a warm start from `prior`: the prior in the search box, its absent groups

@@ -17,8 +17,10 @@
 
 mod config;
 pub mod evidence;
+mod groups;
 mod identification;
 mod selection;
+mod stage;
 mod uncertainty;
 mod verdict;
 mod warm;
@@ -27,11 +29,12 @@ pub use config::{
     fault_bounds, starting_guesses, Algorithm, IdentifyConfig, ONBOARD_MAX_ITERATIONS, ONBOARD_POPULATION,
     ONBOARD_WINDOW, SELECTION_POLISH_MAX_EVALUATIONS,
 };
+pub use groups::{group_present, without_group, FAULT_GROUPS, GROUP_NAMES};
 pub use identification::Identification;
 pub use selection::{
-    group_pays, group_present, helps_without_its_best_window, refit_replaces, without_group, FAULT_GROUPS,
-    REPLACED_ABOVE, SELECTION_REFIT, WINDOW_GAIN_SHARE,
+    group_pays, helps_without_its_best_window, refit_replaces, REPLACED_ABOVE, SELECTION_REFIT, WINDOW_GAIN_SHARE,
 };
+pub use stage::WarmReport;
 pub use uncertainty::{
     covariance_noise_a2, uncertainty_at, with_uncertainty, Fisher, FISHER_STEP, MISMATCH_CORRELATION_SAMPLES,
 };
@@ -40,8 +43,7 @@ pub use verdict::{
     MODEL_MISMATCH_A,
 };
 pub use warm::{
-    plan_start, ColdReason, Start, WarmReport, COLD_EVERY_FLIGHTS, GROUP_NAMES, MAX_NEW_FAULTS, PROBE_SCOUT,
-    PROBE_SEVERITY, TARGETED_REFIT,
+    plan_start, ColdReason, Start, COLD_EVERY_FLIGHTS, MAX_NEW_FAULTS, PROBE_SCOUT, PROBE_SEVERITY, TARGETED_REFIT,
 };
 
 use crate::acquisition::{AcquisitionError, PhaseCurrents};

@@ -19,45 +19,18 @@
 //! no budget left to test stay and are counted in the report.
 
 use super::config::{fault_bounds, selection_polish_left, PHASE_INDEX};
-use super::identification::{Identification, Stage};
+use super::groups::{group_present, without_group, FAULT_GROUPS, PRESENT_ABOVE};
+use super::identification::Identification;
+use super::stage::{Selection, Stage, WindowCheck};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::WindowErrors;
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
 use crate::optimizer::{Optimizer, Status};
 
-/// The fault groups model selection tests, as `(first, last)` indices into the fault vector:
-/// friction, backlash, the three shorts, eccentricity (magnitude and phase: 2 parameters), gain.
-pub const FAULT_GROUPS: [(usize, usize); 7] = [(0, 0), (1, 1), (2, 2), (3, 3), (4, 4), (5, 6), (7, 7)];
-
 /// The refit of the other groups when one group is set back to healthy: steps from 0.01 down to
 /// 1e-3, at most 120 evaluations. A nested model is compared at its own best, not at the full
 /// model's: otherwise parameters that co-adapted with the group make it look needed.
 pub const SELECTION_REFIT: PatternConfig = PatternConfig { initial_step: 0.01, min_step: 1e-3, max_evaluations: 120 };
-
-/// A group counts as present when one of its parameters is this far from healthy (the phase of
-/// eccentricity only counts through its magnitude).
-const PRESENT_ABOVE: f32 = 1e-4;
-
-/// `true` when the group `(first, last)` of [`FAULT_GROUPS`] differs in `k` from the healthy
-/// vector (indices outside the vector count as healthy).
-pub fn group_present(k: &[f32; FAULT_COUNT], (first, last): (usize, usize)) -> bool {
-    if first == PHASE_INDEX - 1 {
-        return k.get(first).is_some_and(|&x| x > PRESENT_ABOVE);
-    }
-    let healthy = FaultVector::HEALTHY.0;
-    (first..=last)
-        .any(|i| matches!((k.get(i), healthy.get(i)), (Some(x), Some(h)) if libm::fabsf(x - h) > PRESENT_ABOVE))
-}
-
-/// `k` with the group `(first, last)` of [`FAULT_GROUPS`] set back to healthy (indices outside
-/// the vector are ignored).
-pub fn without_group(k: &[f32; FAULT_COUNT], (first, last): (usize, usize)) -> [f32; FAULT_COUNT] {
-    let mut out = *k;
-    for (x, h) in out.iter_mut().zip(FaultVector::HEALTHY.0).skip(first).take((last + 1).saturating_sub(first)) {
-        *x = h;
-    }
-    out
-}
 
 /// Bayesian information criterion for dropping a group of `parameters`: with Gaussian residuals of
 /// `n` effective samples, `ΔBIC = n·ln(E_without/E_with) − parameters·ln(n)`; the group stays only
@@ -139,78 +112,6 @@ pub fn phase_moved(k: &[f32; FAULT_COUNT], (from, to): (usize, usize)) -> Option
     *out.get_mut(from)? = 0.0;
     *out.get_mut(to)? = (severity + there).min(1.0);
     Some(out)
-}
-
-/// Where model selection is. `group` indexes [`FAULT_GROUPS`]; `effective_samples` is the `n` of
-/// the information criterion, evaluated once on the global search's best vector.
-#[derive(Clone, Debug)]
-#[allow(clippy::large_enum_variant, reason = "held once, inline in the identification: no allocator to box into")]
-pub(super) enum Selection {
-    /// Evaluates the effective sample count of the best vector (one evaluation).
-    EffectiveSamples,
-    /// Evaluates the best vector with `group` set back to healthy, before any refit (one
-    /// evaluation): a group that does not pay even against this unrefitted cost is dropped
-    /// without its refit ([`Identification::selection_step`]).
-    PreCheck {
-        /// Group under test.
-        group: usize,
-        /// `n` of the information criterion.
-        effective_samples: f32,
-    },
-    /// Starts the test of the first present group from `group` on (no evaluation).
-    NextGroup {
-        /// First group to consider.
-        group: usize,
-        /// `n` of the information criterion.
-        effective_samples: f32,
-    },
-    /// Refits the other groups with `group` set back to healthy (one evaluation per step).
-    Refit {
-        /// Group under test.
-        group: usize,
-        /// `n` of the information criterion.
-        effective_samples: f32,
-        /// The compass search of the refit.
-        search: PatternSearch<FAULT_COUNT>,
-    },
-    /// Checks window by window a group that paid the information criterion.
-    WindowCheck {
-        /// Group under test.
-        group: usize,
-        /// `n` of the information criterion.
-        effective_samples: f32,
-        /// Which of the check's two evaluations is next.
-        check: WindowCheck,
-    },
-    /// After the groups are judged: scores the vector when selection changed it (one
-    /// evaluation), then tries the next possible move of [`PHASE_MOVES`] from `next` on (one
-    /// evaluation each, abandoned above the best cost) and keeps it when it lowers `E`.
-    PhaseMove {
-        /// First move of [`PHASE_MOVES`] not tried yet.
-        next: usize,
-        /// The vector the moves of `next`'s phase start from: the best one before the first of
-        /// them, so the second competes with the first instead of moving its result.
-        origin: [f32; FAULT_COUNT],
-    },
-}
-
-/// The window-by-window check of a group that paid the information criterion
-/// ([`helps_without_its_best_window`]): two evaluations, one state each.
-#[derive(Clone, Debug)]
-#[allow(clippy::large_enum_variant, reason = "held once, inline in the identification: no allocator to box into")]
-pub(super) enum WindowCheck {
-    /// Evaluates `E` per window of the best vector, with the group.
-    With {
-        /// The refit without the group.
-        without: [f32; FAULT_COUNT],
-    },
-    /// Evaluates `E` per window of the refit without the group, then decides.
-    Without {
-        /// The refit without the group.
-        without: [f32; FAULT_COUNT],
-        /// `E` per window with the group.
-        with: WindowErrors,
-    },
 }
 
 impl<const W: usize, const P: usize> Identification<'_, W, P> {

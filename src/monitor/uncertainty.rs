@@ -53,8 +53,8 @@
 //! short below it may hide on any phase.
 
 use super::config::{configured_fit, IdentifyConfig, PHASE_INDEX};
+use super::groups::{group_present, FAULT_GROUPS};
 use super::identification::Identification;
-use super::selection::{group_present, FAULT_GROUPS};
 use super::verdict::{window_noise_variance_a2, MODEL_MISMATCH_A};
 use crate::command::{Command, CommandCursor, SampledCursor};
 use crate::conditioning::{MeasuredEnvelope, MeasuredTrace, SensorErrorEnvelope, DECIMATION};

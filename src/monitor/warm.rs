@@ -29,17 +29,18 @@
 //! its evidence: `docs/decisions/0018-warm-start.md`.
 //!
 //! A warm result that fails its goodness-of-fit test goes on cold in the same call
-//! ([`WarmReport::cold_fallback`]). When a cold identification is required from the start is
+//! ([`super::WarmReport::cold_fallback`]). When a cold identification is required from the start is
 //! [`plan_start`]'s answer: no prior (the
 //! first flight, or after maintenance reset the record), every [`IdentifyConfig::cold_every_flights`]
-//! flights, and after a warm flight whose result fails its fit check ([`WarmReport::needs_cold`]).
+//! flights, and after a warm flight whose result fails its fit check ([`super::WarmReport::needs_cold`]).
 
 use super::config::{fault_bounds, IdentifyConfig, PHASE_INDEX};
-use super::identification::{Identification, Stage};
-use super::selection::{group_pays, group_present, Selection, FAULT_GROUPS};
+use super::groups::{group_present, FAULT_GROUPS};
+use super::identification::Identification;
+use super::selection::group_pays;
+use super::stage::{Selection, Stage, WarmStage};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::CurrentFit;
-use crate::health::HealthReport;
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
 use crate::optimizer::{Bounds, Objective, Optimizer, Status, TerminationReason};
 
@@ -114,10 +115,6 @@ fn probe_point(k: &[f32; FAULT_COUNT], index: usize) -> Option<(usize, [f32; FAU
     Some((group, x))
 }
 
-/// Names of the fault groups of [`FAULT_GROUPS`], in order (the probes' reports name them).
-pub const GROUP_NAMES: [&str; 7] =
-    ["friction", "backlash", "short circuit A", "short circuit B", "short circuit C", "eccentricity", "gain drift"];
-
 /// Why an identification starts cold.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -128,7 +125,7 @@ pub enum ColdReason {
     InvalidPrior,
     /// [`IdentifyConfig::cold_every_flights`] flights since the last cold identification.
     Periodic,
-    /// The last warm identification's result failed its fit check ([`WarmReport::needs_cold`]).
+    /// The last warm identification's result failed its fit check ([`super::WarmReport::needs_cold`]).
     FailedWarm,
 }
 
@@ -160,85 +157,11 @@ pub fn plan_start(
     }
 }
 
-/// What a warm identification did, beside its health report ([`Identification::warm_report`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct WarmReport {
-    /// Groups of [`FAULT_GROUPS`] whose probe fired, bit `g` for group `g`.
-    pub fired: u8,
-    /// Probe evaluations run.
-    pub probes: u16,
-    /// Targeted refits run.
-    pub refits: u8,
-    /// Evaluations of the warm stages: the start, the probes, the scouts, the refits and the fit
-    /// check (model selection and the polish count in the report's `evaluations`, with these).
-    pub evaluations: u32,
-    /// The warm result failed its fit check, and the identification went on cold (the global
-    /// search, model selection and the polish) in the same call; the evaluations of the warm
-    /// attempt are in `evaluations`.
-    pub cold_fallback: bool,
-}
-
-impl WarmReport {
-    /// `true` when group `g` of [`FAULT_GROUPS`] was found new by a probe.
-    pub fn fired_group(&self, g: usize) -> bool {
-        g < FAULT_GROUPS.len() && self.fired & (1 << g) != 0
-    }
-
-    /// `true` when the next identification must be cold: the warm result failed its fit check
-    /// (a drift the polish could not follow, or a new fault the refit could not fit).
-    pub fn needs_cold(&self, report: &HealthReport) -> bool {
-        report.fit_check.is_some_and(|c| !c.passes())
-    }
-}
-
 /// The scout of a fired probe: a short compass search over the probe's group alone, from the
 /// probe point (steps 0.05 → 0.0125, at most 16 evaluations). Groups whose effects look alike
 /// in the slow regime (the three shorts differ mainly in the fast reversal) can all fire; the
 /// probe at a fixed severity does not rank them, their best single-group fits do.
 pub const PROBE_SCOUT: PatternConfig = PatternConfig { initial_step: 0.05, min_step: 0.0125, max_evaluations: 16 };
-
-/// Where the warm stages are.
-#[derive(Clone, Debug)]
-pub(super) enum WarmStage {
-    /// Evaluates the prior's cost (one evaluation).
-    Start,
-    /// Evaluates `n` of the information criterion at the prior (one evaluation), then hands over
-    /// to the drift polish (or, with model selection off, to the polish).
-    Samples,
-    /// Follows the drift of the prior's groups before the probes ([`DRIFT_POLISH`]; one
-    /// evaluation per step).
-    Drift(PatternSearch<FAULT_COUNT>),
-    /// Runs probe `next` on (one evaluation each); bit `i` of `fired` marks probe `i` fired.
-    Probe {
-        /// Next probe index.
-        next: u8,
-        /// Fired probes, bit `i` for probe `i`.
-        fired: u16,
-    },
-    /// Scouts the fired probes in turn ([`PROBE_SCOUT`]; one evaluation per step).
-    Scout {
-        /// Fired probes not scouted yet, bit `i` for probe `i`.
-        left: u16,
-        /// The scout under way.
-        search: PatternSearch<FAULT_COUNT>,
-        /// The best scouted point and its cost so far.
-        best: Option<([f32; FAULT_COUNT], f32)>,
-    },
-    /// The targeted refit (one evaluation per step).
-    Refit(PatternSearch<FAULT_COUNT>),
-}
-
-/// The warm identification's state beside the stage: its report, `n`, whether the probes have
-/// started (`probing`: the polish then ends the warm stages) and whether model selection has
-/// started (`selected`: the end of the probes then ends them).
-#[derive(Clone, Copy, Debug, Default)]
-pub(super) struct WarmState {
-    pub(super) report: WarmReport,
-    pub(super) effective_samples: f32,
-    pub(super) probing: bool,
-    pub(super) selected: bool,
-}
 
 /// The parameters of `FAULT_GROUPS[group]` free, the others fixed.
 fn group_free(group: usize) -> [bool; FAULT_COUNT] {
@@ -468,8 +391,10 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
 #[cfg(test)]
 mod tests {
     use super::super::identification::tests::noisy_self_trace;
+    use super::super::stage::WarmReport;
     use super::*;
     use crate::conditioning::MeasuredTrace;
+    use crate::health::HealthReport;
     use crate::monitor::{MonitorError, ONBOARD_POPULATION, ONBOARD_WINDOW};
     use crate::params::EmaParams;
     use crate::profile::Profile;
