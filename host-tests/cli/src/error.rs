@@ -4,7 +4,7 @@ use std::fmt;
 use std::path::PathBuf;
 
 use crate::profile_file::ProfileFileError;
-use crate::recording::RecordingError;
+use crate::recording::error::RecordingError;
 
 /// Exit status of every failed command (bad input or failed I/O).
 pub const EXIT_FAILURE: u8 = 2;
