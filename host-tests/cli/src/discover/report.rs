@@ -7,9 +7,9 @@ use std::path::Path;
 use ema_monitor::FaultVector;
 use serde::Serialize;
 
+use super::discovery::{Discovery, Withdrawal};
 use super::naming::{same_signature, Candidate};
 use super::residual::{above_noise_a, moving_mean, NOISE_FLOOR_A, SMOOTH_BLOCKS};
-use super::{Discovery, Withdrawal};
 use crate::error::CliError;
 use crate::identify::CommandJson;
 use crate::output::{self, Overwrite};
