@@ -53,6 +53,11 @@ impl CliError {
     pub fn flag(flag: &'static str, message: impl Into<String>) -> Self {
         CliError::Flag { flag, message: message.into() }
     }
+
+    /// An input error: the file `path` is unusable for the monitor, for the reason `message`.
+    pub fn input(path: &std::path::Path, message: impl Into<String>) -> Self {
+        CliError::Input { path: path.to_path_buf(), message: message.into() }
+    }
 }
 
 impl fmt::Display for CliError {

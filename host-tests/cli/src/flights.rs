@@ -2,7 +2,7 @@
 //! reference-model recording of the standard manoeuvre with sensor noise (its own noise seed),
 //! identified on board's way ([`IdentifyConfig::onboard`]), then added to the sequential test of
 //! [`ema_monitor::monitor::evidence`]; the same recordings feed the pooled fit
-//! ([`crate::pooled::identify_pooled`]). The measurement of flights-to-detection
+//! ([`crate::runtime::identification::identify_pooled`]). The measurement of flights-to-detection
 //! (`examples/flights-to-detection.rs`) and its tests run on these.
 
 use std::path::PathBuf;
@@ -15,8 +15,9 @@ use ema_monitor::{Command, EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 
 use crate::error::CliError;
-use crate::identify::{condition_recording, HOST_WINDOW};
 use crate::recording::Recording;
+use crate::runtime::recording::condition_recording;
+use crate::runtime::source::HOST_WINDOW;
 
 /// The noise seed of flight `flight` of series `series` (SplitMix64's finalizer of both).
 pub fn flight_seed(series: u64, flight: usize) -> u64 {
@@ -71,7 +72,7 @@ pub fn fly(trace: &MeasuredTrace<HOST_WINDOW>, seed: u64, evidence: &mut Evidenc
 pub fn pooled(traces: &[&MeasuredTrace<HOST_WINDOW>], seed: u64) -> Result<HealthReport, CliError> {
     let config = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
     let commands = vec![Command::Profile(Profile::STANDARD); traces.len()];
-    crate::pooled::identify_pooled(traces, &commands, &EmaParams::NOMINAL, &config)
+    crate::runtime::identification::identify_pooled(traces, &commands, &EmaParams::NOMINAL, &config)
         .map(|o| o.report)
         .map_err(|e| CliError::Simulation(e.to_string()))
 }

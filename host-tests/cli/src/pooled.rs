@@ -3,50 +3,31 @@
 //! each recording is simulated from rest under its own command and the errors are combined
 //! sample-weighted, so model selection's price is paid once for the evidence of every flight.
 //!
-//! [`identify_pooled`] is the library entry the campaign calls for its pooled rows.
+//! The pooled identification itself is the runtime's [`identify_pooled`] (also the library entry
+//! of the flights-to-detection measurement); this module reads the files and renders the report.
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use ema_monitor::conditioning::MeasuredTrace;
-use ema_monitor::fitness::{PooledTrace, MAX_POOLED_RECORDINGS};
-use ema_monitor::monitor::{AcquisitionSummary, Identification, IdentifyConfig, MonitorError, ONBOARD_POPULATION};
-use ema_monitor::{Command, EmaParams};
-
-use crate::error::CliError;
-use crate::identify::{bits_line, json_body, summary_line, IdentifyJson, Outcome, HOST_WINDOW};
-use crate::identify::{command_for, condition_recording_checked_for, resolve_command, IdentifyArgs, ModelCommand};
-use crate::progress;
-use crate::recording::LoadSummary;
-use crate::schema::Document;
 use ema_monitor::effects::ModelEffects;
+use ema_monitor::fitness::MAX_POOLED_RECORDINGS;
+use ema_monitor::monitor::{AcquisitionSummary, IdentifyConfig, MonitorError};
+use ema_monitor::{Command, EmaParams};
 use serde::Serialize;
 
-/// Identifies one fault vector from several conditioned traces of the actuator `params`, trace
-/// `i` measured under `commands[i]`: the pipeline of [`IdentifyConfig`] on the pooled fitness.
-/// One trace gives exactly the single-recording identification. At most
-/// [`MAX_POOLED_RECORDINGS`] traces, as many commands as traces.
-pub fn identify_pooled<const W: usize>(
-    traces: &[&MeasuredTrace<W>],
-    commands: &[Command<'_>],
-    params: &EmaParams,
-    config: &IdentifyConfig,
-) -> Result<Outcome, MonitorError> {
-    let (Some((&first, rest)), Some((&first_command, rest_commands))) = (traces.split_first(), commands.split_first())
-    else {
-        return Err(MonitorError::Pool(ema_monitor::fitness::PoolError::TooMany));
-    };
-    if traces.len() != commands.len() || traces.len() > MAX_POOLED_RECORDINGS {
-        return Err(MonitorError::Pool(ema_monitor::fitness::PoolError::TooMany));
-    }
-    let more: Vec<PooledTrace<'_, W>> =
-        rest.iter().zip(rest_commands).map(|(&trace, &command)| PooledTrace { trace, command }).collect();
-    let start = Instant::now();
-    let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> =
-        Box::new(Identification::new(first, *params, first_command, config)?.pooled_with(&more)?);
-    id.run(u32::MAX);
-    Ok(Outcome { report: id.report(), seconds: start.elapsed().as_secs_f64(), warm: None })
-}
+use crate::error::CliError;
+use crate::identify::args::IdentifyArgs;
+use crate::identify::report::{json_body, render as render_one, IdentifyJson};
+use crate::progress;
+use crate::recording::LoadSummary;
+use crate::runtime::command::{command_for, resolve_command, ModelCommand};
+use crate::runtime::firmware::{bits_line, summary_line};
+use crate::runtime::identification::Outcome;
+use crate::runtime::recording::condition_recording_checked_for;
+use crate::runtime::source::HOST_WINDOW;
+use crate::schema::Document;
+
+pub use crate::runtime::identification::identify_pooled;
 
 /// The pooled report of `ema identify FILES…`, with what the text and JSON say of it.
 #[derive(Clone, Debug)]
@@ -151,11 +132,11 @@ pub fn render(pooled: &PooledOutcome, effects: &ModelEffects, args: &IdentifyArg
         }
         out
     } else {
-        let text = crate::identify::render(&pooled.outcome, effects, &pooled.command, Some(&pooled.loaded), args);
+        let text = render_one(&pooled.outcome, effects, &pooled.command, Some(&pooled.loaded), args);
         format!("{}\n{text}", pooled_line(&pooled.files))
     }
 }
 
 fn pooled_error(path: &Path, e: &MonitorError) -> CliError {
-    CliError::Input { path: path.to_path_buf(), message: e.to_string() }
+    CliError::input(path, e.to_string())
 }

@@ -9,7 +9,7 @@ use super::fitting::ModelFit;
 use super::localisation::{Regime, Window};
 use super::naming::Round;
 use super::residual::{rms, Series};
-use crate::identify::CommandJson;
+use crate::runtime::command::CommandJson;
 
 /// Everything `ema discover` found.
 #[derive(Clone, Debug)]

@@ -82,13 +82,14 @@ pub use report::{model_config, summary, to_json, verdict, write_outputs, OUTPUT_
 pub use residual::{above_noise_a, moving_mean, series, Series, CLEAN_FLOOR_A, NOISE_FLOOR_A, SMOOTH_BLOCKS};
 
 use crate::error::CliError;
-use crate::identify::{
-    command_for, condition_recording_for, identify_trace, resolve_command, CommandArg, ModelCommand, HOST_WINDOW,
-};
 use crate::output::{prepare_dir, OutputArgs};
 use crate::params::ParamsArgs;
 use crate::progress::{self, ProgressArgs};
 use crate::recording::RecordingArgs;
+use crate::runtime::command::{command_for, resolve_command, CommandArg, ModelCommand};
+use crate::runtime::identification::identify_trace;
+use crate::runtime::recording::condition_recording_for;
+use crate::runtime::source::HOST_WINDOW;
 use crate::simulate::parse_faults;
 use localisation::window_rms;
 use naming::search_round;

@@ -11,9 +11,9 @@ use super::discovery::{Discovery, Withdrawal};
 use super::naming::{same_signature, Candidate};
 use super::residual::{above_noise_a, moving_mean, NOISE_FLOOR_A, SMOOTH_BLOCKS};
 use crate::error::CliError;
-use crate::identify::CommandJson;
 use crate::output::{self, Overwrite};
 use crate::plots::{line_plot, Line};
+use crate::runtime::command::CommandJson;
 use crate::schema::Document;
 
 /// The model configuration the firmware build accepts (`EMA_MODEL_CONFIG`).

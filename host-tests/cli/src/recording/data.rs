@@ -64,6 +64,11 @@ impl Recording {
         self.time_s.len()
     }
 
+    /// The file line of row `k` (its index + 1 when the recording was not read from a file).
+    pub fn line_of(&self, k: usize) -> usize {
+        self.row_line.get(k).copied().unwrap_or(k + 1)
+    }
+
     /// `true` without rows.
     pub fn is_empty(&self) -> bool {
         self.time_s.is_empty()
