@@ -49,6 +49,7 @@ use ema_monitor::monitor::{
     group_pays, group_present, without_group, Algorithm, Identification, IdentifyConfig, FAULT_GROUPS,
     ONBOARD_POPULATION,
 };
+use ema_monitor::optimizer::rng::splitmix64;
 use ema_monitor::{Command, EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 use rayon::prelude::*;
@@ -291,18 +292,15 @@ pub fn detectability_floor_pooled<'a, const W: usize>(
     FaultVector(floor)
 }
 
-/// SplitMix64 (Steele, Lea, Flood, OOPSLA 2014): the campaign's seeded generator (one stream per
-/// run key), also the tests' generator of fault vectors.
+/// SplitMix64 (Steele, Lea, Flood, OOPSLA 2014), the core's ([`splitmix64`]), as a stream: the
+/// campaign's seeded generator (one stream per run key), also the tests' generator of fault
+/// vectors. The field is the generator's state.
 pub struct SplitMix(pub u64);
 
 impl SplitMix {
     /// The next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        splitmix64(&mut self.0)
     }
     /// Uniform in `[0, 1)` from the top 24 bits.
     pub fn unit(&mut self) -> f32 {

@@ -48,6 +48,7 @@ use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::health::{FaultMode, HealthReport, DEGRADED_AT, FAILING_AT};
 use ema_monitor::monitor::evidence::{self, PooledFlight, EVIDENCE_MODES};
 use ema_monitor::monitor::{self as core_monitor, group_present, IdentifyConfig, WarmReport, FAULT_GROUPS};
+use ema_monitor::optimizer::rng::{splitmix64_mix, SPLITMIX_GAMMA};
 use ema_monitor::persist::HealthRecord;
 use ema_monitor::prognosis::{Prognosis, HISTORY_CAPACITY, RUL_CONFIDENCE};
 use ema_monitor::{EmaParams, FaultVector, Profile};
@@ -414,12 +415,10 @@ struct Flight {
     seed: u64,
 }
 
-/// The seed of flight `flight` from the master seed (SplitMix64's increment and finaliser).
+/// The seed of flight `flight` from the master seed: SplitMix64's `flight`-th output from the
+/// state `master` ([`SPLITMIX_GAMMA`] `flight` times, then [`splitmix64_mix`]).
 fn flight_seed(master: u64, flight: u32) -> u64 {
-    let mut z = master.wrapping_add(u64::from(flight).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
+    splitmix64_mix(master.wrapping_add(u64::from(flight).wrapping_mul(SPLITMIX_GAMMA)))
 }
 
 /// The flights to run: the files read, or the flights simulated under the laws.
