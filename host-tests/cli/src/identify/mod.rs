@@ -25,11 +25,12 @@
 //! and the same parser as the firmware build (`EMA_MODEL_CONFIG=FILE cargo run --release`), so a
 //! host run and a firmware run of one configuration can be compared.
 //!
-//! The command is three files on top of the host runtime ([`crate::runtime`]): [`args`] (the
-//! flags and the settings they make), this module's [`run`] (read, acquire, identify), and
-//! [`report`] (text and JSON). Several recordings go to [`crate::pooled`].
+//! The command is four files on top of the host runtime ([`crate::runtime`]): [`args`] (the
+//! flags and the settings they make), this module's [`run`] (read, acquire, identify),
+//! [`report`] (text and JSON) and [`pooled`] (several recordings fitted by one fault vector).
 
 pub mod args;
+pub mod pooled;
 pub mod report;
 
 use std::io::Write;
@@ -85,8 +86,8 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
     let mut loaded = None;
     let params = args.params.load()?;
     if args.files.len() > 1 && args.firmware_trace.is_none() {
-        let pooled = crate::pooled::run(args, &config, &params)?;
-        return Ok(crate::pooled::render(&pooled, &config.effects, args));
+        let pooled = pooled::run(args, &config, &params)?;
+        return Ok(pooled::render(&pooled, &config.effects, args));
     }
     let (outcome, command) = match (&args.firmware_trace, args.files.first()) {
         (Some(path), _) => match firmware_trace_outcome(&read_firmware_trace(path)?, &params, &config) {
