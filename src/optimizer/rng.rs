@@ -19,15 +19,25 @@
 
 use super::Bounds;
 
-/// SplitMix64 increment (the golden ratio in 64-bit fixed point).
-const SPLITMIX_GAMMA: u64 = 0x9e37_79b9_7f4a_7c15;
+/// SplitMix64 increment (the golden ratio in 64-bit fixed point): the step of its counter, also
+/// a good odd multiplier for spreading small keys (flight numbers) over the 64 bits before
+/// [`splitmix64_mix`].
+pub const SPLITMIX_GAMMA: u64 = 0x9e37_79b9_7f4a_7c15;
 
-/// One SplitMix64 step: advances `state` and returns the next output.
+/// One SplitMix64 step: advances `state` by [`SPLITMIX_GAMMA`] and returns the next output,
+/// [`splitmix64_mix`] of the new state.
 pub const fn splitmix64(state: &mut u64) -> u64 {
     *state = state.wrapping_add(SPLITMIX_GAMMA);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    splitmix64_mix(*state)
+}
+
+/// SplitMix64's output function (its finaliser, a variant of MurmurHash3's `fmix64`): a
+/// bijection of `u64` whose every output bit depends on every input bit. The host derives
+/// independent seeds from keys with it (a flight's noise seed from the series seed and the
+/// flight number), so those seeds are the same function as the optimizer's seeding.
+pub const fn splitmix64_mix(z: u64) -> u64 {
+    let z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    let z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
     z ^ (z >> 31)
 }
 

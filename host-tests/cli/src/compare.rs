@@ -23,8 +23,8 @@ use ema_reference::{simulate, SimConfig, Truth};
 use serde::Serialize;
 
 use crate::error::CliError;
-use crate::identify::HOST_WINDOW;
 use crate::params::ParamsArgs;
+use crate::runtime::source::HOST_WINDOW;
 use crate::schema::Document;
 
 /// Arguments of `ema compare`.

@@ -26,9 +26,9 @@ use ema_reference::{simulate, SimConfig};
 use serde::Serialize;
 
 use crate::error::CliError;
-use crate::identify::condition_recording;
 use crate::params::ParamsArgs;
 use crate::recording::Recording;
+use crate::runtime::recording::condition_recording;
 use crate::schema::Document;
 use crate::simulate::{resolve_profile, Noise};
 

@@ -4,7 +4,7 @@ use std::fmt;
 use std::path::PathBuf;
 
 use crate::profile_file::ProfileFileError;
-use crate::recording::RecordingError;
+use crate::recording::error::RecordingError;
 
 /// Exit status of every failed command (bad input or failed I/O).
 pub const EXIT_FAILURE: u8 = 2;
@@ -52,6 +52,11 @@ impl CliError {
     /// A flag error.
     pub fn flag(flag: &'static str, message: impl Into<String>) -> Self {
         CliError::Flag { flag, message: message.into() }
+    }
+
+    /// An input error: the file `path` is unusable for the monitor, for the reason `message`.
+    pub fn input(path: &std::path::Path, message: impl Into<String>) -> Self {
+        CliError::Input { path: path.to_path_buf(), message: message.into() }
     }
 }
 

@@ -45,10 +45,10 @@ use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, Effects, SimConfig};
 
 use crate::error::CliError;
-use crate::identify::check_recording;
 use crate::output::{check_file, write_files, OutputArgs, Overwrite};
 use crate::params::ParamsArgs;
 use crate::recording::{Recording, RecordingArgs};
+use crate::runtime::recording::check_recording;
 
 /// Fault vector of the built-in trace: friction `k1 = 0.25`, everything else healthy
 /// (`ecc_phase` and `gain` at their neutral 0.5).

@@ -2,7 +2,7 @@
 //! reference-model recording of the standard manoeuvre with sensor noise (its own noise seed),
 //! identified on board's way ([`IdentifyConfig::onboard`]), then added to the sequential test of
 //! [`ema_monitor::monitor::evidence`]; the same recordings feed the pooled fit
-//! ([`crate::pooled::identify_pooled`]). The measurement of flights-to-detection
+//! ([`crate::runtime::identification::identify_pooled`]). The measurement of flights-to-detection
 //! (`examples/flights-to-detection.rs`) and its tests run on these.
 
 use std::path::PathBuf;
@@ -11,19 +11,19 @@ use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::health::HealthReport;
 use ema_monitor::monitor::evidence::{mode_present, Decision, Evidence, FlightEvidence, EVIDENCE_MODES};
 use ema_monitor::monitor::{Identification, IdentifyConfig, ONBOARD_POPULATION};
+use ema_monitor::optimizer::rng::{splitmix64_mix, SPLITMIX_GAMMA};
 use ema_monitor::{Command, EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 
 use crate::error::CliError;
-use crate::identify::{condition_recording, HOST_WINDOW};
 use crate::recording::Recording;
+use crate::runtime::recording::condition_recording;
+use crate::runtime::source::HOST_WINDOW;
 
-/// The noise seed of flight `flight` of series `series` (SplitMix64's finalizer of both).
+/// The noise seed of flight `flight` of series `series` (SplitMix64's finaliser of both,
+/// [`splitmix64_mix`]).
 pub fn flight_seed(series: u64, flight: usize) -> u64 {
-    let mut z = series.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (flight as u64).wrapping_add(0xD1B5_4A32_D192_ED03);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
+    splitmix64_mix(series.wrapping_mul(SPLITMIX_GAMMA) ^ (flight as u64).wrapping_add(0xD1B5_4A32_D192_ED03))
 }
 
 /// One flight's recording of the actuator with faults `truth` (standard manoeuvre, sensor noise
@@ -71,7 +71,7 @@ pub fn fly(trace: &MeasuredTrace<HOST_WINDOW>, seed: u64, evidence: &mut Evidenc
 pub fn pooled(traces: &[&MeasuredTrace<HOST_WINDOW>], seed: u64) -> Result<HealthReport, CliError> {
     let config = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
     let commands = vec![Command::Profile(Profile::STANDARD); traces.len()];
-    crate::pooled::identify_pooled(traces, &commands, &EmaParams::NOMINAL, &config)
+    crate::runtime::identification::identify_pooled(traces, &commands, &EmaParams::NOMINAL, &config)
         .map(|o| o.report)
         .map_err(|e| CliError::Simulation(e.to_string()))
 }

@@ -1,10 +1,12 @@
 //! # ema-cli: the host command line of ema-monitor (`ema`)
 //!
-//! One module per subcommand (`simulate`, …) plus the shared recording reader/writer
-//! ([`recording`]), profile files ([`profile_file`]), the bounded reading of every input file
-//! ([`input`]), the plots ([`plots`], plotters' SVG backend), the JSON envelope ([`schema`]), the
-//! progress bars ([`progress`]) and the error type ([`error`]). Every input
-//! file is read within a stated size, so no file drives an allocation. Every output file goes
+//! One module per subcommand (`simulate`, …) on top of the host runtime ([`runtime`]: the core's
+//! own acquisition and identification run over recordings and packed traces), plus the shared
+//! recording reader/writer ([`recording`]), profile files ([`profile_file`]), the bounded reading
+//! of every input file ([`input`]), the plots ([`plots`], plotters' SVG backend), the JSON
+//! envelope ([`schema`]), the progress bars ([`progress`]) and the error type ([`error`]). No
+//! file imports itself back through another (no import cycle). Every input file is read within a
+//! stated size, so no file drives an allocation. Every output file goes
 //! through [`output`]: checked before the work, an existing file replaced only with `--force`,
 //! written to a temporary file and renamed into place.
 //! The binary (`src/main.rs`) parses the command line with clap and prints every error as a
@@ -35,5 +37,6 @@ pub mod pooled;
 pub mod profile_file;
 pub mod progress;
 pub mod recording;
+pub mod runtime;
 pub mod schema;
 pub mod simulate;

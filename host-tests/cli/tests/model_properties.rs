@@ -35,16 +35,12 @@ use ema_monitor::{EmaParams, FaultVector, Profile, FAULT_COUNT};
 /// Random cases after the corners.
 const RANDOM_CASES: usize = 2000;
 
-/// SplitMix64: a small seeded generator, so that every run checks the same cases.
+/// The core's SplitMix64 as a small seeded generator, so that every run checks the same cases.
 struct Rng(u64);
 
 impl Rng {
     fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        ema_monitor::optimizer::rng::splitmix64(&mut self.0)
     }
 
     /// Uniform in `[0, 1]`, both ends reachable.

@@ -1,7 +1,11 @@
 //! Seeded noise source: xoshiro256++ seeded through SplitMix64, Gaussian by Box–Muller.
 //!
-//! Written here (no dependency) so that a recording depends only on the seed and this file:
-//! the same seed gives the same file on every platform and with every crate version.
+//! Written here with integer and `f64` operations only, and seeded by the core's SplitMix64
+//! ([`ema_monitor::optimizer::rng::splitmix64`], the one copy in the project), so that a
+//! recording depends only on the seed and this code: the same seed gives the same file on every
+//! platform and with every crate version.
+
+use ema_monitor::optimizer::rng::splitmix64;
 
 /// Deterministic pseudo-random generator.
 #[derive(Clone, Debug)]
@@ -14,14 +18,8 @@ impl NoiseRng {
     /// Generator for `seed` (any value, 0 included).
     pub fn new(seed: u64) -> Self {
         let mut x = seed;
-        let mut next = || {
-            x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = x;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^ (z >> 31)
-        };
-        Self { s: [next(), next(), next(), next()], spare: None }
+        let s = [splitmix64(&mut x), splitmix64(&mut x), splitmix64(&mut x), splitmix64(&mut x)];
+        Self { s, spare: None }
     }
 
     /// Next 64 random bits (xoshiro256++).

@@ -49,6 +49,7 @@
 //! [`OUTPUT_FILES`]). It is checked before the fits start (an existing file there is replaced only
 //! with `--force`), and its files are written whole or not at all ([`crate::output`]).
 
+pub mod discovery;
 pub mod fitting;
 pub mod localisation;
 pub mod naming;
@@ -66,6 +67,7 @@ use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::{Command, EffectId, EmaParams, FaultVector, ModelEffects};
 use indicatif::ProgressBar;
 
+pub use discovery::{Discovery, Withdrawal};
 pub use fitting::{
     fault_parameter_count, fit_model, parameter_count, ModelFit, Part, PartFit, CHUNK_BLOCKS, MIN_SEVERITY,
 };
@@ -80,18 +82,18 @@ pub use report::{model_config, summary, to_json, verdict, write_outputs, OUTPUT_
 pub use residual::{above_noise_a, moving_mean, series, Series, CLEAN_FLOOR_A, NOISE_FLOOR_A, SMOOTH_BLOCKS};
 
 use crate::error::CliError;
-use crate::identify::{
-    command_for, condition_recording_for, identify_trace, resolve_command, CommandArg, CommandJson, ModelCommand,
-    HOST_WINDOW,
-};
 use crate::output::{prepare_dir, OutputArgs};
 use crate::params::ParamsArgs;
 use crate::progress::{self, ProgressArgs};
 use crate::recording::RecordingArgs;
+use crate::runtime::command::{command_for, resolve_command, CommandArg, ModelCommand};
+use crate::runtime::identification::identify_trace;
+use crate::runtime::recording::condition_recording_for;
+use crate::runtime::source::HOST_WINDOW;
 use crate::simulate::parse_faults;
 use localisation::window_rms;
 use naming::search_round;
-use residual::{rms, structural_energy};
+use residual::structural_energy;
 
 /// Arguments of `ema discover`.
 #[derive(Args, Debug, Clone)]
@@ -131,81 +133,6 @@ pub struct DiscoverArgs {
     /// The actuator's parameters.
     #[command(flatten)]
     pub params: ParamsArgs,
-}
-
-/// Everything `ema discover` found.
-#[derive(Clone, Debug)]
-pub struct Discovery {
-    /// Recording path.
-    pub file: PathBuf,
-    /// What drove the monitor model (set by `ema discover`; `None` from [`discover`] alone).
-    pub command: Option<CommandJson>,
-    /// The current model's fit (whole recording).
-    pub before: ModelFit,
-    /// The model with the named effects (whole recording).
-    pub after: ModelFit,
-    /// The on-board diagnosis ([`IdentifyConfig::onboard`]: fast regime weighted as on board,
-    /// model selection, polish) with the paper's model.
-    pub onboard_before: FaultVector,
-    /// The same with the named effects promoted at their fitted severities (what the firmware
-    /// reports once built with `model_config`); `onboard_before` when nothing is named.
-    pub onboard_after: FaultVector,
-    /// Residual series before and after.
-    pub series_before: Series,
-    /// After adding the named effects.
-    pub series_after: Series,
-    /// Hot windows (with RMS before and after).
-    pub windows: Vec<Window>,
-    /// Regime shares (before).
-    pub regimes: Vec<Regime>,
-    /// Order shares (before).
-    pub orders: Vec<(&'static str, f64)>,
-    /// The search rounds.
-    pub rounds: Vec<Round>,
-    /// Named effects: `(effect, severity, confidence)`.
-    pub named: Vec<(EffectId, f32, f64)>,
-    /// Effects a round named that step 4 withdrew, in the order withdrawn, and why.
-    pub withdrawn: Vec<(EffectId, Withdrawal)>,
-    /// Where a residual no library effect explains remains (`None`: at the model's floor).
-    pub unexplained: Option<String>,
-    /// True fault vector, when given.
-    pub truth: Option<FaultVector>,
-    /// Wall time (s).
-    pub seconds: f64,
-    /// Objective evaluations in all.
-    pub evaluations: u64,
-}
-
-impl Discovery {
-    /// Structural residual RMS before (A).
-    pub fn rms_before_a(&self) -> f64 {
-        rms(self.series_before.structural_a.iter().copied())
-    }
-    /// Structural residual RMS after (A).
-    pub fn rms_after_a(&self) -> f64 {
-        rms(self.series_after.structural_a.iter().copied())
-    }
-    /// Raw residual RMS before (A).
-    pub fn raw_rms_before_a(&self) -> f64 {
-        rms(self.series_before.residual_a.iter().copied())
-    }
-    /// Raw residual RMS after (A).
-    pub fn raw_rms_after_a(&self) -> f64 {
-        rms(self.series_after.residual_a.iter().copied())
-    }
-}
-
-/// Why step 4 withdrew a named effect.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Withdrawal {
-    /// The named effects' refit on the whole recording did not shrink its structural gap; the
-    /// last one named goes.
-    GapNotShrunk,
-    /// The refit on the whole recording put it at this severity, at its fit's bound
-    /// ([`PINNED_SEVERITY`]), as a round's fit part would have had it refused: the effect behind
-    /// the residual is stronger or different. A DC-link sag (outside the library) can fit as a
-    /// dead time just under the bound on the fit part and above it on the whole recording.
-    AtBound(f32),
 }
 
 /// Runs the whole workflow on a conditioned trace of the actuator `params`, the model driven by

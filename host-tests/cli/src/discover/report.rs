@@ -7,13 +7,13 @@ use std::path::Path;
 use ema_monitor::FaultVector;
 use serde::Serialize;
 
+use super::discovery::{Discovery, Withdrawal};
 use super::naming::{same_signature, Candidate};
 use super::residual::{above_noise_a, moving_mean, NOISE_FLOOR_A, SMOOTH_BLOCKS};
-use super::{Discovery, Withdrawal};
 use crate::error::CliError;
-use crate::identify::CommandJson;
 use crate::output::{self, Overwrite};
 use crate::plots::{line_plot, Line};
+use crate::runtime::command::CommandJson;
 use crate::schema::Document;
 
 /// The model configuration the firmware build accepts (`EMA_MODEL_CONFIG`).

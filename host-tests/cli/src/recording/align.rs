@@ -26,8 +26,9 @@ use std::path::Path;
 
 use ema_monitor::Profile;
 
+use super::data::Recording;
+use super::error::{RecordingError, RecordingErrorKind};
 use super::grid::Grid;
-use super::{Recording, RecordingError, RecordingErrorKind};
 
 /// Largest difference between the recorded command and the profile: 2e-5 rad, twice the step of
 /// a command exported with five decimals (1e-5 rad), so a rounded or truncated export passes,

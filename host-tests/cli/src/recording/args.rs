@@ -8,8 +8,10 @@ use ema_monitor::conditioning::DECIMATION;
 use ema_monitor::{EmaParams, Profile};
 use serde::Serialize;
 
+use super::data::Recording;
+use super::error::{RecordingError, RecordingErrorKind};
 use super::read::{read_file, Columns, ReadOptions};
-use super::{align, resample, Recording, RecordingError, RecordingErrorKind};
+use super::{align, resample};
 use crate::error::CliError;
 
 /// How to read a recording file (flattened into `identify`, `discover` and

@@ -11,23 +11,11 @@
 
 use std::path::Path;
 
-use super::{Recording, RecordingError, RecordingErrorKind};
+use super::data::Recording;
+use super::error::{RecordingError, RecordingErrorKind};
 
-/// Lowest sample rate accepted: half the monitor's 10 kHz. Below it the recording lacks the
-/// 1.25–2.5 kHz band that the monitor's 0.4 ms block means still resolve.
-pub const MIN_RATE_HZ: f64 = 5_000.0;
-/// Highest sample rate accepted: ten times the monitor's rate, which bounds the anti-aliasing
-/// filter's length in input samples ([`super::resample`]) and the file's rows per second.
-pub const MAX_RATE_HZ: f64 = 100_000.0;
-/// Relative margin on the rate range, for the rounding of a nominal rate's timestamps.
-pub const RATE_MARGIN: f64 = 1e-3;
-/// Largest relative difference of a step from the median step (a missing row doubles a step).
-pub const STEP_TOLERANCE: f64 = 0.25;
-/// Largest distance of a timestamp from the fitted grid: 2 µs, twice the ±1 µs (1 % of the
-/// monitor's 100 µs period) of a jittered logging clock, the factor two a margin for the fitted
-/// line's own error and the extreme values of the jitter. A sample taken within it of its grid
-/// time moves the 0.4 ms block means the monitor fits by well under 1 % of a block.
-pub const JITTER_TOLERANCE_S: f64 = 2e-6;
+/// The rate and timing bounds, with the other bounds of a recording file in [`super::data`].
+pub use super::data::{JITTER_TOLERANCE_S, MAX_RATE_HZ, MIN_RATE_HZ, RATE_MARGIN, STEP_TOLERANCE};
 
 /// A uniform time grid: sample `i` at `origin_s + i · period_s`.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -19,8 +19,10 @@ use std::fs::File;
 use std::io::Read;
 use std::path::Path;
 
-use super::{grid, Recording, RecordingError, RecordingErrorKind, HEADER, KEYS};
-use super::{MAX_COMMENT_LINES, MAX_DURATION_S, MAX_FILE_BYTES, MAX_LINE_BYTES, MAX_ROWS, MIN_ROWS};
+use super::data::{Recording, HEADER, KEYS};
+use super::data::{MAX_COMMENT_LINES, MAX_DURATION_S, MAX_FILE_BYTES, MAX_LINE_BYTES, MAX_ROWS, MIN_ROWS};
+use super::error::{MissingColumn, RecordingError, RecordingErrorKind};
+use super::grid;
 use crate::input::{read_bounded, ReadError};
 
 /// The header of each channel, in the order of [`KEYS`] (`time`, `command`, `position`, `ia`,
@@ -200,7 +202,7 @@ pub fn parse_file(reader: impl Read, path: &Path, options: &ReadOptions) -> Resu
         index[i] = names.iter().position(|h| h == wanted).ok_or_else(|| {
             at(
                 header_line,
-                RecordingErrorKind::MissingColumn(Box::new(super::MissingColumn {
+                RecordingErrorKind::MissingColumn(Box::new(MissingColumn {
                     key: KEYS[i],
                     wanted: wanted.clone(),
                     found: names.clone(),
@@ -262,7 +264,7 @@ pub fn parse_file(reader: impl Read, path: &Path, options: &ReadOptions) -> Resu
 mod tests {
     use super::*;
     use crate::output::Overwrite;
-    use crate::recording::write_recording;
+    use crate::recording::write::write_recording;
 
     #[test]
     fn csv_round_trip_is_exact() {

@@ -4,7 +4,7 @@
 use std::io::Write;
 use std::path::Path;
 
-use super::{Recording, HEADER};
+use super::data::{Recording, HEADER};
 use crate::error::CliError;
 use crate::output::{self, Overwrite};
 

@@ -1,0 +1,95 @@
+//! `ema history`: the monitor over a series of flights of one actuator, its trend and remaining
+//! useful life per fault mode.
+//!
+//! ```text
+//! ema history FILE… [--json] [--out DIR [--force]] [--params F] [--profile P]
+//! ema history --simulate LAW… [--flights N] [--seed S] [--json] [--out DIR]
+//! ```
+//!
+//! Each recording is one flight, in the order given. Every flight runs the on-board sequence
+//! through [`identify_flight`]: the core identifies the recording (the first flight cold, a later
+//! flight warm from the previous diagnosis, with new-fault probes, unless the core's plan asks
+//! for a cold one) with the on-board settings
+//! ([`IdentifyConfig::onboard`](ema_monitor::monitor::IdentifyConfig::onboard): the firmware's
+//! iteration budget) and, when its status is a diagnosis, its five mode severities join the
+//! history of the core's [`HealthRecord`](ema_monitor::persist::HealthRecord) (a ring of the last
+//! 16 flights per mode, the record the firmware persists). The flight joins the record through
+//! the evidence pooled over flights, by the core function the firmware calls
+//! ([`evidence::record_flight_on`](ema_monitor::monitor::evidence::record_flight_on)): the
+//! flight's log-likelihood ratio per mode joins the record's sequential sums, and a mode the sums
+//! call present while the flight's own model selection dropped it is *declared by pooled evidence*
+//! and refitted into the diagnosis the record keeps
+//! (`docs/decisions/0024-declaration-by-pooled-evidence.md`). After each flight the core fits the
+//! trend of every mode and the flight at which it reaches the failing threshold, with its interval
+//! ([`ema_monitor::prognosis`]).
+//!
+//! **Degradation campaign** (`--simulate LAW…`): instead of files, the reference model flies
+//! `--flights` flights of an actuator whose faults follow the laws, with sensor noise and a noise
+//! seed per flight. A law is `MODE=START[+RATE][@ONSET]`: the mode's severity is 0 before flight
+//! `ONSET` (default 1) and `START + RATE·(flight − ONSET)` from it on (at most 1), so
+//! `friction=0.05+0.04` grows linearly from the first flight and `short_a=0.3@5` is a sudden
+//! fault at flight 5. Modes: `friction` (k1), `backlash` (k2), `short_a`, `short_b`, `short_c`
+//! (k3–k5), `eccentricity` (k6, minimum gap at 0°), `gain` (k8 = 0.5 + severity/2). Knowing the
+//! truth, the command scores each flight (the paper's Err%, cold and warm apart), the probes of
+//! the warm flights (false alarms: a drift-only flight, no group present in the truth and absent
+//! from the prior, on which a probe fires; misses: a flight with a new fault on which none fires
+//! and the report misses it), the detection of each mode (first
+//! flight its group is reported after its onset, and reports of a mode that is absent; the same
+//! for declarations by pooled evidence), and the prognosis at the last flight against the true
+//! crossing of the failing threshold.
+//!
+//! `--out DIR` writes `history.json` (the `--json` document) and `severity.svg` (severity against
+//! flight per mode as the record keeps it, the flights a mode was declared by pooled evidence
+//! ringed, the trend lines, the failing threshold and the RUL band).
+//!
+//! One concept per file: [`args`] (the flags), [`law`] (degradation laws), [`flight`] (one
+//! flight's identification), [`series`] (the flights, the record and the prognosis), [`json`]
+//! (the document's types), [`mod@document`] (the modes' scores), [`mod@text`] (the tables) and [`mod@plot`]
+//! (the chart).
+
+pub mod args;
+pub mod document;
+pub mod flight;
+pub mod json;
+pub mod law;
+pub mod plot;
+pub mod series;
+pub mod text;
+
+use crate::error::CliError;
+use crate::output::{prepare_dir, write_files};
+use crate::schema::Document;
+
+pub use args::HistoryArgs;
+pub use document::{document, PRESENT_SEVERITY};
+pub use flight::{identify_flight, FlightResult, Start};
+pub use json::{CampaignJson, FlightJson, HistoryJson, ModeJson};
+pub use law::{true_crossing, truth_at, Law, LAW_MODES};
+pub use plot::plot;
+pub use series::{run_series, Series};
+pub use text::text;
+
+/// The files `--out DIR` receives.
+pub const OUTPUT_FILES: [&str; 2] = ["history.json", "severity.svg"];
+
+/// Runs `ema history`.
+pub fn run(args: &HistoryArgs) -> Result<String, CliError> {
+    let laws = args.simulate.iter().map(|l| Law::parse(l)).collect::<Result<Vec<_>, _>>()?;
+    if laws.is_empty() && args.files.is_empty() {
+        return Err(CliError::flag("FILES", "give recordings of successive flights or --simulate LAW…"));
+    }
+    let params = args.params.load()?;
+    let overwrite = args.output.overwrite();
+    if let Some(dir) = &args.output.out {
+        prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
+    }
+    let series = run_series(args, &laws, &params)?;
+    let doc = document(&series, &laws, args, &params);
+    let json = Document::new(None, &doc).to_json();
+    if let Some(dir) = &args.output.out {
+        let svg = plot(&doc, &series).map_err(|source| CliError::Io { path: dir.join("severity.svg"), source })?;
+        let paths = OUTPUT_FILES.map(|name| dir.join(name));
+        write_files(&[(&paths[0], json.as_bytes()), (&paths[1], svg.as_bytes())], overwrite)?;
+    }
+    Ok(if args.json { json } else { text(&doc) })
+}

@@ -1,0 +1,120 @@
+//! `ema identify`: the `no_std` core built for the host — the same code as the firmware —
+//! identifies the faults behind a recording and prints the health report.
+//!
+//! Two inputs:
+//! - a recording CSV (`ema simulate`'s format, 10 kHz): phase currents in amperes go through the
+//!   core's own acquisition ([`ema_monitor::monitor::acquire`], on the recording as its
+//!   phase-current source, [`crate::runtime::source`]), so they pass the same range,
+//!   stuck-channel and sum checks as on board
+//!   ([`FrameCheck::amps`](ema_monitor::acquisition::FrameCheck::amps), nominal calibration); a
+//!   refused frame is held at the last good one and counted, and too many make the report
+//!   `SENSOR_FAULT`. The monitor model is driven by the command profile (`--command profile`,
+//!   the default: `--profile`, default `standard`), and then the command column must match it,
+//!   or by the recording's own command column (`--command recorded`: any manoeuvre, sampled at
+//!   10 kHz into the core's [`SampledCommand`](ema_monitor::SampledCommand), at most
+//!   [`HOST_COMMAND_SAMPLES`] rows, every value inside the end stops);
+//! - `--firmware-trace FILE`: the firmware's packed 12-bit trace, read through the same replay ADC,
+//!   `OneShot` reader and fixed-point calibration as on the MCU, with the on-board window, swarm
+//!   and settings — its report is bit-identical to the firmware's. `--bits` prints the fault
+//!   vector's bits and the firmware's summary line ([`summary_line`]: status, fitness bits,
+//!   evaluations, fault bits; or [`Refusal::summary_line`] for a refused trace), which
+//!   `scripts/parity` compares line for line with the firmware's in QEMU.
+//!
+//! `--model-config FILE` switches the monitor model's effect terms on from a model configuration
+//! file (`effect ID SEVERITY` lines, [`ema_monitor::effects::parse_model_config`]), the same file
+//! and the same parser as the firmware build (`EMA_MODEL_CONFIG=FILE cargo run --release`), so a
+//! host run and a firmware run of one configuration can be compared.
+//!
+//! The command is four files on top of the host runtime ([`crate::runtime`]): [`args`] (the
+//! flags and the settings they make), this module's [`run`] (read, acquire, identify),
+//! [`report`] (text and JSON) and [`pooled`] (several recordings fitted by one fault vector).
+
+pub mod args;
+pub mod pooled;
+pub mod report;
+
+use std::io::Write;
+
+use ema_monitor::effects::ModelEffects;
+use ema_monitor::monitor::IdentifyConfig;
+use ema_monitor::Profile;
+
+use crate::error::CliError;
+use crate::progress;
+use crate::runtime::firmware::read_firmware_trace;
+
+pub use args::{check_fast_regime_weight, method_flags, AlgorithmArg, IdentifyArgs};
+pub use report::{json_body, render, to_json, FitTestJson, IdentifyJson, ModeJson, WarmJson};
+
+/// The host runtime's items under the paths of `ema identify`'s library, which the tests,
+/// benches, investigations and fuzz targets use.
+pub use crate::runtime::command::{
+    command_for, model_command, recorded_command, resolve_command, CommandArg, CommandJson, ModelCommand,
+    HOST_COMMAND_SAMPLES,
+};
+pub use crate::runtime::firmware::{
+    bits_line, firmware_trace_outcome, firmware_trace_outcome_for, summary_line, Refusal, MAX_FIRMWARE_TRACE_BYTES,
+};
+pub use crate::runtime::identification::{
+    identify_recording, identify_recording_with, identify_trace, run_to_end, Outcome, WarmStart,
+};
+pub use crate::runtime::model_config::{
+    effects_label, read_model_config, read_model_config_from, MAX_MODEL_CONFIG_BYTES,
+};
+pub use crate::runtime::recording::{
+    condition_recording, condition_recording_checked, condition_recording_checked_for, condition_recording_for,
+    COMMAND_TOLERANCE_RAD,
+};
+pub use crate::runtime::source::HOST_WINDOW;
+
+/// Runs `ema identify`.
+pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
+    let base = if args.firmware_trace.is_some() { IdentifyConfig::onboard() } else { IdentifyConfig::default() };
+    check_fast_regime_weight(args.fast_regime_weight)?;
+    let config = IdentifyConfig {
+        algorithm: args.algorithm.into(),
+        seed: args.seed,
+        max_iterations: args.max_iterations.unwrap_or(base.max_iterations),
+        effects: match &args.model_config {
+            Some(path) => read_model_config(path)?,
+            None => ModelEffects::NONE,
+        },
+        prior: args.prior,
+        ..base
+    };
+    let config = method_flags(config, args.paper_only, args.fast_regime_weight);
+    let mut loaded = None;
+    let params = args.params.load()?;
+    if args.files.len() > 1 && args.firmware_trace.is_none() {
+        let pooled = pooled::run(args, &config, &params)?;
+        return Ok(pooled::render(&pooled, &config.effects, args));
+    }
+    let (outcome, command) = match (&args.firmware_trace, args.files.first()) {
+        (Some(path), _) => match firmware_trace_outcome(&read_firmware_trace(path)?, &params, &config) {
+            Ok(outcome) => (outcome, ModelCommand::Profile { profile: Profile::STANDARD, name: "standard".to_owned() }),
+            Err(refusal) => {
+                if args.bits {
+                    // the firmware's summary of the refusal, on stdout as an accepted report's;
+                    // a closed stdout changes nothing: the error line follows on stderr
+                    let _ = writeln!(std::io::stdout().lock(), "{}", refusal.summary_line());
+                }
+                return Err(CliError::input(path, refusal.message));
+            }
+        },
+        (None, Some(path)) => {
+            let resolved = resolve_command(args.command, &args.profile)?;
+            let load = args.recording.load(path, resolved.as_ref().and_then(ModelCommand::profile), &params)?;
+            let recording = load.recording;
+            let config =
+                IdentifyConfig { independent_frames_per_block: load.summary.independent_frames_per_block(), ..config };
+            loaded = Some(load.summary);
+            let command = command_for(resolved, &recording, path, &params)?;
+            let spinner = progress::spinner(format!("identifying {}", path.display()), args.progress.visible());
+            let outcome = identify_recording_with(&recording, path, &params, &command, &config);
+            spinner.finish_and_clear();
+            (outcome?, command)
+        }
+        (None, None) => return Err(CliError::flag("FILE", "give a recording CSV or --firmware-trace FILE")),
+    };
+    Ok(render(&outcome, &config.effects, &command, loaded.as_ref(), args))
+}

@@ -1,0 +1,116 @@
+//! The firmware's path on a packed trace (`ema identify --firmware-trace`), step for step as
+//! `src/main.rs` runs it, and the one-line summary the firmware logs, which `scripts/parity`
+//! compares with the firmware's in QEMU.
+
+use std::fmt::{Debug, Display};
+use std::fs::File;
+use std::path::Path;
+
+use ema_monitor::acquisition::{AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
+use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
+use ema_monitor::health::{Abstain, HealthReport, Status};
+use ema_monitor::monitor::{self, IdentifyConfig, ONBOARD_WINDOW};
+use ema_monitor::trace::{packed_len, PackedTrace};
+use ema_monitor::{Command, EmaParams, Profile};
+
+use super::identification::{run_identification, Outcome};
+use crate::error::CliError;
+use crate::input;
+
+/// Largest packed trace the on-board window takes, in bytes: [`ONBOARD_WINDOW`] blocks of
+/// [`DECIMATION`] frames and a trailing partial block (which conditioning drops); a longer one
+/// would stop acquisition with a full window anyway, so a larger file is refused unread.
+pub const MAX_FIRMWARE_TRACE_BYTES: usize = packed_len(ONBOARD_WINDOW * DECIMATION + DECIMATION - 1);
+
+/// Why the firmware's path refused a packed trace, named as the firmware names it in its summary
+/// line (`src/main.rs`, `log_refusal`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Refusal {
+    /// The step that refused: `trace` (the packed format), `reader` (the acquisition settings),
+    /// `acquisition` (conditioning the frames) or `identification` (its settings or the trace).
+    pub stage: &'static str,
+    /// The core's error as `Debug` writes it (`Padding`, `Conditioning(TooShort)`): the text the
+    /// firmware's `defmt::Format` derive writes for these field-less or nested variants.
+    pub error: String,
+    /// The error's message (`Display`), for the command's error line.
+    pub message: String,
+}
+
+impl Refusal {
+    fn new<E: Debug + Display>(stage: &'static str, e: E) -> Self {
+        Self { stage, error: format!("{e:?}"), message: e.to_string() }
+    }
+
+    /// `summary: REFUSED <stage> <error>`, the firmware's summary of a refused trace.
+    pub fn summary_line(&self) -> String {
+        format!("summary: REFUSED {} {}", self.stage, self.error)
+    }
+}
+
+/// Reads a packed trace file (`--firmware-trace`), at most [`MAX_FIRMWARE_TRACE_BYTES`].
+pub fn read_firmware_trace(path: &Path) -> Result<Vec<u8>, CliError> {
+    let file = File::open(path).map_err(|e| CliError::input(path, format!("cannot read: {e}")))?;
+    input::read_bounded(file, MAX_FIRMWARE_TRACE_BYTES).map_err(|e| CliError::input(path, e.to_string()))
+}
+
+/// The firmware's path on the bytes of a packed trace, step for step as `src/main.rs`: parse,
+/// replay ADC and `OneShot` reader (nominal calibration, default checks), [`monitor::acquire`]
+/// into the on-board window, the identification under `config` (the firmware's is
+/// `IdentifyConfig::onboard()` with its model effects) of the actuator `params` (the firmware's
+/// are `EMA_PARAMS`'), the acquisition's verdict, then
+/// `INCONCLUSIVE (rate mismatch)` when the header's rate is not 10 kHz. A step that refuses the
+/// trace gives the [`Refusal`] the firmware logs.
+pub fn firmware_trace_outcome(bytes: &[u8], params: &EmaParams, config: &IdentifyConfig) -> Result<Outcome, Refusal> {
+    firmware_trace_outcome_for(bytes, params, &Profile::STANDARD, config)
+}
+
+/// [`firmware_trace_outcome`] of a trace of the manoeuvre `profile` (the firmware's
+/// `EMA_PROFILE`: [`Profile::STANDARD`] or [`Profile::PBIT`]).
+pub fn firmware_trace_outcome_for(
+    bytes: &[u8],
+    params: &EmaParams,
+    profile: &Profile,
+    config: &IdentifyConfig,
+) -> Result<Outcome, Refusal> {
+    let packed = PackedTrace::parse(bytes).map_err(|e| Refusal::new("trace", e))?;
+    let rate_ok = monitor::rate_matches(packed.sample_rate_hz() as f32, params);
+    let adc = ReplayAdc::new(packed);
+    let mut reader =
+        PhaseCurrentReader::new(adc, (PhaseA, PhaseB, PhaseC), Calibration::NOMINAL, AcquisitionConfig::DEFAULT)
+            .map_err(|e| Refusal::new("reader", e))?;
+    let mut trace = Box::new(MeasuredTrace::<ONBOARD_WINDOW>::new());
+    let acquired = monitor::acquire(&mut reader, &mut trace).map_err(|e| Refusal::new("acquisition", e))?;
+    let outcome = run_identification(&trace, params, Command::Profile(*profile), config)
+        .map_err(|e| Refusal::new("identification", e))?;
+    let report = outcome.report.with_acquisition(&acquired);
+    let report = if rate_ok { report } else { report.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
+    Ok(Outcome { report, ..outcome })
+}
+
+/// The fault vector's `f32` bit patterns: 8 lower-case hex words.
+fn fault_bits(report: &HealthReport) -> String {
+    let words: Vec<String> = report.faults.0.iter().map(|k| format!("{:08x}", k.to_bits())).collect();
+    words.join(" ")
+}
+
+/// `fault vector bits: xxxxxxxx …` (8 lower-case hex words), as the firmware logs it.
+pub fn bits_line(report: &HealthReport) -> String {
+    format!("fault vector bits: {}", fault_bits(report))
+}
+
+/// The firmware's summary line of a report (`src/main.rs`, `log_summary`), which `scripts/parity`
+/// compares whole: `summary: STATUS fitness F evaluations N bits K1 … K8`, `STATUS` the status
+/// label with its reason in parentheses under `INCONCLUSIVE` (`INCONCLUSIVE(rate mismatch)`), `F`
+/// and `K1 … K8` the `f32` bit patterns of the fitness and of the fault vector.
+pub fn summary_line(report: &HealthReport) -> String {
+    let status = match report.status.reason() {
+        Some(reason) => format!("{}({})", report.status.label(), reason.label()),
+        None => report.status.label().to_owned(),
+    };
+    format!(
+        "summary: {status} fitness {:08x} evaluations {} bits {}",
+        report.fitness.to_bits(),
+        report.evaluations,
+        fault_bits(report)
+    )
+}

@@ -1,0 +1,162 @@
+//! The core's identification run to its end on the host: on one conditioned trace, on a
+//! recording (conditioned through the frame checks first), or pooled over several traces.
+//! [`run_to_end`] evaluates each sweep of the PSO global search in parallel and is bit for bit
+//! the firmware's sequential run.
+
+use std::path::Path;
+use std::time::Instant;
+
+use ema_monitor::command::CommandSource;
+use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::fitness::{PoolError, PooledTrace, MAX_POOLED_RECORDINGS};
+use ema_monitor::health::HealthReport;
+use ema_monitor::monitor::{Identification, IdentifyConfig, MonitorError, WarmReport, GROUP_NAMES, ONBOARD_POPULATION};
+use ema_monitor::optimizer::{Objective, Status as SearchStatus};
+use ema_monitor::FAULT_COUNT;
+use ema_monitor::{Command, EmaParams, Profile};
+use rayon::prelude::*;
+
+use super::command::ModelCommand;
+use super::recording::condition_recording_checked_for;
+use crate::error::CliError;
+use crate::recording::Recording;
+
+/// Outcome of one identification.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// The report of the core.
+    pub report: HealthReport,
+    /// Wall time of the identification alone (acquisition and file reading excluded).
+    pub seconds: f64,
+    /// The warm start's prior and what its stages did (`None`: a cold identification).
+    pub warm: Option<WarmStart>,
+}
+
+/// The prior of a warm start and what its stages did ([`ema_monitor::monitor::WarmReport`]).
+#[derive(Clone, Copy, Debug)]
+pub struct WarmStart {
+    /// The prior fault vector.
+    pub prior: [f32; 8],
+    /// Probes, refits and evaluations of the warm stages.
+    pub report: WarmReport,
+}
+
+impl WarmStart {
+    /// Names of the groups whose new-fault probe fired.
+    pub fn fired(&self) -> Vec<&'static str> {
+        GROUP_NAMES.iter().enumerate().filter(|&(g, _)| self.report.fired_group(g)).map(|(_, &n)| n).collect()
+    }
+}
+
+/// Identifies a recording read from `path` (used for messages) of the actuator `params`, driven
+/// by `profile`; the report carries the count of refused frames and is `SENSOR_FAULT` when there
+/// are too many.
+pub fn identify_recording(
+    recording: &Recording,
+    path: &Path,
+    params: &EmaParams,
+    profile: &Profile,
+    config: &IdentifyConfig,
+) -> Result<Outcome, CliError> {
+    identify_recording_with(
+        recording,
+        path,
+        params,
+        &ModelCommand::Profile { profile: *profile, name: String::new() },
+        config,
+    )
+}
+
+/// [`identify_recording`] driven by `command`: a profile, or the recording's own command.
+pub fn identify_recording_with(
+    recording: &Recording,
+    path: &Path,
+    params: &EmaParams,
+    command: &ModelCommand,
+    config: &IdentifyConfig,
+) -> Result<Outcome, CliError> {
+    let (trace, acquired) = condition_recording_checked_for(recording, path, params, command)?;
+    let outcome = identify_trace(&trace, params, command.command(), config, path)?;
+    Ok(Outcome { report: outcome.report.with_acquisition(&acquired), ..outcome })
+}
+
+/// Identifies a conditioned trace (any window size) of the actuator `params`, the model driven by
+/// `command` (a profile or a sampled command); `path` names the input in messages.
+pub fn identify_trace<'c, const W: usize>(
+    trace: &MeasuredTrace<W>,
+    params: &EmaParams,
+    command: impl CommandSource<'c>,
+    config: &IdentifyConfig,
+    path: &Path,
+) -> Result<Outcome, CliError> {
+    run_identification(trace, params, command.into_command(), config).map_err(|e| CliError::input(path, e.to_string()))
+}
+
+/// The identification of a conditioned trace to its end, as the firmware's `identify` runs it,
+/// with the 1σ and detectable-below severities of the reported vector.
+pub fn run_identification<const W: usize>(
+    trace: &MeasuredTrace<W>,
+    params: &EmaParams,
+    command: Command<'_>,
+    config: &IdentifyConfig,
+) -> Result<Outcome, MonitorError> {
+    let start = Instant::now();
+    let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> =
+        Box::new(Identification::new(trace, *params, command, config)?);
+    run_to_end(&mut id);
+    let warm = config.prior.zip(id.warm_report()).map(|(prior, report)| WarmStart { prior, report });
+    let seconds = start.elapsed().as_secs_f64();
+    // the 1σ and detectable-below severities of the reported vector, as the firmware logs them
+    Ok(Outcome { report: id.with_uncertainty(id.report()), seconds, warm })
+}
+
+/// Runs `id` to its end as [`Identification::run`] does, with each sweep of the PSO global search
+/// evaluated in parallel on the current rayon pool (on clones of the fitness) and the costs handed
+/// back in order ([`Identification::pending_global`]): a particle's cost depends on nothing its
+/// sweep changes, so the identification is bit for bit the firmware's sequential one. The
+/// particles after the one whose cost ends the global search are evaluated and not recorded.
+pub fn run_to_end<const W: usize, const P: usize>(id: &mut Identification<'_, W, P>) {
+    loop {
+        let batch: Vec<([f32; FAULT_COUNT], f32)> = id.pending_global().map(|(x, above)| (*x, above)).collect();
+        if batch.len() > 1 {
+            let costs: Vec<f32> =
+                batch.par_iter().map_with(id.fitness().clone(), |fit, (x, above)| fit.cost(x, *above)).collect();
+            for cost in costs {
+                if let SearchStatus::Done(_) = id.step_with_global_cost(cost) {
+                    return;
+                }
+                if id.pending_global().next().is_none() {
+                    break; // the global search ended inside the sweep
+                }
+            }
+        } else if let SearchStatus::Done(_) = id.step() {
+            return;
+        }
+    }
+}
+
+/// Identifies one fault vector from several conditioned traces of the actuator `params`, trace
+/// `i` measured under `commands[i]`: the pipeline of [`IdentifyConfig`] on the pooled fitness.
+/// One trace gives exactly the single-recording identification. At most
+/// [`MAX_POOLED_RECORDINGS`] traces, as many commands as traces.
+pub fn identify_pooled<const W: usize>(
+    traces: &[&MeasuredTrace<W>],
+    commands: &[Command<'_>],
+    params: &EmaParams,
+    config: &IdentifyConfig,
+) -> Result<Outcome, MonitorError> {
+    let (Some((&first, rest)), Some((&first_command, rest_commands))) = (traces.split_first(), commands.split_first())
+    else {
+        return Err(MonitorError::Pool(PoolError::TooMany));
+    };
+    if traces.len() != commands.len() || traces.len() > MAX_POOLED_RECORDINGS {
+        return Err(MonitorError::Pool(PoolError::TooMany));
+    }
+    let more: Vec<PooledTrace<'_, W>> =
+        rest.iter().zip(rest_commands).map(|(&trace, &command)| PooledTrace { trace, command }).collect();
+    let start = Instant::now();
+    let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> =
+        Box::new(Identification::new(first, *params, first_command, config)?.pooled_with(&more)?);
+    id.run(u32::MAX);
+    Ok(Outcome { report: id.report(), seconds: start.elapsed().as_secs_f64(), warm: None })
+}

@@ -1,0 +1,105 @@
+//! A recording as the core's phase-current source, read by the core's own acquisition.
+//!
+//! [`RecordingSource`] hands the recording's rows to [`monitor::acquire`] one frame at a time as
+//! [`PhaseCurrents`] does on board, and reports [`AcquisitionError::EndOfData`] after the last
+//! row. With [`FrameChecks::OnBoard`] every frame first passes the core's frame checks
+//! ([`FrameCheck::amps`]: range, stuck channel and sum, nominal calibration, default settings),
+//! so a refused frame is held at the last good one and counted exactly as the firmware holds and
+//! counts it; with [`FrameChecks::None`] every frame is taken as it is. [`acquire_recording`]
+//! runs the acquisition and names the row of a refused window in its error.
+
+use std::path::Path;
+
+use ema_monitor::acquisition::{
+    AcquisitionConfig, AcquisitionError, Calibration, FrameCheck, PhaseCurrents, PhaseFrame,
+};
+use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::monitor::{self, AcquisitionSummary, MonitorError};
+
+use crate::error::CliError;
+use crate::recording::Recording;
+
+/// Window capacity for host identifications from CSV: 3.2 s of recording at the 2.5 kHz fitness rate.
+pub const HOST_WINDOW: usize = 8192;
+
+/// Whether a recording's frames pass the core's frame checks on their way to the trace.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrameChecks {
+    /// The on-board checks ([`FrameCheck::amps`], nominal calibration, default settings): what
+    /// `ema identify` and `ema history` read through.
+    OnBoard,
+    /// None: every frame as it is, for the studies of the model on recordings whose sensor
+    /// effects the checks would refuse (a sensor offset breaks the sum rule).
+    None,
+}
+
+/// The rows of a recording as the core's [`PhaseCurrents`] source, in order, then
+/// [`AcquisitionError::EndOfData`].
+pub struct RecordingSource<'r> {
+    recording: &'r Recording,
+    check: Option<FrameCheck>,
+    next: usize,
+    ended: bool,
+}
+
+impl<'r> RecordingSource<'r> {
+    /// The source of `recording`'s rows under `checks`; the on-board checks' settings are the
+    /// core's defaults, which it accepts (an error here is the core refusing its own defaults).
+    pub fn new(recording: &'r Recording, checks: FrameChecks) -> Result<Self, ema_monitor::acquisition::ConfigError> {
+        let check = match checks {
+            FrameChecks::OnBoard => Some(FrameCheck::new(Calibration::NOMINAL, AcquisitionConfig::DEFAULT)?),
+            FrameChecks::None => None,
+        };
+        Ok(Self { recording, check, next: 0, ended: false })
+    }
+
+    /// Rows handed out so far (the index of the next row).
+    pub fn rows_read(&self) -> usize {
+        self.next
+    }
+
+    /// `true` once the source has reported [`AcquisitionError::EndOfData`].
+    pub fn has_ended(&self) -> bool {
+        self.ended
+    }
+}
+
+impl PhaseCurrents for RecordingSource<'_> {
+    fn read_frame(&mut self) -> Result<PhaseFrame, AcquisitionError> {
+        let r = self.recording;
+        let k = self.next;
+        if k >= r.len() {
+            self.ended = true;
+            return Err(AcquisitionError::EndOfData);
+        }
+        self.next += 1;
+        let currents_a = [r.ia_a[k] as f32, r.ib_a[k] as f32, r.ic_a[k] as f32];
+        match &mut self.check {
+            Some(check) => check.amps(currents_a),
+            // no ADC stands behind a recording's currents: the codes are not read downstream
+            None => Ok(PhaseFrame { ia_a: currents_a[0], ib_a: currents_a[1], ic_a: currents_a[2], codes: [0; 3] }),
+        }
+    }
+}
+
+/// Every row of `recording` (read from `path`, named in errors) through [`monitor::acquire`]
+/// into a new measured trace of `W` window samples, under `checks`. A frame the window refuses
+/// names its file line; a window refused when it closes (too short, no excitation) names the file.
+pub fn acquire_recording<const W: usize>(
+    recording: &Recording,
+    path: &Path,
+    checks: FrameChecks,
+) -> Result<(Box<MeasuredTrace<W>>, AcquisitionSummary), CliError> {
+    let mut source = RecordingSource::new(recording, checks).map_err(|e| CliError::input(path, e.to_string()))?;
+    let mut trace = Box::new(MeasuredTrace::<W>::new());
+    match monitor::acquire(&mut source, &mut trace) {
+        Ok(summary) => Ok((trace, summary)),
+        // before the end of the data the window refused the last frame read; after it, it
+        // refused to close
+        Err(MonitorError::Conditioning(e)) if !source.has_ended() => {
+            Err(CliError::input(path, format!("line {}: {e}", recording.line_of(source.rows_read().saturating_sub(1)))))
+        }
+        Err(MonitorError::Conditioning(e)) => Err(CliError::input(path, e.to_string())),
+        Err(e) => Err(CliError::input(path, e.to_string())),
+    }
+}
