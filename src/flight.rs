@@ -32,7 +32,7 @@ use crate::monitor::{
     self, plan_start, with_uncertainty, AcquisitionSummary, Identification, IdentifyConfig, MonitorError, Start,
     WarmReport, ONBOARD_POPULATION, ONBOARD_WINDOW,
 };
-use crate::optimizer::Status as SearchStatus;
+use crate::optimizer::SearchStatus;
 use crate::persist::HealthRecord;
 use crate::{Command, EmaParams, ModelEffects};
 
@@ -168,7 +168,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     /// How the next flight starts, from what `record` holds: warm from its diagnosis when it has
     /// one ([`HealthRecord::has_prior`]) and no cold identification is due ([`plan_start`]).
     pub fn plan(&self, record: &HealthRecord) -> Start {
-        let prior = record.has_prior().then(|| record.k().0);
+        let prior = record.has_prior().then(|| record.faults().0);
         let last_needs_cold = record.status().is_some_and(|s| matches!(s, Status::Inconclusive(_)));
         plan_start(prior.as_ref(), record.flights_since_cold(), last_needs_cold, &self.config)
     }
@@ -199,7 +199,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     ) -> Result<Flight, MonitorError> {
         let start = self.plan(record);
         let prior = match start {
-            Start::Warm => Some(record.k().0),
+            Start::Warm => Some(record.faults().0),
             Start::Cold(_) => None,
         };
         let number = record.flights().saturating_add(1);
@@ -351,7 +351,7 @@ mod tests {
                 assert!((friction - 0.3).abs() < 0.03, "unit {u} flight {flight}: friction {friction}");
                 assert_eq!(f.pooled.map(|p| p.evidence.flights), Some(flight));
                 assert_eq!((record.flights(), record.flights_since_cold()), (flight, flight - 1));
-                assert_eq!(record.k(), f.recorded_report().faults);
+                assert_eq!(record.faults(), f.recorded_report().faults);
             }
         }
     }

@@ -21,7 +21,7 @@ use crate::optimizer::de::{DeConfig, DifferentialEvolution};
 use crate::optimizer::ga::{GaConfig, Genetic};
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
 use crate::optimizer::pso::{ParticleSwarm, PsoConfig};
-use crate::optimizer::{Bounds, ConfigError, Optimizer, Status, TerminationReason};
+use crate::optimizer::{Bounds, ConfigError, Optimizer, SearchStatus, TerminationReason};
 use crate::params::EmaParams;
 
 /// The global search's optimizer.
@@ -244,9 +244,9 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     }
 
     /// One objective evaluation (one monitor-model run over the trace, possibly abandoned early).
-    pub fn step(&mut self) -> Status {
+    pub fn step(&mut self) -> SearchStatus {
         match &mut self.stage {
-            Stage::Done(reason) => return Status::Done(*reason),
+            Stage::Done(reason) => return SearchStatus::Done(*reason),
             Stage::Global => {
                 let status = match &mut self.solver {
                     Solver::Pso(s) => s.step(&mut self.fit),
@@ -265,7 +265,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
                 self.selection_polish_evaluations += search.evaluations() - before;
                 let (x, c) = search.best();
                 (self.best, self.best_cost) = (*x, c);
-                if let Status::Done(_) = status {
+                if let SearchStatus::Done(_) = status {
                     self.finish(self.global_reason());
                 }
             }
@@ -294,7 +294,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
 
     /// [`Identification::step`] with the cost of the next [`Identification::pending_global`]
     /// particle computed elsewhere; outside the PSO global search an ordinary step.
-    pub fn step_with_global_cost(&mut self, cost: f32) -> Status {
+    pub fn step_with_global_cost(&mut self, cost: f32) -> SearchStatus {
         #[allow(irrefutable_let_patterns, reason = "refutable when GA or DE is built in")]
         let Solver::Pso(swarm) = &mut self.solver
         else {
@@ -309,8 +309,8 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     }
 
     /// After one step of the global search: once it is done, its best moves on to the later stages.
-    fn after_global_step(&mut self, status: Status) {
-        if let Status::Done(reason) = status {
+    fn after_global_step(&mut self, status: SearchStatus) {
+        if let SearchStatus::Done(reason) = status {
             (self.best, self.best_cost) = self.solver.best();
             self.after_global_search(reason);
         }
@@ -410,26 +410,26 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             Solver::De(s) => s.status(),
         };
         match status {
-            Status::Done(reason) => reason,
-            Status::Running => TerminationReason::MaxIterations,
+            SearchStatus::Done(reason) => reason,
+            SearchStatus::Running => TerminationReason::MaxIterations,
         }
     }
 
     /// Steps until the identification finishes or `max_evaluations` more evaluations are spent.
-    pub fn run(&mut self, max_evaluations: u32) -> Status {
+    pub fn run(&mut self, max_evaluations: u32) -> SearchStatus {
         for _ in 0..max_evaluations {
-            if let Status::Done(_) = self.step() {
+            if let SearchStatus::Done(_) = self.step() {
                 break;
             }
         }
         self.status()
     }
 
-    /// Status after the last step.
-    pub fn status(&self) -> Status {
+    /// SearchStatus after the last step.
+    pub fn status(&self) -> SearchStatus {
         match self.stage {
-            Stage::Done(reason) => Status::Done(reason),
-            _ => Status::Running,
+            Stage::Done(reason) => SearchStatus::Done(reason),
+            _ => SearchStatus::Running,
         }
     }
 
@@ -702,7 +702,7 @@ pub(super) mod tests {
         let early = id.report();
         assert_eq!((early.evaluations, early.termination), (0, None));
         let done = id.run(u32::MAX);
-        assert!(matches!(done, Status::Done(_)));
+        assert!(matches!(done, SearchStatus::Done(_)));
         // a step after the end changes nothing
         let report = id.report();
         assert_eq!(id.step(), done);

@@ -25,7 +25,7 @@ use super::stage::{Selection, Stage, WindowCheck};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::WindowErrors;
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
-use crate::optimizer::{Optimizer, Status};
+use crate::optimizer::{Optimizer, SearchStatus};
 
 /// The refit of the other groups when one group is set back to healthy: steps from 0.01 down to
 /// 1e-3, at most 120 evaluations. A nested model is compared at its own best, not at the full
@@ -136,7 +136,7 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
                 let before = search.evaluations();
                 let status = search.step(&mut self.fit);
                 self.selection_polish_evaluations += search.evaluations() - before;
-                if let Status::Done(_) = status {
+                if let SearchStatus::Done(_) = status {
                     let (group, effective_samples) = (*group, *effective_samples);
                     self.refit_done(group, effective_samples);
                 }
@@ -221,7 +221,7 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
         let config = PatternConfig { max_evaluations: refit_budget, ..SELECTION_REFIT };
         match PatternSearch::new(fault_bounds(), config, start, Some(cost), free) {
             Ok(search) => {
-                let done = matches!(search.status(), Status::Done(_));
+                let done = matches!(search.status(), SearchStatus::Done(_));
                 self.stage = Stage::Select(Selection::Refit { group, effective_samples, search });
                 if done {
                     self.refit_done(group, effective_samples); // nothing free: judged on the pre-check

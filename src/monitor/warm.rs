@@ -42,7 +42,7 @@ use super::stage::{Selection, Stage, WarmStage};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::CurrentFit;
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
-use crate::optimizer::{Bounds, Objective, Optimizer, Status, TerminationReason};
+use crate::optimizer::{Bounds, Objective, Optimizer, SearchStatus, TerminationReason};
 
 /// Severity of a new-fault probe (normalized, the scale of the fault vector): 0.1. A probe
 /// fires for a new fault above about half of it (0.05, the campaign's smallest "low" fault);
@@ -206,7 +206,7 @@ fn step_counted<const W: usize>(
     let status = search.step(fit);
     *evaluations += search.evaluations() - before;
     match status {
-        Status::Done(_) => {
+        SearchStatus::Done(_) => {
             let (x, c) = search.best();
             Some((*x, c))
         }

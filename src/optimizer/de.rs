@@ -81,7 +81,7 @@
 //! NaN policy: a non-finite cost is treated as `+∞`; nothing in [`Optimizer::step`] can panic.
 
 use super::rng::Rng;
-use super::{Bounds, ConfigError, Objective, Optimizer, SearchState, Status, Stopping};
+use super::{Bounds, ConfigError, Objective, Optimizer, SearchState, SearchStatus, Stopping};
 
 /// How the mutant vector `v` of target `x_i` is built (`r₁, r₂, r₃` distinct random indices other than `i`,
 /// `x_best` the best individual of the generation, `F` the differential weight).
@@ -220,8 +220,8 @@ impl<const P: usize, const D: usize> DifferentialEvolution<P, D> {
         &self.bounds
     }
 
-    /// Status after the last step.
-    pub fn status(&self) -> Status {
+    /// SearchStatus after the last step.
+    pub fn status(&self) -> SearchStatus {
         self.state.status()
     }
 
@@ -300,7 +300,7 @@ impl<const P: usize, const D: usize> DifferentialEvolution<P, D> {
 }
 
 impl<const P: usize, const D: usize> Optimizer<D> for DifferentialEvolution<P, D> {
-    fn step<O: Objective<D>>(&mut self, objective: &mut O) -> Status {
+    fn step<O: Objective<D>>(&mut self, objective: &mut O) -> SearchStatus {
         if !self.state.is_running() {
             return self.state.status();
         }
@@ -360,7 +360,7 @@ mod tests {
     ) -> DifferentialEvolution<P, D> {
         let mut de = DifferentialEvolution::<P, D>::new(bounds, config, seed).unwrap();
         let status = run(&mut de, objective, u32::MAX);
-        assert!(matches!(status, Status::Done(_)));
+        assert!(matches!(status, SearchStatus::Done(_)));
         de
     }
 

@@ -52,7 +52,7 @@
 //! NaN policy: a non-finite cost is treated as `+∞`; nothing in [`Optimizer::step`] can panic.
 
 use super::rng::Rng;
-use super::{Bounds, ConfigError, Objective, Optimizer, SearchState, Status, Stopping};
+use super::{Bounds, ConfigError, Objective, Optimizer, SearchState, SearchStatus, Stopping};
 
 /// Settings of [`Genetic`]; `Default` is the variant of the module doc with the paper's stopping rule.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -187,8 +187,8 @@ impl<const P: usize, const D: usize> Genetic<P, D> {
         &self.bounds
     }
 
-    /// Status after the last step.
-    pub fn status(&self) -> Status {
+    /// SearchStatus after the last step.
+    pub fn status(&self) -> SearchStatus {
         self.state.status()
     }
 
@@ -331,7 +331,7 @@ impl<const P: usize, const D: usize> Genetic<P, D> {
 }
 
 impl<const P: usize, const D: usize> Optimizer<D> for Genetic<P, D> {
-    fn step<O: Objective<D>>(&mut self, objective: &mut O) -> Status {
+    fn step<O: Objective<D>>(&mut self, objective: &mut O) -> SearchStatus {
         if !self.state.is_running() {
             return self.state.status();
         }
@@ -383,7 +383,7 @@ mod tests {
     ) -> Genetic<P, D> {
         let mut ga = Genetic::<P, D>::new(bounds, config, seed).unwrap();
         let status = run(&mut ga, objective, u32::MAX);
-        assert!(matches!(status, Status::Done(_)));
+        assert!(matches!(status, SearchStatus::Done(_)));
         ga
     }
 

@@ -139,7 +139,7 @@ pub enum TerminationReason {
 /// What one [`Optimizer::step`] left behind.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Status {
+pub enum SearchStatus {
     /// More work to do.
     Running,
     /// Finished; further steps do nothing.
@@ -178,7 +178,7 @@ impl core::error::Error for ConfigError {}
 /// Common step-wise interface of the population optimizers.
 pub trait Optimizer<const D: usize> {
     /// Does at most one objective evaluation (plus the bookkeeping that follows it).
-    fn step<O: Objective<D>>(&mut self, objective: &mut O) -> Status;
+    fn step<O: Objective<D>>(&mut self, objective: &mut O) -> SearchStatus;
     /// Best point found so far and its cost (`f32::INFINITY` before the first evaluation).
     fn best(&self) -> (&[f32; D], f32);
     /// Objective evaluations done so far.
@@ -193,15 +193,15 @@ pub fn run<const D: usize, S: Optimizer<D>, O: Objective<D>>(
     optimizer: &mut S,
     objective: &mut O,
     max_evaluations: u32,
-) -> Status {
+) -> SearchStatus {
     let start = optimizer.evaluations();
     loop {
         let status = optimizer.step(objective);
-        if let Status::Done(_) = status {
+        if let SearchStatus::Done(_) = status {
             return status;
         }
         if optimizer.evaluations().wrapping_sub(start) >= max_evaluations {
-            return Status::Running;
+            return SearchStatus::Running;
         }
     }
 }

@@ -12,7 +12,7 @@
 //! Storage: two points of `D` parameters and a mask; one evaluation per [`Optimizer::step`].
 //! [`Optimizer::iterations`] counts the step halvings.
 
-use super::{Bounds, ConfigError, NoTarget, Objective, Optimizer, SearchState, Status, TerminationReason};
+use super::{Bounds, ConfigError, NoTarget, Objective, Optimizer, SearchState, SearchStatus, TerminationReason};
 
 /// Settings of a [`PatternSearch`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -108,8 +108,8 @@ impl<const D: usize> PatternSearch<D> {
         &self.bounds
     }
 
-    /// Status after the last step.
-    pub fn status(&self) -> Status {
+    /// SearchStatus after the last step.
+    pub fn status(&self) -> SearchStatus {
         self.state.status()
     }
 
@@ -165,7 +165,7 @@ impl<const D: usize> PatternSearch<D> {
 }
 
 impl<const D: usize> Optimizer<D> for PatternSearch<D> {
-    fn step<O: Objective<D>>(&mut self, objective: &mut O) -> Status {
+    fn step<O: Objective<D>>(&mut self, objective: &mut O) -> SearchStatus {
         if !self.state.is_running() {
             return self.state.status();
         }
@@ -237,7 +237,7 @@ mod tests {
         let mut f = Quadratic { centre: [0.31, 0.77, 0.05], calls: 0 };
         let mut s = PatternSearch::new(Bounds::unit(), config(), [0.5; 3], None, [true; 3]).unwrap();
         let status = run(&mut s, &mut f, u32::MAX);
-        assert_eq!(status, Status::Done(TerminationReason::FunctionTolerance));
+        assert_eq!(status, SearchStatus::Done(TerminationReason::FunctionTolerance));
         let (x, c) = s.best();
         for i in 0..3 {
             assert!((x[i] - f.centre[i]).abs() < 1e-3, "{x:?}");
@@ -290,7 +290,7 @@ mod tests {
         let mut f = Quadratic { centre: [0.3; 3], calls: 0 };
         let c = PatternConfig { max_evaluations: 7, ..config() };
         let mut s = PatternSearch::new(Bounds::unit(), c, [0.9; 3], Some(3.0), [true; 3]).unwrap();
-        assert_eq!(run(&mut s, &mut f, u32::MAX), Status::Done(TerminationReason::MaxIterations));
+        assert_eq!(run(&mut s, &mut f, u32::MAX), SearchStatus::Done(TerminationReason::MaxIterations));
         assert_eq!(f.calls, 7, "a given start cost is not evaluated again");
         let bad = PatternConfig { min_step: 0.0, ..config() };
         assert_eq!(
@@ -309,12 +309,12 @@ mod tests {
         let calls = f.calls;
         let mut s = PatternSearch::new(Bounds::<3>::unit(), config(), [0.5; 3], None, [false; 3]).unwrap();
         assert_eq!(s.best().1, f32::INFINITY);
-        assert!(matches!(s.step(&mut f), Status::Done(_)));
+        assert!(matches!(s.step(&mut f), SearchStatus::Done(_)));
         assert_eq!((f.calls - calls, s.evaluations()), (1, 1));
         assert_eq!(s.best().0, &[0.5; 3]);
         assert!((s.best().1 - 0.6).abs() < 1e-6, "(4 + 1 + 1 + 9) · 0.2²: {}", s.best().1);
         let mut s = PatternSearch::new(Bounds::<3>::unit(), config(), [0.5; 3], Some(2.0), [false; 3]).unwrap();
-        assert!(matches!(s.step(&mut f), Status::Done(_)));
+        assert!(matches!(s.step(&mut f), SearchStatus::Done(_)));
         assert_eq!((f.calls - calls, s.evaluations(), s.best().1), (1, 0, 2.0));
     }
 }

@@ -79,7 +79,7 @@
 //! NaN policy: a non-finite cost is treated as `+∞`; nothing in [`Optimizer::step`] can panic.
 
 use super::rng::Rng;
-use super::{Bounds, ConfigError, Objective, Optimizer, SearchState, Status, Stopping};
+use super::{Bounds, ConfigError, Objective, Optimizer, SearchState, SearchStatus, Stopping};
 
 /// Who a particle learns from (its "social" guide `g`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -311,8 +311,8 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
         self.inertia
     }
 
-    /// Status after the last step.
-    pub fn status(&self) -> Status {
+    /// SearchStatus after the last step.
+    pub fn status(&self) -> SearchStatus {
         self.state.status()
     }
 
@@ -329,7 +329,7 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
 
     /// Records `cost` as the next particle's, computed elsewhere with its [`ParticleSwarm::pending`]
     /// threshold: [`Optimizer::step`] without the evaluation.
-    pub fn step_with_cost(&mut self, cost: f32) -> Status {
+    pub fn step_with_cost(&mut self, cost: f32) -> SearchStatus {
         if !self.state.is_running() {
             return self.state.status();
         }
@@ -471,7 +471,7 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
 }
 
 impl<const P: usize, const D: usize> Optimizer<D> for ParticleSwarm<P, D> {
-    fn step<O: Objective<D>>(&mut self, objective: &mut O) -> Status {
+    fn step<O: Objective<D>>(&mut self, objective: &mut O) -> SearchStatus {
         let Some((x, personal)) = self.pending().next().map(|(x, c)| (*x, c)) else {
             return self.state.status();
         };
@@ -508,7 +508,7 @@ pub(crate) mod tests {
     ) -> ParticleSwarm<P, D> {
         let mut pso = ParticleSwarm::<P, D>::new(bounds, config, seed).unwrap();
         let status = run(&mut pso, objective, u32::MAX);
-        assert!(matches!(status, Status::Done(_)));
+        assert!(matches!(status, SearchStatus::Done(_)));
         pso
     }
 
@@ -523,7 +523,7 @@ pub(crate) mod tests {
         let status = run(&mut stepped, &mut Rastrigin, u32::MAX);
         let mut outside = ParticleSwarm::<20, 8>::new(bounds, PsoConfig::default(), 7).unwrap();
         let mut sweeps = 0;
-        while outside.status() == Status::Running {
+        while outside.status() == SearchStatus::Running {
             let batch: std::vec::Vec<([f32; 8], f32)> = outside.pending().map(|(x, above)| (*x, above)).collect();
             let mut costs: std::vec::Vec<f32> =
                 batch.iter().rev().map(|(x, above)| Rastrigin.cost(x, *above)).collect();
@@ -711,7 +711,7 @@ pub(crate) mod tests {
         // MATLAB's inertia adapts within its range.
         let mut pso = ParticleSwarm::<50, 8>::new(symmetric(5.0), PsoConfig::matlab(), 19).unwrap();
         let mut seen_low = false;
-        while pso.step(&mut Sphere { shift: SHIFT8 }) == Status::Running {
+        while pso.step(&mut Sphere { shift: SHIFT8 }) == SearchStatus::Running {
             assert!((0.1..=1.1).contains(&pso.inertia()));
             seen_low |= pso.inertia() < 1.0;
         }

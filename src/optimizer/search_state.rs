@@ -7,7 +7,7 @@
 //! stops on the target cost; after each completed iteration a population optimizer calls
 //! [`SearchState::end_iteration`], which applies the [`Stopping`] rule.
 
-use super::{ConfigError, Status, TerminationReason};
+use super::{ConfigError, SearchStatus, TerminationReason};
 
 /// Largest accepted stall window (`stall_iterations`); the window is a fixed ring of this many + 1 costs.
 pub const MAX_STALL_ITERATIONS: u32 = 64;
@@ -110,7 +110,7 @@ pub(crate) struct SearchState<const D: usize, R = Stopping> {
     best_cost: f32,
     evaluations: u32,
     iterations: u32,
-    status: Status,
+    status: SearchStatus,
     rule: R,
 }
 
@@ -128,7 +128,7 @@ impl<const D: usize, R: TargetRule> SearchState<D, R> {
             best_cost: f32::INFINITY,
             evaluations: 0,
             iterations: 0,
-            status: Status::Running,
+            status: SearchStatus::Running,
             rule,
         }
     }
@@ -149,7 +149,7 @@ impl<const D: usize, R: TargetRule> SearchState<D, R> {
             self.best_cost = cost;
             self.best_position = *x;
             if self.rule.target_reached(cost) {
-                self.status = Status::Done(TerminationReason::TargetReached);
+                self.status = SearchStatus::Done(TerminationReason::TargetReached);
             }
         }
         (cost, improved)
@@ -162,16 +162,16 @@ impl<const D: usize, R: TargetRule> SearchState<D, R> {
 
     /// Finishes the search with `reason`.
     pub(crate) fn finish(&mut self, reason: TerminationReason) {
-        self.status = Status::Done(reason);
+        self.status = SearchStatus::Done(reason);
     }
 
     /// `true` while the search has not finished.
     pub(crate) fn is_running(&self) -> bool {
-        self.status == Status::Running
+        self.status == SearchStatus::Running
     }
 
-    /// Status after the last evaluation or iteration.
-    pub(crate) fn status(&self) -> Status {
+    /// SearchStatus after the last evaluation or iteration.
+    pub(crate) fn status(&self) -> SearchStatus {
         self.status
     }
 
@@ -203,7 +203,7 @@ impl<const D: usize> SearchState<D, Stopping> {
         self.iterations = self.iterations.saturating_add(1);
         match self.rule.after_iteration(self.iterations, self.best_cost) {
             Some(reason) => {
-                self.status = Status::Done(reason);
+                self.status = SearchStatus::Done(reason);
                 true
             }
             None => false,

@@ -16,7 +16,7 @@ use super::de::{DeConfig, DifferentialEvolution};
 use super::ga::{GaConfig, Genetic};
 use super::pattern::{PatternConfig, PatternSearch};
 use super::pso::{ParticleSwarm, PsoConfig};
-use super::{run, Bounds, ConfigError, Objective, Optimizer, Status, TerminationReason};
+use super::{run, Bounds, ConfigError, Objective, Optimizer, SearchStatus, TerminationReason};
 
 // ---- test functions ----
 
@@ -148,8 +148,8 @@ pub(crate) trait Subject<const D: usize>: Optimizer<D> + Sized {
     fn with_target(bounds: Bounds<D>, seed: u64, target: f32) -> Option<Self>;
     /// Puts `guess` in as the first point evaluated.
     fn with_guess(self, guess: [f32; D]) -> Self;
-    /// Status after the last step.
-    fn status(&self) -> Status;
+    /// SearchStatus after the last step.
+    fn status(&self) -> SearchStatus;
 
     /// [`Subject::try_make`] for settings known to be valid.
     fn make(bounds: Bounds<D>, seed: u64, limit: u32) -> Self {
@@ -171,7 +171,7 @@ impl<const P: usize, const D: usize> Subject<D> for ParticleSwarm<P, D> {
     fn with_guess(self, guess: [f32; D]) -> Self {
         self.with_initial_guesses(&[guess])
     }
-    fn status(&self) -> Status {
+    fn status(&self) -> SearchStatus {
         ParticleSwarm::status(self)
     }
 }
@@ -191,7 +191,7 @@ impl<const P: usize, const D: usize> Subject<D> for Genetic<P, D> {
     fn with_guess(self, guess: [f32; D]) -> Self {
         self.with_initial_guesses(&[guess])
     }
-    fn status(&self) -> Status {
+    fn status(&self) -> SearchStatus {
         Genetic::status(self)
     }
 }
@@ -210,7 +210,7 @@ impl<const P: usize, const D: usize> Subject<D> for DifferentialEvolution<P, D> 
     fn with_guess(self, guess: [f32; D]) -> Self {
         self.with_initial_guesses(&[guess])
     }
-    fn status(&self) -> Status {
+    fn status(&self) -> SearchStatus {
         DifferentialEvolution::status(self)
     }
 }
@@ -232,7 +232,7 @@ impl<const D: usize> Subject<D> for PatternSearch<D> {
     fn with_guess(self, guess: [f32; D]) -> Self {
         PatternSearch::new(*self.bounds(), *self.config(), guess, None, [true; D]).expect("valid test settings")
     }
-    fn status(&self) -> Status {
+    fn status(&self) -> SearchStatus {
         PatternSearch::status(self)
     }
 }
@@ -245,7 +245,7 @@ pub(crate) fn one_evaluation_per_step<S: Subject<3>>() {
     let mut f = Recorder::new(Sphere { shift: [0.5, -0.25, 1.0] }, &bounds);
     let mut s = S::make(bounds, 8, 30);
     let (mut steps, mut iterations) = (0, 0);
-    while s.step(&mut f) == Status::Running {
+    while s.step(&mut f) == SearchStatus::Running {
         steps += 1;
         assert_eq!(f.calls, steps);
         assert_eq!(s.evaluations(), steps);
@@ -277,7 +277,7 @@ pub(crate) fn best_never_worsens<S: Subject<3>>() {
     let mut s = S::make(symmetric(5.12), 3, 40);
     assert_eq!(s.best().1, f32::INFINITY, "nothing evaluated yet");
     let mut previous = f32::INFINITY;
-    while s.step(&mut f) == Status::Running {
+    while s.step(&mut f) == SearchStatus::Running {
         let (x, cost) = s.best();
         assert!(cost <= previous, "{cost} > {previous}");
         previous = cost;
@@ -311,12 +311,12 @@ pub(crate) fn stops_on_its_budget<S: Subject<3>>() {
     let bounds = symmetric::<3>(5.0);
     let mut f = Sphere { shift: [1.5, -2.25, 3.0] };
     let mut whole = S::make(bounds, 10, 10);
-    assert_eq!(run(&mut whole, &mut f, u32::MAX), Status::Done(TerminationReason::MaxIterations));
+    assert_eq!(run(&mut whole, &mut f, u32::MAX), SearchStatus::Done(TerminationReason::MaxIterations));
     assert_eq!(whole.evaluations(), S::budget(10));
     let mut parts = S::make(bounds, 10, 10);
-    assert_eq!(run(&mut parts, &mut f, 37), Status::Running);
+    assert_eq!(run(&mut parts, &mut f, 37), SearchStatus::Running);
     assert_eq!(parts.evaluations(), 37);
-    while run(&mut parts, &mut f, 13) == Status::Running {}
+    while run(&mut parts, &mut f, 13) == SearchStatus::Running {}
     assert_eq!(parts.best().0.map(f32::to_bits), whole.best().0.map(f32::to_bits));
     assert_eq!(parts.best().1.to_bits(), whole.best().1.to_bits());
     assert_eq!((parts.evaluations(), parts.iterations()), (whole.evaluations(), whole.iterations()));
@@ -372,7 +372,7 @@ pub(crate) fn never_finite_leaves_an_infinite_best<S: Subject<2>>() {
         }
     }
     let mut s = S::make(symmetric::<2>(1.0), 13, 20);
-    assert!(matches!(run(&mut s, &mut AllNan, u32::MAX), Status::Done(_)));
+    assert!(matches!(run(&mut s, &mut AllNan, u32::MAX), SearchStatus::Done(_)));
     assert_eq!(s.best().1, f32::INFINITY);
 }
 
@@ -399,7 +399,7 @@ pub(crate) fn early_abandoning_changes_nothing<S: Subject<8>>() {
         let status = loop {
             f.best = s.best().1;
             let status = s.step(&mut f);
-            if status != Status::Running {
+            if status != SearchStatus::Running {
                 break status;
             }
         };
@@ -420,12 +420,12 @@ pub(crate) fn stops_on_tolerance_and_target<S: Subject<3>>() {
         }
     }
     let mut s = S::make(symmetric(1.0), 11, 1_000);
-    assert_eq!(run(&mut s, &mut Flat, u32::MAX), Status::Done(TerminationReason::FunctionTolerance));
+    assert_eq!(run(&mut s, &mut Flat, u32::MAX), SearchStatus::Done(TerminationReason::FunctionTolerance));
     assert_eq!(s.best().1, 5.0);
     assert!(s.evaluations() < S::budget(1_000));
     let Some(mut s) = S::with_target(symmetric(5.0), 12, 1e-2) else { return };
     let mut f = Sphere { shift: [1.5, -2.25, 3.0] };
-    assert_eq!(run(&mut s, &mut f, u32::MAX), Status::Done(TerminationReason::TargetReached));
+    assert_eq!(run(&mut s, &mut f, u32::MAX), SearchStatus::Done(TerminationReason::TargetReached));
     let (x, cost) = s.best();
     assert!(cost <= 1e-2);
     assert_eq!(f.cost(x, f32::INFINITY), cost);

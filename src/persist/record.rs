@@ -236,7 +236,7 @@ impl HealthRecord {
     }
 
     /// The last fault vector (normalized, [`crate::faults`]).
-    pub fn k(&self) -> FaultVector {
+    pub fn faults(&self) -> FaultVector {
         FaultVector(self.k)
     }
 
@@ -258,7 +258,7 @@ impl HealthRecord {
     /// `true` when the last report is a diagnosis a warm start can start from: at least one
     /// flight, a diagnosis status and a valid fault vector.
     pub fn has_prior(&self) -> bool {
-        self.flights > 0 && self.status.is_some_and(Status::is_diagnosis) && self.k().is_valid()
+        self.flights > 0 && self.status.is_some_and(Status::is_diagnosis) && self.faults().is_valid()
     }
 
     /// The history of `mode`.

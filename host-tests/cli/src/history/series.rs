@@ -107,7 +107,7 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
     for n in 0..count {
         let f = flight_source(args, laws, params, &profile, n)?;
         let config = IdentifyConfig { seed: f.seed, ..IdentifyConfig::onboard() };
-        let prior = record.has_prior().then(|| record.k().0);
+        let prior = record.has_prior().then(|| record.faults().0);
         let since_cold = (record.flights_since_cold(), last_warm_needs_cold);
         let result = identify_flight(&f.recording, &f.label, prior, since_cold, params, &command, &config)?;
         last_warm_needs_cold = result.warm.is_some_and(|w| w.needs_cold(&result.report));

@@ -11,7 +11,7 @@ use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::fitness::{PoolError, PooledTrace, MAX_POOLED_RECORDINGS};
 use ema_monitor::health::HealthReport;
 use ema_monitor::monitor::{Identification, IdentifyConfig, MonitorError, WarmReport, GROUP_NAMES, ONBOARD_POPULATION};
-use ema_monitor::optimizer::{Objective, Status as SearchStatus};
+use ema_monitor::optimizer::{Objective, SearchStatus};
 use ema_monitor::FAULT_COUNT;
 use ema_monitor::{Command, EmaParams, Profile};
 use rayon::prelude::*;
