@@ -1,4 +1,4 @@
-//! One flight, end to end: the entry point both firmwares and the host tool's flight series call.
+//! One flight, end to end: the entry point both firmwares call.
 //!
 //! A [`HealthMonitor`] owns what does not change from one flight to the next: the actuator's
 //! healthy parameters, the command that drives the monitor model, and the identification's

@@ -2,16 +2,21 @@
 //! flash model), alive for the run, so that both flights go through the record's save and load
 //! path as on a board (`docs/persistence.md`).
 
-use ema_monitor::persist::{HealthRecord, HealthStore, RamFlash};
+use ema_monitor::persist::{HealthRecord, HealthStore, RamFlash, StoreError};
 
 /// The record's flash.
 pub type RecordFlash = RamFlash<4, 2048>;
+
+/// The health record's store over the whole of `flash`.
+fn open(flash: &mut RecordFlash) -> Result<HealthStore<&mut RecordFlash>, StoreError> {
+    HealthStore::new(flash, 0..RecordFlash::CAPACITY as u32)
+}
 
 /// Maintenance reset ([`HealthStore::reset`]): erases the health record's flash, so that flight
 /// 1 finds no record and starts cold, and logs it; `false` (logged) when the flash refuses.
 #[inline(never)]
 pub fn maintenance_reset(flash: &mut RecordFlash) -> bool {
-    match HealthStore::new(flash, 0..RecordFlash::CAPACITY as u32).and_then(|mut store| store.reset()) {
+    match open(flash).and_then(|mut store| store.reset()) {
         Ok(()) => {
             defmt::info!("maintenance: health record reset");
             true
@@ -28,7 +33,7 @@ pub fn maintenance_reset(flash: &mut RecordFlash) -> bool {
 /// identification's stack.
 #[inline(never)]
 pub fn load_record(flash: &mut RecordFlash) -> Option<HealthRecord> {
-    let Ok(mut store) = HealthStore::new(flash, 0..RecordFlash::CAPACITY as u32) else {
+    let Ok(mut store) = open(flash) else {
         defmt::error!("health record unavailable");
         return None;
     };
@@ -45,8 +50,7 @@ pub fn load_record(flash: &mut RecordFlash) -> Option<HealthRecord> {
 /// the flash refuses or gives back another record.
 #[inline(never)]
 pub fn save_record(flash: &mut RecordFlash, record: &HealthRecord) -> bool {
-    let saved = HealthStore::new(flash, 0..RecordFlash::CAPACITY as u32)
-        .and_then(|mut store| store.save(record).and_then(|()| store.load()));
+    let saved = open(flash).and_then(|mut store| store.save(record).and_then(|()| store.load()));
     match saved {
         Ok(Some(r)) if r.same_bits(record) => {
             defmt::info!(

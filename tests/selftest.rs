@@ -18,7 +18,6 @@ use defmt_semihosting as _; // defmt logger over semihosting stdout
 use panic_probe as _; // a panicking test → HardFault → exit(1)
 
 use cortex_m_rt::{entry, exception, ExceptionFrame};
-use cortex_m_semihosting::debug;
 use ema_monitor::acquisition::{
     manoeuvre_frames, AcquisitionConfig, AcquisitionError, Calibration, Phase, PhaseA, PhaseB, PhaseC,
     PhaseCalibration, PhaseCurrentReader, PhaseCurrents, PhasePin, ReplayAdc, Sampler, SamplerConfig, SamplerConsumer,
@@ -90,13 +89,6 @@ fn main() -> ! {
     }
     defmt::println!("selftest: {=u32} passed, {=u32} failed", passed, failed);
     exit(failed == 0)
-}
-
-fn exit(ok: bool) -> ! {
-    debug::exit(if ok { debug::EXIT_SUCCESS } else { debug::EXIT_FAILURE });
-    loop {
-        cortex_m::asm::wfi();
-    }
 }
 
 /// A panic (panic-probe ends in `udf`) or fault must end the QEMU run with failure.
@@ -288,7 +280,12 @@ fn calibration_fixed_point() -> Result<(), &'static str> {
 /// TIMER0 and its interrupt handler, shared with the firmware (`src/main.rs`).
 #[path = "../src/qemu_live.rs"]
 mod qemu_live;
+/// The semihosting exit, shared with the firmware (its maintenance command line is not used here).
+#[path = "../src/semihosting_host.rs"]
+#[allow(dead_code, reason = "the self-test exits through it and reads no command line")]
+mod semihosting_host;
 use qemu_live::{arm, disarm};
+use semihosting_host::exit;
 
 /// Sleeps until the acquisition ends, without draining the queue (at most `max_wakes` wakes).
 fn wait_for_end(consumer: &SamplerConsumer<'static, fn()>, max_wakes: u32) -> SamplerState {

@@ -59,12 +59,7 @@ impl<const P: usize> Solver<P> {
             stall_iterations: config.stall_iterations,
             ..PsoConfig::default()
         };
-        let mut swarm = Solver::Pso(ParticleSwarm::new(bounds, c, config.seed)?);
-        #[allow(irrefutable_let_patterns, reason = "refutable when GA or DE is built in")]
-        if let Solver::Pso(s) = &mut swarm {
-            s.set_initial_guesses(&starting_guesses());
-        }
-        Ok(swarm)
+        Ok(Solver::Pso(ParticleSwarm::new(bounds, c, config.seed)?.with_initial_guesses(&starting_guesses())))
     }
 
     /// The genetic algorithm of `config`.

@@ -284,16 +284,10 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
     /// Replaces the first starting points by `guesses` (each brought into the box), e.g. one
     /// candidate per basin of a multi-modal search. Ignored once the first evaluation has been done.
     pub fn with_initial_guesses(mut self, guesses: &[[f32; D]]) -> Self {
-        self.set_initial_guesses(guesses);
-        self
-    }
-
-    /// [`ParticleSwarm::with_initial_guesses`] in place: the swarm is not moved, so a caller
-    /// short of stack holds one copy of it.
-    pub fn set_initial_guesses(&mut self, guesses: &[[f32; D]]) {
         if self.state.evaluations() == 0 {
             super::place_guesses(&self.bounds, &mut self.position, guesses);
         }
+        self
     }
 
     /// The configuration in use.

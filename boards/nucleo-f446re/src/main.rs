@@ -53,6 +53,9 @@ const WATCHDOG_MS: u32 = 500;
 /// Period of one ADC frame: 100 µs, the control period of `EmaParams::NOMINAL` (10 kHz).
 const FRAME_PERIOD_US: u32 = 100;
 
+/// The frame rate, 10 kHz.
+const FRAME_RATE_HZ: u32 = 1_000_000 / FRAME_PERIOD_US;
+
 /// Ticks the sampler waits for the start trigger before refusing the run (10 s).
 const TRIGGER_TIMEOUT_FRAMES: u32 = 100_000;
 
@@ -84,7 +87,7 @@ fn main() -> ! {
     let mut flash = LockedFlash::new(dp.FLASH);
     let mut record = health_flash::start(&mut flash, &mut watchdog, maintenance);
 
-    // ADC1 on PA0/PA1/PA4 behind the core's reader (`tim2_sampling::phase_reader`).
+    // 3. ADC1 on PA0/PA1/PA4 behind the core's reader (`tim2_sampling::phase_reader`).
     let gpioa = dp.GPIOA.split(&mut rcc);
     let pins = (gpioa.pa0.into_analog(), gpioa.pa1.into_analog(), gpioa.pa4.into_analog());
     let reader = match tim2_sampling::phase_reader(dp.ADC1, pins, &mut rcc) {
@@ -117,10 +120,10 @@ fn main() -> ! {
         "waiting for the trigger (PA10 high, at most {=u32} frames), then {=u32} frames at {=u32} Hz",
         TRIGGER_TIMEOUT_FRAMES,
         frames,
-        1_000_000 / FRAME_PERIOD_US
+        FRAME_RATE_HZ
     );
     let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
-    let acquired = monitor.acquire(&mut live, &mut trace, (1_000_000 / FRAME_PERIOD_US) as f32);
+    let acquired = monitor.acquire(&mut live, &mut trace, FRAME_RATE_HZ as f32);
     let Some(mut timer) = tim2_sampling::disarm() else { failsafe("sampler interrupt state lost") };
     // the consumer's last use: its wait hook gives the watchdog back
     let (outcome, waited, read) = (live.outcome(), live.waited_frames(), live.frames_read());
@@ -147,7 +150,7 @@ fn main() -> ! {
     );
 
     // 5. The flight, the watchdog fed between evaluations.
-    let mut hooks = WatchdogHooks { watchdog: &mut watchdog, step_start: 0, total_cycles: 0, longest_step_cycles: 0 };
+    let mut hooks = WatchdogHooks::new(&mut watchdog);
     let flight = match monitor.diagnose(&trace, &acquired, &mut record, &mut hooks) {
         Ok(f) => f,
         Err(e) => refused("identification refused", e, watchdog),

@@ -1,5 +1,6 @@
-//! Failure and the safe state: a refused configuration idles with the watchdog fed; a panic, a
-//! fault or a lost state parks without feeding it, so that the IWDG resets the chip.
+//! The watchdog and the safe state: the watchdog's start and its flight hooks (fed before each
+//! objective evaluation, each evaluation timed); a refused configuration idles with the watchdog
+//! fed; a panic, a fault or a lost state parks without feeding it, so that the IWDG resets the chip.
 
 use cortex_m::peripheral::DWT;
 use cortex_m_rt::{exception, ExceptionFrame};
@@ -83,13 +84,20 @@ fn defmt_panic() -> ! {
 /// the 23.8 s wrap at 180 MHz).
 pub struct WatchdogHooks<'a> {
     /// The watchdog, fed before each evaluation.
-    pub watchdog: &'a mut IndependentWatchdog,
+    watchdog: &'a mut IndependentWatchdog,
     /// DWT count at the current step's start.
-    pub step_start: u32,
+    step_start: u32,
     /// Cycles of the identification so far.
-    pub total_cycles: u64,
+    total_cycles: u64,
     /// The longest step's cycles.
-    pub longest_step_cycles: u32,
+    longest_step_cycles: u32,
+}
+
+impl<'a> WatchdogHooks<'a> {
+    /// Hooks that feed `watchdog`, with no cycles counted yet.
+    pub fn new(watchdog: &'a mut IndependentWatchdog) -> Self {
+        Self { watchdog, step_start: 0, total_cycles: 0, longest_step_cycles: 0 }
+    }
 }
 
 impl FlightHooks for WatchdogHooks<'_> {

@@ -23,7 +23,7 @@ use crate::input;
 pub const MAX_FIRMWARE_TRACE_BYTES: usize = packed_len(ONBOARD_WINDOW * DECIMATION + DECIMATION - 1);
 
 /// Why the firmware's path refused a packed trace, named as the firmware names it in its summary
-/// line (`src/main.rs`, `log_refusal`).
+/// line (`src/main.rs`, `refuse`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Refusal {
     /// The step that refused: `trace` (the packed format), `reader` (the acquisition settings),
@@ -98,7 +98,7 @@ pub fn bits_line(report: &HealthReport) -> String {
     format!("fault vector bits: {}", fault_bits(report))
 }
 
-/// The firmware's summary line of a report (`src/main.rs`, `log_summary`), which `scripts/parity`
+/// The firmware's summary line of a report (`src/report_log.rs`, `log_summary`), which `scripts/parity`
 /// compares whole: `summary: STATUS fitness F evaluations N bits K1 … K8`, `STATUS` the status
 /// label with its reason in parentheses under `INCONCLUSIVE` (`INCONCLUSIVE(rate mismatch)`), `F`
 /// and `K1 … K8` the `f32` bit patterns of the fitness and of the fault vector.

@@ -92,7 +92,8 @@ pub fn identify_trace<'c, const W: usize>(
     run_identification(trace, params, command.into_command(), config).map_err(|e| CliError::input(path, e.to_string()))
 }
 
-/// The identification of a conditioned trace to its end, as the firmware's `identify` runs it,
+/// The identification of a conditioned trace to its end, as the firmware's flight
+/// (`HealthMonitor::diagnose`) runs it,
 /// with the 1σ and detectable-below severities of the reported vector.
 pub fn run_identification<const W: usize>(
     trace: &MeasuredTrace<W>,
