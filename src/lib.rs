@@ -57,6 +57,7 @@ pub mod report_log;
 mod six_step;
 pub mod trace;
 pub mod trig;
+pub mod unit;
 
 pub use command::{Command, SampledCommand};
 pub use effects::{EffectId, ModelEffects};
@@ -64,3 +65,4 @@ pub use faults::{FaultVector, FAULT_COUNT};
 pub use flight::{Acquired, Flight, FlightHooks, HealthMonitor};
 pub use params::EmaParams;
 pub use profile::Profile;
+pub use unit::Tolerances;

@@ -82,7 +82,23 @@ pub struct EmaParams {
     pub position_lag_s: f32,
     /// Resolution (one code) of the surface position transducer: 16 bits over ±0.6 rad.
     pub position_resolution_rad: f32,
+    /// Temperature coefficient `α` of the winding resistance (copper: 3.93e-3 /K):
+    /// `R(T) = R_0·(1 + α·(T − 20 °C))` ([`EmaParams::at_temperature`]).
+    pub copper_alpha_per_k: f32,
+    /// Temperature coefficient `β` of the magnets' flux, hence of the EMF constant (NdFeB:
+    /// about −1.1e-3 /K): `k(T) = k_0·(1 + β·(T − 20 °C))`.
+    pub magnet_beta_per_k: f32,
+    /// Rise `γ` of the three friction terms per kelvin below 20 °C (the grease stiffens):
+    /// `F(T) = F_0·(1 + γ·max(0, 20 °C − T))`; above 20 °C friction stays at `F_0`.
+    pub friction_cold_per_k: f32,
+    /// Lowest operating temperature the unit is declared for.
+    pub temperature_min_c: f32,
+    /// Highest operating temperature the unit is declared for.
+    pub temperature_max_c: f32,
 }
+
+/// The temperature at which [`EmaParams`] gives `R_0`, `k_0` and the friction terms.
+pub const REFERENCE_TEMPERATURE_C: f32 = 20.0;
 
 impl EmaParams {
     /// The proposed nominal actuator.
@@ -115,11 +131,42 @@ impl EmaParams {
         position_noise_rad: 1.0e-5,
         position_lag_s: 2.0e-4,
         position_resolution_rad: 1.2 / 65536.0,
+        copper_alpha_per_k: 3.93e-3,
+        magnet_beta_per_k: -1.1e-3,
+        friction_cold_per_k: 4.0e-3,
+        temperature_min_c: -40.0,
+        temperature_max_c: 70.0,
     };
 
     /// Inertia referred to the motor shaft, `J_eq = J_m + J_u/N²`.
     pub fn equivalent_inertia_kg_m2(&self) -> f32 {
         self.motor_inertia_kg_m2 + self.surface_inertia_kg_m2 / (self.gear_ratio * self.gear_ratio)
+    }
+
+    /// The same unit at `temperature_c`: resistance, EMF constant and the three friction terms
+    /// follow their coefficients from [`REFERENCE_TEMPERATURE_C`]:
+    ///
+    /// ```text
+    /// R(T) = R_0·(1 + α·ΔT),   k(T) = k_0·(1 + β·ΔT),   F(T) = F_0·(1 + γ·max(0, −ΔT)),   ΔT = T − 20 °C
+    /// ```
+    ///
+    /// The reference model and the monitor model both take their temperature through this one
+    /// function. A temperature outside `[temperature_min_c, temperature_max_c]` is still applied
+    /// (the caller decides whether to trust it); a non-finite one leaves the parameters at 20 °C.
+    pub fn at_temperature(&self, temperature_c: f32) -> Self {
+        if !temperature_c.is_finite() {
+            return *self;
+        }
+        let dt = temperature_c - REFERENCE_TEMPERATURE_C;
+        let friction = 1.0 + self.friction_cold_per_k * (-dt).max(0.0);
+        Self {
+            phase_resistance_ohm: self.phase_resistance_ohm * (1.0 + self.copper_alpha_per_k * dt),
+            phase_emf_constant_v_s_per_rad: self.phase_emf_constant_v_s_per_rad * (1.0 + self.magnet_beta_per_k * dt),
+            viscous_friction_n_m_s_per_rad: self.viscous_friction_n_m_s_per_rad * friction,
+            static_friction_n_m: self.static_friction_n_m * friction,
+            dynamic_friction_n_m: self.dynamic_friction_n_m * friction,
+            ..*self
+        }
     }
 
     /// `σ_J`, the RMS current the controller's derivative on measurement puts on the pair from the
@@ -213,7 +260,7 @@ macro_rules! field {
 /// (a few hundred W to a few tens of kW); they exist to catch a mistyped unit or digit (a
 /// resistance in mΩ, an inductance in mH), not to judge a design. Some zero values are allowed
 /// where the physics allows them (no friction, no hinge load, no sensor noise).
-pub const FIELDS: [ParamField; 28] = [
+pub const FIELDS: [ParamField; 33] = [
     field!(supply_voltage_v, "V", 10.0, 1000.0, false, "DC-link voltage V_dc"),
     field!(pole_pairs, "1", 1.0, 32.0, true, "Motor pole pairs p: electrical angle = p * mechanical angle"),
     field!(phase_resistance_ohm, "ohm", 1.0e-3, 100.0, false, "Per-phase winding resistance R_0 at 20 degC"),
@@ -326,6 +373,39 @@ pub const FIELDS: [ParamField; 28] = [
         false,
         "Resolution (one code) of the surface position transducer"
     ),
+    field!(
+        copper_alpha_per_k,
+        "1/K",
+        0.0,
+        1.0e-2,
+        false,
+        "Temperature coefficient of the winding resistance: R(T) = R_0 (1 + alpha (T - 20 degC))"
+    ),
+    field!(
+        magnet_beta_per_k,
+        "1/K",
+        -1.0e-2,
+        0.0,
+        false,
+        "Temperature coefficient of the EMF constant: k(T) = k_0 (1 + beta (T - 20 degC))"
+    ),
+    field!(
+        friction_cold_per_k,
+        "1/K",
+        0.0,
+        5.0e-2,
+        false,
+        "Rise of the friction terms per kelvin below 20 degC: F(T) = F_0 (1 + gamma max(0, 20 degC - T))"
+    ),
+    field!(temperature_min_c, "degC", -100.0, 200.0, false, "Lowest declared operating temperature"),
+    field!(
+        temperature_max_c,
+        "degC",
+        -100.0,
+        200.0,
+        false,
+        "Highest declared operating temperature (at least temperature_min_c)"
+    ),
 ];
 
 /// Why a parameter set is refused ([`EmaParams::check`]).
@@ -402,6 +482,7 @@ impl EmaParams {
     /// - `hysteresis_half_band_a < current_limit_a`;
     /// - `control_period_s < derivative_filter_s` (the filter's discrete gain `T/τ_D` below 1);
     /// - `position_resolution_rad < end_stop_rad`;
+    /// - `temperature_min_c ≤ temperature_max_c`;
     /// - `L_0/R_0 ≥ 10·T` and `τ_m = J_eq·R_0/(2·k_0²) ≥ 10·T` ([`MIN_STEPS_PER_TIME_CONSTANT`]):
     ///   the pair's resistance `2R_0`, torque constant `2k_0` and back-EMF `2k_0·ω` give the
     ///   mechanical time constant `J_eq·2R_0/(2k_0)²`.
@@ -443,6 +524,11 @@ impl EmaParams {
             self.equivalent_inertia_kg_m2() * self.phase_resistance_ohm / (2.0 * k0 * k0) >= min_tau,
             "motor_inertia_kg_m2",
             "the mechanical time constant J_eq * phase_resistance_ohm / (2 phase_emf_constant^2) must be at least 10 control periods",
+        )?;
+        relation(
+            self.temperature_min_c <= self.temperature_max_c,
+            "temperature_max_c",
+            "must not be below temperature_min_c",
         )?;
         Ok(())
     }
@@ -501,6 +587,11 @@ mod tests {
             p.position_noise_rad,
             p.position_lag_s,
             p.position_resolution_rad,
+            p.copper_alpha_per_k,
+            p.magnet_beta_per_k,
+            p.friction_cold_per_k,
+            p.temperature_min_c,
+            p.temperature_max_c,
         ];
         assert!(fields.iter().all(|v| *v <= -1.0e9), "{fields:?}");
         assert_eq!(ParamField::find("gear_ratio").map(|f| f.unit), Some("1"));
@@ -536,6 +627,25 @@ mod tests {
     }
 
     #[test]
+    fn temperature_moves_resistance_emf_and_cold_friction_only() {
+        let n = EmaParams::NOMINAL;
+        assert_eq!(n.at_temperature(REFERENCE_TEMPERATURE_C), n);
+        assert_eq!(n.at_temperature(f32::NAN), n);
+        let cold = n.at_temperature(-40.0);
+        assert!((cold.phase_resistance_ohm - 0.5 * (1.0 - 60.0 * 3.93e-3)).abs() < 1e-6);
+        assert!((cold.phase_emf_constant_v_s_per_rad - 0.13 * (1.0 + 60.0 * 1.1e-3)).abs() < 1e-6);
+        assert!((cold.static_friction_n_m - 0.10 * 1.24).abs() < 1e-6);
+        assert!((cold.dynamic_friction_n_m / cold.static_friction_n_m - 0.7).abs() < 1e-6);
+        let hot = n.at_temperature(70.0);
+        assert!((hot.phase_resistance_ohm - 0.5 * (1.0 + 50.0 * 3.93e-3)).abs() < 1e-6);
+        assert_eq!(hot.static_friction_n_m, n.static_friction_n_m);
+        let moved = |p: EmaParams| EmaParams { phase_resistance_ohm: 0.0, phase_emf_constant_v_s_per_rad: 0.0, ..p };
+        assert_eq!(moved(hot), moved(n));
+        assert_eq!(cold.check(), Ok(()));
+        assert_eq!(hot.check(), Ok(()));
+    }
+
+    #[test]
     fn relations_between_fields() {
         let relation = |p: EmaParams| match p.check() {
             Err(ParamsError::Relation { field, .. }) => field,
@@ -545,6 +655,7 @@ mod tests {
         assert_eq!(relation(EmaParams { dynamic_friction_n_m: 0.2, ..n }), "dynamic_friction_n_m");
         assert_eq!(relation(EmaParams { hysteresis_half_band_a: 20.0, ..n }), "hysteresis_half_band_a");
         assert_eq!(relation(EmaParams { derivative_filter_s: 1.0e-4, ..n }), "derivative_filter_s");
+        assert_eq!(relation(EmaParams { temperature_min_c: 80.0, ..n }), "temperature_max_c");
         // L/R = 0.2 ms at a 0.1 ms period: explicit steps of T would be inaccurate
         assert_eq!(relation(EmaParams { phase_inductance_h: 1.0e-4, ..n }), "phase_inductance_h");
         // J_eq·R/(2k²) = 2.25 ms nominal; a 1/100 rotor brings it near 0.03 ms
