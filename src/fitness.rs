@@ -400,6 +400,14 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
     /// `E(k)`, or any value above `abandon_above` as soon as the partial sum exceeds it.
     /// A non-finite result is returned as `f32::INFINITY`.
     pub fn error_abandoning(&self, k: &FaultVector, abandon_above: f32) -> f32 {
+        self.error_of_unit(&self.params, k, abandon_above)
+    }
+
+    /// `E(k)` of the monitor model of another unit `params` against the same recordings (with
+    /// the fast-regime intervals found for the fitness's own parameters), abandoned as
+    /// [`CurrentFit::error_abandoning`]: the objective of commissioning
+    /// ([`crate::commissioning`]), which moves the unit's parameters instead of the faults.
+    pub fn error_of_unit(&self, params: &EmaParams, k: &FaultVector, abandon_above: f32) -> f32 {
         let n = self.samples();
         if n == 0 {
             return f32::INFINITY;
@@ -412,7 +420,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
         let mut offset = 0usize;
         for (trace, command) in recordings(self.trace, &self.command, self.more) {
             let (y, w) = (trace.current_a(), trace.weight());
-            simulate_window_with_effects(&self.params, command, k, &self.effects, y.len(), |i, model_a, _| {
+            simulate_window_with_effects(params, command, k, &self.effects, y.len(), |i, model_a, _| {
                 // i < n and a finished trace has one weight per sample: `get` never misses (a miss
                 // would end the sum; it exists so that no panic path does).
                 let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };

@@ -39,6 +39,7 @@
 
 pub mod acquisition;
 pub mod command;
+pub mod commissioning;
 pub mod conditioning;
 pub mod effects;
 pub mod faults;

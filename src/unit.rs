@@ -77,7 +77,8 @@ impl Tolerances {
     /// Ordinary production tolerances of a flight-control EMA: resistance 3 %, inductance 5 %,
     /// EMF constant 2 %, motor and surface inertia 5 %, the three friction terms 10 %,
     /// efficiencies 2 %, hinge stiffness 5 %.
-    pub const TYPICAL: Self = Self { relative_sigma: [0.03, 0.05, 0.02, 0.05, 0.05, 0.10, 0.10, 0.10, 0.02, 0.02, 0.05] };
+    pub const TYPICAL: Self =
+        Self { relative_sigma: [0.03, 0.05, 0.02, 0.05, 0.05, 0.10, 0.10, 0.10, 0.02, 0.02, 0.05] };
 
     /// Each 1σ finite and in `[0, MAX_RELATIVE_SIGMA]`.
     pub fn check(&self) -> Result<(), ToleranceError> {

@@ -1,0 +1,484 @@
+//! Commissioning: a unit's own baseline from a few recordings of it, healthy.
+//!
+//! A unit differs from the drawing by its production tolerances ([`crate::unit`]). Diagnosed
+//! against the drawing, those differences read as faults or as a poor fit. Commissioning moves
+//! the unit's parameters instead of the faults: with the fault vector held healthy, it finds the
+//! deviations `z` (in tolerance standard deviations, [`Tolerances::apply`]) that make the monitor
+//! model match the recordings, with the tolerance table as the prior. The estimate is the
+//! maximum a posteriori point of
+//!
+//! ```text
+//! J(z) = Σ_r n_r·E_r(P_r(z)) / (2·s²) + ½·|z|²,    P_r(z) = apply(base, z) at the temperature T_r
+//! ```
+//!
+//! with `E_r` the fitness of recording `r` ([`CurrentFit::error_of_unit`], healthy faults),
+//! `n_r` its window samples and `s² = σ² + m²` the noise of a window sample and the monitor
+//! model's structural mismatch ([`MODEL_MISMATCH_A`]). A direction the recordings do not see
+//! stays at the prior's 0 (nominal); one they see moves as far as the data ask.
+//!
+//! The search: a damped Gauss–Newton descent from the drawing (`z = 0`) inside `[−4, 4]^11`,
+//! each step one lockstep run of the base model and the 11 stepped ones per recording
+//! ([`BaselineFit::normal_equations`]). The deviations are strongly correlated (the current is a
+//! torque over the EMF constant: inertia, friction and hinge load trade against it), a long
+//! valley that Gauss–Newton follows and a swarm or a compass search does not. The inverse of the
+//! Gauss–Newton Hessian is the posterior covariance once the data term is scaled to the noise the fault uncertainty uses
+//! ([`covariance_noise_a2`]: the mismatch counted as correlated); a parameter whose posterior 1σ
+//! is below [`RESOLVED_BELOW`] of its prior is resolved. Those that are not are put back to
+//! nominal (the prior holds them near there already) and the resolved ones descend again
+//! without them.
+//!
+//! A commissioning run does not judge health: a resolved parameter more than
+//! [`OUT_OF_TOLERANCE_SIGMAS`] from nominal ([`Baseline::out_of_tolerance`]) is a unit outside
+//! its tolerances, or a fault, and must not become a baseline; the caller also diagnoses the
+//! recordings against the new baseline before it keeps it.
+
+use crate::command::{Command, CommandCursor, SampledCursor};
+use crate::conditioning::{MeasuredEnvelope, SensorErrorEnvelope, DECIMATION};
+use crate::faults::FaultVector;
+use crate::fitness::CurrentFit;
+use crate::model::{ModelState, MonitorModel};
+use crate::monitor::{covariance_noise_a2, window_noise_variance_a2, MODEL_MISMATCH_A};
+use crate::optimizer::{ConfigError, Objective};
+use crate::params::{EmaParams, ParamsError};
+use crate::profile::ProfileCursor;
+use crate::unit::{ToleranceError, Tolerances, UNIT_PARAM_COUNT};
+
+/// Dimension of the search: the unit parameters.
+const D: usize = UNIT_PARAM_COUNT;
+
+/// Most recordings one commissioning fits.
+pub const MAX_COMMISSIONING_FLIGHTS: usize = 8;
+
+/// Half-width of the search box, in tolerance standard deviations.
+pub const SEARCH_SIGMAS: f32 = 4.0;
+
+/// A parameter is resolved when its posterior 1σ is below this fraction of its prior 1σ: the
+/// recordings narrow what the tolerance table says about it by at least a tenth. One they do
+/// not is left nominal; the prior already holds it near there.
+pub const RESOLVED_BELOW: f32 = 0.9;
+
+/// A resolved parameter further than this from nominal (in its tolerance's σ) is not an ordinary
+/// unit: [`Baseline::out_of_tolerance`].
+pub const OUT_OF_TOLERANCE_SIGMAS: f32 = 3.0;
+
+/// Step of the central differences of the Hessian, in tolerance σ.
+pub const HESSIAN_STEP: f32 = 0.25;
+
+/// One recording of the unit: its fitness (built for the base parameters) and the temperature it
+/// was flown at.
+#[derive(Clone, Copy, Debug)]
+pub struct CommissioningFlight<'f, 'a, const W: usize> {
+    /// The fitness of the recording.
+    pub fit: &'f CurrentFit<'a, W>,
+    /// Its temperature (°C); NaN when unknown: the parameters are taken at 20 °C.
+    pub temperature_c: f32,
+}
+
+/// Why a commissioning could not run or gave no baseline.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CommissioningError {
+    /// No recording, or more than [`MAX_COMMISSIONING_FLIGHTS`].
+    FlightCount,
+    /// The tolerance table was refused.
+    Tolerances(ToleranceError),
+    /// The base parameters, or the fitted unit's, are refused by [`EmaParams::check`].
+    Params(ParamsError),
+    /// The optimizer settings were refused.
+    Optimizer(ConfigError),
+}
+
+impl core::fmt::Display for CommissioningError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            CommissioningError::FlightCount => {
+                write!(f, "commissioning takes 1 to {MAX_COMMISSIONING_FLIGHTS} recordings")
+            }
+            CommissioningError::Tolerances(e) => write!(f, "tolerance table refused: {e}"),
+            CommissioningError::Params(e) => write!(f, "unit parameters refused: {e}"),
+            CommissioningError::Optimizer(e) => write!(f, "optimizer settings refused: {e}"),
+        }
+    }
+}
+
+/// The objective `J(z)` of the module doc, over the unit deviations `z`.
+#[derive(Clone, Debug)]
+pub struct BaselineFit<'f, 'a, const W: usize> {
+    flights: &'f [CommissioningFlight<'f, 'a, W>],
+    base: EmaParams,
+    tolerances: Tolerances,
+    /// `n_r/(2·s²)` of each recording.
+    data_scale: [f32; MAX_COMMISSIONING_FLIGHTS],
+    /// `s²` of the estimate over `s²` of the covariance (≤ 1): scales the data curvature from
+    /// the one to the other.
+    noise_ratio: f32,
+    evaluations: u32,
+}
+
+impl<'f, 'a, const W: usize> BaselineFit<'f, 'a, W> {
+    /// The objective over `flights` (1 to [`MAX_COMMISSIONING_FLIGHTS`]), the unit being `base`
+    /// moved by `tolerances`; `independent_frames` per block as in the fit test
+    /// ([`window_noise_variance_a2`]).
+    pub fn new(
+        flights: &'f [CommissioningFlight<'f, 'a, W>],
+        base: EmaParams,
+        tolerances: Tolerances,
+        independent_frames: f32,
+    ) -> Result<Self, CommissioningError> {
+        if flights.is_empty() || flights.len() > MAX_COMMISSIONING_FLIGHTS {
+            return Err(CommissioningError::FlightCount);
+        }
+        tolerances.check().map_err(CommissioningError::Tolerances)?;
+        base.check().map_err(CommissioningError::Params)?;
+        let s2 = window_noise_variance_a2(&base, independent_frames) + MODEL_MISMATCH_A * MODEL_MISMATCH_A;
+        let mut data_scale = [0.0; MAX_COMMISSIONING_FLIGHTS];
+        for (scale, flight) in data_scale.iter_mut().zip(flights) {
+            *scale = flight.fit.samples() as f32 / (2.0 * s2);
+        }
+        let noise_ratio = (s2 / covariance_noise_a2(&base, independent_frames)).min(1.0);
+        Ok(Self { flights, base, tolerances, data_scale, noise_ratio, evaluations: 0 })
+    }
+
+    /// The unit at deviations `z`, at 20 °C.
+    pub fn unit(&self, z: &[f32; D]) -> EmaParams {
+        self.tolerances.apply(&self.base, z)
+    }
+
+    /// `J(z)`, or any value above `abandon_above` once the partial sum exceeds it.
+    pub fn value(&mut self, z: &[f32; D], abandon_above: f32) -> f32 {
+        self.evaluations = self.evaluations.saturating_add(1);
+        let unit = self.unit(z);
+        let mut sum = 0.5 * z.iter().map(|x| x * x).sum::<f32>();
+        for (flight, &scale) in self.flights.iter().zip(&self.data_scale) {
+            if sum.is_nan() || sum > abandon_above {
+                return sum;
+            }
+            let params = unit.at_temperature(flight.temperature_c);
+            let budget = (abandon_above - sum) / scale;
+            sum += scale * flight.fit.error_of_unit(&params, &FaultVector::HEALTHY, budget);
+        }
+        if sum.is_finite() {
+            sum
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    /// Evaluations of `J` so far.
+    pub fn evaluations(&self) -> u32 {
+        self.evaluations
+    }
+}
+
+impl<const W: usize> Objective<D> for BaselineFit<'_, '_, W> {
+    fn cost(&mut self, x: &[f32; D], abandon_above: f32) -> f32 {
+        self.value(x, abandon_above)
+    }
+}
+
+/// A unit's commissioned baseline.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Baseline {
+    /// The deviations from the base parameters, in tolerance σ (0 where not resolved).
+    pub z: [f32; D],
+    /// Their posterior 1σ, in tolerance σ (at most 1: the prior).
+    pub sigma_z: [f32; D],
+    /// Which parameters the recordings resolve ([`RESOLVED_BELOW`]).
+    pub resolved: [bool; D],
+    /// The unit's parameters at 20 °C.
+    pub params: EmaParams,
+    /// `J` at `z`.
+    pub cost: f32,
+    /// Evaluations of `J` spent.
+    pub evaluations: u32,
+}
+
+impl Baseline {
+    /// The resolved parameter furthest from nominal, with its deviation, when it is further than
+    /// [`OUT_OF_TOLERANCE_SIGMAS`]: not a unit to keep as a baseline.
+    pub fn out_of_tolerance(&self) -> Option<(usize, f32)> {
+        (0..D)
+            .filter(|&i| self.resolved[i])
+            .max_by(|&a, &b| libm::fabsf(self.z[a]).total_cmp(&libm::fabsf(self.z[b])))
+            .filter(|&i| libm::fabsf(self.z[i]) > OUT_OF_TOLERANCE_SIGMAS)
+            .map(|i| (i, self.z[i]))
+    }
+}
+
+/// Commissions the unit of `fit` (module doc): the damped Gauss–Newton descent from the drawing,
+/// the posterior, and the second descent without the parameters the recordings do not resolve.
+pub fn commission<const W: usize>(fit: &mut BaselineFit<'_, '_, W>) -> Result<Baseline, CommissioningError> {
+    let start = [0.0; D];
+    let start_cost = fit.value(&start, f32::INFINITY);
+    let (z, cost, hessian) = descend(fit, start, start_cost, [true; D]);
+    let sigma_z = posterior_sigma(fit.noise_ratio, hessian);
+    let resolved: [bool; D] = core::array::from_fn(|i| sigma_z[i] < RESOLVED_BELOW);
+    let (z, cost) = if resolved.iter().all(|r| *r) {
+        (z, cost)
+    } else {
+        let kept: [f32; D] = core::array::from_fn(|i| if resolved[i] { z[i] } else { 0.0 });
+        let kept_cost = fit.value(&kept, f32::INFINITY);
+        let (z, cost, _) = descend(fit, kept, kept_cost, resolved);
+        (z, cost)
+    };
+    let params = fit.unit(&z);
+    params.check().map_err(CommissioningError::Params)?;
+    Ok(Baseline { z, sigma_z, resolved, params, cost, evaluations: fit.evaluations() })
+}
+
+/// Most Gauss–Newton steps of one descent.
+const MAX_STEPS: usize = 12;
+
+/// A step that gains less than this (in units of `J`, a log-likelihood) ends the descent.
+const STEP_TOLERANCE: f32 = 0.01;
+
+/// The finite-difference step of the sensitivities, in tolerance σ.
+pub const SENSITIVITY_STEP: f32 = 0.5;
+
+/// A damped Gauss–Newton (Levenberg–Marquardt) descent of the `free` deviations from `start`
+/// (cost `start_cost`): each step solves `(H + λ·I)·δ = −g` with the gradient and Gauss–Newton
+/// Hessian of [`BaselineFit::normal_equations`], `λ` raised tenfold while a step does not lower
+/// `J`. Returns the point, its cost and the Hessian there (identity rows for the parameters
+/// held).
+fn descend<const W: usize>(
+    fit: &mut BaselineFit<'_, '_, W>,
+    start: [f32; D],
+    start_cost: f32,
+    free: [bool; D],
+) -> ([f32; D], f32, [[f32; D]; D]) {
+    let (mut z, mut cost) = (start, start_cost);
+    let (mut gradient, mut hessian) = fit.normal_equations(&z, &free);
+    let mut damping = 0.0f32;
+    for _ in 0..MAX_STEPS {
+        let mut gain = 0.0;
+        for _ in 0..8 {
+            let mut damped = hessian;
+            for (i, row) in damped.iter_mut().enumerate() {
+                row[i] += damping;
+            }
+            let Some(inverse) = invert(damped) else {
+                damping = (damping * 10.0).max(1.0);
+                continue;
+            };
+            let trial: [f32; D] = core::array::from_fn(|i| {
+                let step: f32 = (0..D).map(|j| inverse[i][j] * gradient[j]).sum();
+                (z[i] - step).clamp(-SEARCH_SIGMAS, SEARCH_SIGMAS)
+            });
+            let trial_cost = fit.value(&trial, cost);
+            if trial_cost < cost {
+                gain = cost - trial_cost;
+                (z, cost) = (trial, trial_cost);
+                damping *= 0.1;
+                break;
+            }
+            damping = (damping * 10.0).max(1.0);
+        }
+        (gradient, hessian) = fit.normal_equations(&z, &free);
+        if gain < STEP_TOLERANCE {
+            break;
+        }
+    }
+    (z, cost, hessian)
+}
+
+/// The posterior 1σ of each deviation from the Hessian of `J` (module doc): the data's
+/// curvature (the Hessian less the prior's identity) scaled by `noise_ratio` to the covariance's
+/// noise, the prior added back, inverted; at most 1, and 1 for every parameter when the matrix
+/// cannot be inverted.
+fn posterior_sigma(noise_ratio: f32, mut hessian: [[f32; D]; D]) -> [f32; D] {
+    for (i, row) in hessian.iter_mut().enumerate() {
+        for (j, v) in row.iter_mut().enumerate() {
+            let prior = if i == j { 1.0 } else { 0.0 };
+            *v = (*v - prior) * noise_ratio + prior;
+        }
+    }
+    match invert(hessian) {
+        Some(c) => core::array::from_fn(|i| {
+            let v = c[i][i];
+            if v.is_finite() && v > 0.0 {
+                libm::sqrtf(v).min(1.0)
+            } else {
+                1.0
+            }
+        }),
+        None => [1.0; D],
+    }
+}
+
+/// Models run in lockstep for the sensitivities: the base and one per unit parameter.
+const MODELS: usize = D + 1;
+
+/// The sums of one recording's lockstep run: `g = Σ v·r·d`, `A = Σ v·d·dᵀ` (upper triangle).
+struct Sums {
+    a: [[f32; D]; D],
+    g: [f32; D],
+}
+
+impl<const W: usize> BaselineFit<'_, '_, W> {
+    /// The gradient and Gauss–Newton Hessian of `J` at `z` over the `free` deviations:
+    /// `∇J = z − Σ_r (n_r/s²)·(1/n_r)·Σ_i v_i·r_i·d_i` and `H = I + Σ_r (n_r/s²)·(1/n_r)·Σ_i v_i·d_i·d_iᵀ`,
+    /// `d_i` the sensitivity of window sample `i` to each deviation (a forward difference of
+    /// [`SENSITIVITY_STEP`]), `v_i` the fitness's weight. One lockstep run of 12 models per
+    /// recording; nothing is stored per sample. A parameter held has gradient 0 and an identity
+    /// row.
+    pub fn normal_equations(&self, z: &[f32; D], free: &[bool; D]) -> ([f32; D], [[f32; D]; D]) {
+        let mut gradient: [f32; D] = *z;
+        let mut hessian: [[f32; D]; D] =
+            core::array::from_fn(|i| core::array::from_fn(|j| if i == j { 1.0 } else { 0.0 }));
+        for (flight, &scale) in self.flights.iter().zip(&self.data_scale) {
+            let params: [EmaParams; MODELS] = core::array::from_fn(|m| {
+                let mut x = *z;
+                if let Some(j) = m.checked_sub(1) {
+                    if let Some(xj) = x.get_mut(j) {
+                        *xj += SENSITIVITY_STEP;
+                    }
+                }
+                self.unit(&x).at_temperature(flight.temperature_c)
+            });
+            let models: [MonitorModel; MODELS] = core::array::from_fn(|m| {
+                MonitorModel::with_effects(&params[m], &FaultVector::HEALTHY, flight.fit.effects())
+            });
+            let mut sums = Sums { a: [[0.0; D]; D], g: [0.0; D] };
+            let terms = models[0].has_step_terms();
+            let fit = flight.fit;
+            match (fit.command(), terms) {
+                (Command::Profile(p), true) => {
+                    lockstep::<true, W>(&models, &params[0], ProfileCursor::new(p), fit, &mut sums)
+                }
+                (Command::Profile(p), false) => {
+                    lockstep::<false, W>(&models, &params[0], ProfileCursor::new(p), fit, &mut sums)
+                }
+                (Command::Sampled(s), true) => {
+                    lockstep::<true, W>(&models, &params[0], SampledCursor::new(s), fit, &mut sums)
+                }
+                (Command::Sampled(s), false) => {
+                    lockstep::<false, W>(&models, &params[0], SampledCursor::new(s), fit, &mut sums)
+                }
+            }
+            // J's data term is scale·E = scale·(1/n)·Σ v r²: its gradient −2·scale/n·Σ v r d
+            let c = 2.0 * scale / fit.samples().max(1) as f32;
+            for i in (0..D).filter(|&i| free[i]) {
+                gradient[i] -= c * sums.g[i];
+                for j in (i..D).filter(|&j| free[j]) {
+                    hessian[i][j] += c * sums.a[i][j];
+                }
+            }
+        }
+        for (g, _) in gradient.iter_mut().zip(free).filter(|(_, f)| !**f) {
+            *g = 0.0;
+        }
+        mirror_upper(&mut hessian);
+        (gradient, hessian)
+    }
+}
+
+/// Copies the upper triangle of `m` into its lower one.
+fn mirror_upper(m: &mut [[f32; D]; D]) {
+    for i in 1..D {
+        let (upper, lower) = m.split_at_mut(i);
+        for (j, row) in upper.iter().enumerate() {
+            lower[0][j] = row[i];
+        }
+    }
+}
+
+/// One recording's lockstep run of the base model and the 11 stepped ones (the fitness's own
+/// conditioning of the model current: the measured envelope or the sensor-error envelope, block
+/// means, fast-regime weights).
+fn lockstep<const TERMS: bool, const W: usize>(
+    models: &[MonitorModel; MODELS],
+    params: &EmaParams,
+    mut command: impl CommandCursor,
+    fit: &CurrentFit<'_, W>,
+    sums: &mut Sums,
+) {
+    let envelope = MeasuredEnvelope::of(params);
+    let sensors = SensorErrorEnvelope::of(params, fit.effects());
+    let dt = models[0].dt_s();
+    let mut states = [ModelState::at_rest(); MODELS];
+    let (y, w) = (fit.trace().current_a(), fit.trace().weight());
+    let (intervals, fast_weight) = fit.fast_regime();
+    let mut next_interval = 0usize;
+    let mut step = 0u32;
+    let inv_decimation = 1.0 / DECIMATION as f32;
+    for (i, (&y_i, &w_i)) in y.iter().zip(w).enumerate() {
+        let mut block = [0.0f32; MODELS];
+        for _ in 0..DECIMATION {
+            let theta = command.command_rad(step, step as f32 * dt);
+            for ((model, state), b) in models.iter().zip(states.iter_mut()).zip(block.iter_mut()) {
+                *b += match &sensors {
+                    Some(e) if TERMS => {
+                        e.expected_a(model.commutation_sector(state), state.output_current_a, &state.freewheel_shift_a)
+                    }
+                    _ => envelope.expected_a(state.output_current_a),
+                };
+                model.step_with::<TERMS>(state, theta);
+            }
+            step += 1;
+        }
+        let at = i as u32;
+        while let Some(&(_, end)) = intervals.get(next_interval) {
+            if at < end {
+                break;
+            }
+            next_interval += 1;
+        }
+        let rho = match intervals.get(next_interval) {
+            Some(&(start, _)) if at >= start => fast_weight,
+            _ => 1.0,
+        };
+        let v = rho * w_i;
+        let base = block[0] * inv_decimation;
+        let r = y_i - base;
+        let mut d = [0.0f32; D];
+        for (dj, b) in d.iter_mut().zip(&block[1..]) {
+            *dj = (b * inv_decimation - base) * (1.0 / SENSITIVITY_STEP);
+        }
+        for (j, (&dj, row)) in d.iter().zip(sums.a.iter_mut()).enumerate() {
+            let vd = v * dj;
+            sums.g[j] += vd * r;
+            for (a, &dl) in row.iter_mut().zip(&d).skip(j) {
+                *a += vd * dl;
+            }
+        }
+    }
+}
+
+/// The inverse of `m` by Gauss–Jordan elimination with partial pivoting; `None` when a pivot is
+/// not a positive-definite matrix's (below `1e-6` of the largest diagonal, or not finite).
+fn invert(mut m: [[f32; D]; D]) -> Option<[[f32; D]; D]> {
+    let scale = (0..D).map(|i| libm::fabsf(m[i][i])).fold(0.0f32, f32::max);
+    if !(scale.is_finite() && scale > 0.0) {
+        return None;
+    }
+    let mut inv: [[f32; D]; D] = core::array::from_fn(|i| core::array::from_fn(|j| if i == j { 1.0 } else { 0.0 }));
+    for col in 0..D {
+        let pivot_row = (col..D).max_by(|&a, &b| libm::fabsf(m[a][col]).total_cmp(&libm::fabsf(m[b][col])))?;
+        m.swap(col, pivot_row);
+        inv.swap(col, pivot_row);
+        let pivot = m[col][col];
+        if pivot.is_nan() || libm::fabsf(pivot) <= 1e-6 * scale {
+            return None;
+        }
+        let inv_pivot = 1.0 / pivot;
+        for j in 0..D {
+            m[col][j] *= inv_pivot;
+            inv[col][j] *= inv_pivot;
+        }
+        for r in 0..D {
+            if r != col {
+                let factor = m[r][col];
+                if factor != 0.0 {
+                    for j in 0..D {
+                        m[r][j] -= factor * m[col][j];
+                        inv[r][j] -= factor * inv[col][j];
+                    }
+                }
+            }
+        }
+    }
+    Some(inv)
+}
+
+#[cfg(test)]
+mod tests;
