@@ -16,11 +16,13 @@
 //! model's structural mismatch ([`MODEL_MISMATCH_A`]). A direction the recordings do not see
 //! stays at the prior's 0 (nominal); one they see moves as far as the data ask.
 //!
-//! The search: a damped Gauss–Newton descent from the drawing (`z = 0`) inside `[−4, 4]^11`,
-//! each step one lockstep run of the base model and the 11 stepped ones per recording
-//! ([`BaselineFit::normal_equations`]). The deviations are strongly correlated (the current is a
-//! torque over the EMF constant: inertia, friction and hinge load trade against it), a long
-//! valley that Gauss–Newton follows and a swarm or a compass search does not. The inverse of the
+//! The search: a particle swarm over `z ∈ [−4, 4]^11` seeded with the drawing (`z = 0`), then a
+//! damped Gauss–Newton descent from its best point, each step one lockstep run of the base model
+//! and the 11 stepped ones per recording ([`BaselineFit::normal_equations`]). The deviations are
+//! strongly correlated (the current is a torque over the EMF constant: inertia, friction and
+//! hinge load trade against it), a long valley that Gauss–Newton follows and a compass search
+//! does not; the response is rough on the scale of an event moving by one control period, which
+//! stops a descent from the drawing in a dip that the swarm steps over. The inverse of the
 //! Gauss–Newton Hessian is the posterior covariance once the data term is scaled to the noise the fault uncertainty uses
 //! ([`covariance_noise_a2`]: the mismatch counted as correlated); a parameter whose posterior 1σ
 //! is below [`RESOLVED_BELOW`] of its prior is resolved. Those that are not are put back to
@@ -38,7 +40,8 @@ use crate::faults::FaultVector;
 use crate::fitness::CurrentFit;
 use crate::model::{ModelState, MonitorModel};
 use crate::monitor::{covariance_noise_a2, window_noise_variance_a2, MODEL_MISMATCH_A};
-use crate::optimizer::{ConfigError, Objective};
+use crate::optimizer::pso::{ParticleSwarm, PsoConfig};
+use crate::optimizer::{run, Bounds, ConfigError, Objective, Optimizer};
 use crate::params::{EmaParams, ParamsError};
 use crate::profile::ProfileCursor;
 use crate::unit::{ToleranceError, Tolerances, UNIT_PARAM_COUNT};
@@ -189,7 +192,7 @@ pub struct Baseline {
     pub params: EmaParams,
     /// `J` at `z`.
     pub cost: f32,
-    /// Evaluations of `J` spent.
+    /// Evaluations of `J` spent, a lockstep run of the sensitivities counting as its 12 model runs.
     pub evaluations: u32,
 }
 
@@ -205,11 +208,21 @@ impl Baseline {
     }
 }
 
-/// Commissions the unit of `fit` (module doc): the damped Gauss–Newton descent from the drawing,
+/// Commissions the unit of `fit` (module doc): the swarm of `P` particles for `max_iterations`
+/// iterations from the generator `seed`, the damped Gauss–Newton descent from its best point,
 /// the posterior, and the second descent without the parameters the recordings do not resolve.
-pub fn commission<const W: usize>(fit: &mut BaselineFit<'_, '_, W>) -> Result<Baseline, CommissioningError> {
-    let start = [0.0; D];
-    let start_cost = fit.value(&start, f32::INFINITY);
+pub fn commission<const W: usize, const P: usize>(
+    fit: &mut BaselineFit<'_, '_, W>,
+    max_iterations: u32,
+    seed: u64,
+) -> Result<Baseline, CommissioningError> {
+    let bounds = Bounds { lower: [-SEARCH_SIGMAS; D], upper: [SEARCH_SIGMAS; D], periodic: [false; D] };
+    let config = PsoConfig { max_iterations, ..PsoConfig::default() };
+    let mut swarm = ParticleSwarm::<P, D>::new(bounds, config, seed)
+        .map_err(CommissioningError::Optimizer)?
+        .with_initial_guesses(&[[0.0; D]]);
+    run(&mut swarm, fit, u32::MAX);
+    let (start, start_cost) = (*swarm.best().0, swarm.best().1);
     let (z, cost, hessian) = descend(fit, start, start_cost, [true; D]);
     let sigma_z = posterior_sigma(fit.noise_ratio, hessian);
     let resolved: [bool; D] = core::array::from_fn(|i| sigma_z[i] < RESOLVED_BELOW);
@@ -226,20 +239,24 @@ pub fn commission<const W: usize>(fit: &mut BaselineFit<'_, '_, W>) -> Result<Ba
     Ok(Baseline { z, sigma_z, resolved, params, cost, evaluations: fit.evaluations() })
 }
 
-/// Most Gauss–Newton steps of one descent.
-const MAX_STEPS: usize = 12;
+/// Most trial steps of one descent (each one evaluation of `J`; an accepted one also a lockstep
+/// run).
+const MAX_TRIALS: usize = 40;
 
-/// A step that gains less than this (in units of `J`, a log-likelihood) ends the descent.
+/// An accepted step that gains less than this (in units of `J`, a log-likelihood) at low
+/// damping ends the descent.
 const STEP_TOLERANCE: f32 = 0.01;
 
-/// The finite-difference step of the sensitivities, in tolerance σ.
+/// The finite-difference step of the sensitivities, in tolerance σ: wide enough to average over
+/// the roughness of the model's response (an event moving by one control period), narrow against
+/// the curvature over the tolerances.
 pub const SENSITIVITY_STEP: f32 = 0.5;
 
-/// A damped Gauss–Newton (Levenberg–Marquardt) descent of the `free` deviations from `start`
-/// (cost `start_cost`): each step solves `(H + λ·I)·δ = −g` with the gradient and Gauss–Newton
-/// Hessian of [`BaselineFit::normal_equations`], `λ` raised tenfold while a step does not lower
-/// `J`. Returns the point, its cost and the Hessian there (identity rows for the parameters
-/// held).
+/// A Levenberg–Marquardt descent of the `free` deviations from `start` (cost `start_cost`): each
+/// trial solves `(H + λ·diag(H))·δ = −g` with the gradient and Gauss–Newton Hessian of
+/// [`BaselineFit::normal_equations`]; an accepted trial lowers `λ` threefold and takes new
+/// derivatives, a refused one raises it fourfold. Returns the point, its cost and the Hessian
+/// there (identity rows for the parameters held).
 fn descend<const W: usize>(
     fit: &mut BaselineFit<'_, '_, W>,
     start: [f32; D],
@@ -248,34 +265,35 @@ fn descend<const W: usize>(
 ) -> ([f32; D], f32, [[f32; D]; D]) {
     let (mut z, mut cost) = (start, start_cost);
     let (mut gradient, mut hessian) = fit.normal_equations(&z, &free);
-    let mut damping = 0.0f32;
-    for _ in 0..MAX_STEPS {
-        let mut gain = 0.0;
-        for _ in 0..8 {
-            let mut damped = hessian;
-            for (i, row) in damped.iter_mut().enumerate() {
-                row[i] += damping;
-            }
-            let Some(inverse) = invert(damped) else {
-                damping = (damping * 10.0).max(1.0);
-                continue;
-            };
-            let trial: [f32; D] = core::array::from_fn(|i| {
+    let mut damping = 1e-3f32;
+    for _ in 0..MAX_TRIALS {
+        let mut damped = hessian;
+        for (i, row) in damped.iter_mut().enumerate() {
+            row[i] *= 1.0 + damping;
+        }
+        let trial = invert(damped).map(|inverse| {
+            core::array::from_fn(|i| {
                 let step: f32 = (0..D).map(|j| inverse[i][j] * gradient[j]).sum();
                 (z[i] - step).clamp(-SEARCH_SIGMAS, SEARCH_SIGMAS)
-            });
-            let trial_cost = fit.value(&trial, cost);
-            if trial_cost < cost {
-                gain = cost - trial_cost;
-                (z, cost) = (trial, trial_cost);
-                damping *= 0.1;
-                break;
+            })
+        });
+        let trial_cost = trial.map_or(f32::INFINITY, |t: [f32; D]| fit.value(&t, cost));
+        match trial {
+            Some(t) if trial_cost < cost => {
+                let gain = cost - trial_cost;
+                (z, cost) = (t, trial_cost);
+                (gradient, hessian) = fit.normal_equations(&z, &free);
+                if gain < STEP_TOLERANCE && damping <= 1e-2 {
+                    break;
+                }
+                damping = (damping / 3.0).max(1e-6);
             }
-            damping = (damping * 10.0).max(1.0);
-        }
-        (gradient, hessian) = fit.normal_equations(&z, &free);
-        if gain < STEP_TOLERANCE {
-            break;
+            _ => {
+                damping *= 4.0;
+                if damping > 1e6 {
+                    break;
+                }
+            }
         }
     }
     (z, cost, hessian)
@@ -321,7 +339,8 @@ impl<const W: usize> BaselineFit<'_, '_, W> {
     /// [`SENSITIVITY_STEP`]), `v_i` the fitness's weight. One lockstep run of 12 models per
     /// recording; nothing is stored per sample. A parameter held has gradient 0 and an identity
     /// row.
-    pub fn normal_equations(&self, z: &[f32; D], free: &[bool; D]) -> ([f32; D], [[f32; D]; D]) {
+    pub fn normal_equations(&mut self, z: &[f32; D], free: &[bool; D]) -> ([f32; D], [[f32; D]; D]) {
+        self.evaluations = self.evaluations.saturating_add(MODELS as u32);
         let mut gradient: [f32; D] = *z;
         let mut hessian: [[f32; D]; D] =
             core::array::from_fn(|i| core::array::from_fn(|j| if i == j { 1.0 } else { 0.0 }));

@@ -19,6 +19,7 @@
 use ema_monitor::params as core_params;
 
 pub mod campaign;
+pub mod commission;
 pub mod compare;
 pub mod detectability;
 pub mod discover;

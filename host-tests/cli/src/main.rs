@@ -1,6 +1,6 @@
 //! `ema`: host tools of ema-monitor. Subcommands: `simulate` (reference model → recording CSV),
 //! `identify` (core → health report), `firmware-trace`, `compare`, `campaign`, `discover` (missing
-//! effects), `params` (the actuator parameter template), `history` (trend and remaining useful life), `detectability` (what a manoeuvre can tell).
+//! effects), `params` (the actuator parameter template), `commission` (a unit's own parameters), `history` (trend and remaining useful life), `detectability` (what a manoeuvre can tell).
 
 use std::io::{ErrorKind as IoErrorKind, Write};
 use std::process::ExitCode;
@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use clap::error::ErrorKind;
 use clap::{Parser, Subcommand};
 use ema_cli::campaign::{self, CampaignArgs};
+use ema_cli::commission::{self, CommissionArgs};
 use ema_cli::compare::{self, CompareArgs};
 use ema_cli::detectability::{self, DetectabilityArgs};
 use ema_cli::discover::{self, DiscoverArgs};
@@ -42,6 +43,8 @@ enum Command {
     Discover(DiscoverArgs),
     /// Print the nominal actuator parameters as a commented TOML template (edit it, pass it with --params).
     Params(ParamsCommandArgs),
+    /// A unit's own parameters from a few recordings of it, healthy: a parameter file for --params.
+    Commission(CommissionArgs),
     /// Identify successive flights of one actuator; the trend and remaining useful life per fault mode.
     History(HistoryArgs),
     /// What a manoeuvre can tell: the 1σ (Cramér–Rao) and minimum detectable severity per fault mode.
@@ -61,6 +64,7 @@ fn main() -> ExitCode {
         Command::Campaign(args) => campaign::run(args),
         Command::Discover(args) => discover::run(args),
         Command::Params(args) => params::run(args),
+        Command::Commission(args) => commission::run(args),
         Command::History(args) => history::run(args),
         Command::Detectability(args) => detectability::run(args),
     };
@@ -89,7 +93,7 @@ fn clap_error(e: &clap::Error) -> ExitCode {
         }
         ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
             eprintln!(
-                "error: a subcommand is required (simulate, identify, firmware-trace, compare, campaign, discover, params, history, detectability); try 'ema --help'"
+                "error: a subcommand is required (simulate, identify, firmware-trace, compare, campaign, discover, params, commission, history, detectability); try 'ema --help'"
             );
             ExitCode::from(EXIT_FAILURE)
         }

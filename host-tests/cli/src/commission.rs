@@ -1,0 +1,239 @@
+//! `ema commission`: a unit's own parameters from a few recordings of it, healthy.
+//!
+//! ```text
+//! ema commission A.csv B.csv C.csv --out unit.toml
+//! ema identify --params unit.toml D.csv
+//! ```
+//!
+//! Each recording is read and acquired as `ema identify` reads it (the host runtime), then the
+//! core's commissioning ([`ema_monitor::commissioning`]) fits the unit parameters of the
+//! tolerance table to all of them with the faults held healthy, each recording at its own
+//! temperature when it has a temperature column. The result is written as a parameter file that
+//! `--params` takes: the base parameters (`--params`, or the drawing's) with the unit's own
+//! values in place.
+//!
+//! Nothing is written when the recordings do not look like a healthy unit within its
+//! tolerances, because a fault present at commissioning must not become the baseline:
+//! - a resolved parameter more than 3σ from nominal (a friction fault reads as friction far
+//!   above its tolerance);
+//! - a recording that, diagnosed against the new baseline, is not HEALTHY (a short circuit or an
+//!   eccentricity, which no unit parameter can absorb, shows there).
+
+use std::path::PathBuf;
+
+use clap::Args;
+use ema_monitor::commissioning::{commission, BaselineFit, CommissioningFlight, MAX_COMMISSIONING_FLIGHTS};
+use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::fitness::CurrentFit;
+use ema_monitor::health::Status;
+use ema_monitor::monitor::IdentifyConfig;
+use ema_monitor::unit::{unit_field, unit_name, Tolerances, UNIT_PARAM_COUNT};
+use ema_monitor::EmaParams;
+use serde::Serialize;
+
+use crate::error::CliError;
+use crate::output::{check_file, write_files, OutputArgs};
+use crate::params::ParamsArgs;
+use crate::params_file::template;
+use crate::progress::ProgressArgs;
+use crate::recording::RecordingArgs;
+use crate::runtime::command::{command_for, resolve_command, CommandArg, ModelCommand};
+use crate::runtime::identification::identify_trace;
+use crate::runtime::recording::condition_recording_checked_for;
+use crate::runtime::source::HOST_WINDOW;
+use crate::schema::Document;
+
+/// Arguments of `ema commission`.
+#[derive(Args, Debug, Clone)]
+#[command(mut_arg("out", |a| a.required(true).value_name("UNIT.toml")
+    .help("The unit's parameter file (written whole, only when the recordings look healthy)")))]
+pub struct CommissionArgs {
+    /// Recordings of the new or freshly maintained unit, healthy (1 to 8; 3 or more advised),
+    /// each read with the same flags.
+    #[arg(value_name = "FILE", required = true)]
+    pub files: Vec<PathBuf>,
+    /// How to read the recordings.
+    #[command(flatten)]
+    pub recording: RecordingArgs,
+    /// Command profile the recordings were made with: `standard`, `pbit` or a profile file.
+    #[arg(long, default_value = "standard")]
+    pub profile: String,
+    /// What drives the monitor model: the profile or each recording's own command column.
+    #[arg(long, value_enum, default_value = "profile")]
+    pub command: CommandArg,
+    /// Print JSON instead of the readable report.
+    #[arg(long)]
+    pub json: bool,
+    /// `--out UNIT.toml` (required) and `--force`.
+    #[command(flatten)]
+    pub output: OutputArgs,
+    /// `--quiet`.
+    #[command(flatten)]
+    pub progress: ProgressArgs,
+    /// The drawing's parameters the unit is a variant of (its unit parameters are the prior's
+    /// centre).
+    #[command(flatten)]
+    pub params: ParamsArgs,
+}
+
+/// One unit parameter in the report.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct UnitParamJson {
+    /// The parameter-file key.
+    pub name: &'static str,
+    /// The base (drawing) value.
+    pub nominal: f32,
+    /// The commissioned value (the nominal one when not resolved).
+    pub value: f32,
+    /// Deviation from nominal in tolerance standard deviations.
+    pub z: f32,
+    /// Posterior 1σ of the value, relative to it (0.01: 1 %).
+    pub sigma_relative: f32,
+    /// The recordings resolve it (posterior 1σ below 0.9 of the tolerance's).
+    pub resolved: bool,
+}
+
+/// The JSON body of `ema commission`.
+#[derive(Serialize, Debug, Clone)]
+pub struct CommissionJson {
+    /// The recordings, in order.
+    pub recordings: Vec<String>,
+    /// The parameter file written.
+    pub out: String,
+    /// Each unit parameter.
+    pub unit: Vec<UnitParamJson>,
+    /// Evaluations of the fitness spent (one model run per recording each).
+    pub evaluations: u32,
+}
+
+/// Runs `ema commission`.
+pub fn run(args: &CommissionArgs) -> Result<String, CliError> {
+    let overwrite = args.output.overwrite();
+    let out = args.output.out.as_deref().ok_or_else(|| CliError::flag("--out", "give the unit's parameter file"))?;
+    if args.files.len() > MAX_COMMISSIONING_FLIGHTS {
+        return Err(CliError::flag(
+            "FILE",
+            format!("{} recordings; commissioning takes at most {MAX_COMMISSIONING_FLIGHTS}", args.files.len()),
+        ));
+    }
+    check_file(out, overwrite)?;
+    let base = args.params.load()?;
+    let tolerances = Tolerances::TYPICAL;
+    let resolved = resolve_command(args.command, &args.profile)?;
+    let mut traces: Vec<(Box<MeasuredTrace<HOST_WINDOW>>, ModelCommand, f32)> = Vec::new();
+    let mut independent = f32::INFINITY;
+    for path in &args.files {
+        let load = args.recording.load(path, resolved.as_ref().and_then(ModelCommand::profile), &base)?;
+        independent = independent.min(load.summary.independent_frames_per_block());
+        let command = command_for(resolved.clone(), &load.recording, path, &base)?;
+        let (trace, acquired) = condition_recording_checked_for(&load.recording, path, &base, &command)?;
+        if acquired.is_sensor_fault() {
+            return Err(CliError::input(
+                path,
+                format!(
+                    "{} of {} frames refused: a sensor fault, not a recording to commission from",
+                    acquired.refused, acquired.frames
+                ),
+            ));
+        }
+        traces.push((trace, command, f32::NAN));
+    }
+    let config = IdentifyConfig { independent_frames_per_block: independent, ..IdentifyConfig::default() };
+    let fits = traces
+        .iter()
+        .zip(&args.files)
+        .map(|((trace, command, _), path)| {
+            CurrentFit::new(trace, base, command.command())
+                .ok()
+                .and_then(|fit| fit.with_fast_regime_weight(config.fast_regime_weight))
+                .ok_or_else(|| CliError::input(path, "the recording could not be fitted (unfinished trace)"))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let flights: Vec<CommissioningFlight<'_, '_, HOST_WINDOW>> =
+        fits.iter().zip(&traces).map(|(fit, (_, _, t))| CommissioningFlight { fit, temperature_c: *t }).collect();
+    let spinner = crate::progress::spinner("commissioning".to_owned(), args.progress.visible());
+    let mut objective = BaselineFit::new(&flights, base, tolerances, config.independent_frames_per_block)
+        .map_err(|e| CliError::flag("FILE", e.to_string()))?;
+    let baseline = commission::<HOST_WINDOW, 24>(&mut objective, 40, 1);
+    spinner.finish_and_clear();
+    let first = &args.files[0];
+    let baseline = baseline.map_err(|e| CliError::input(first, e.to_string()))?;
+    if let Some((i, z)) = baseline.out_of_tolerance() {
+        return Err(CliError::input(
+            first,
+            format!(
+                "these recordings do not look like a healthy unit: {} fits {z:+.1}σ from nominal, beyond its \
+                 tolerance (a fault, or another actuator); nothing written",
+                unit_name(i)
+            ),
+        ));
+    }
+    for ((trace, command, _), path) in traces.iter().zip(&args.files) {
+        let outcome = identify_trace(trace.as_ref(), &baseline.params, command.command(), &config, path)?;
+        let report = outcome.report;
+        if report.status != Status::Healthy {
+            let found: Vec<String> = report
+                .modes
+                .iter()
+                .filter(|m| m.severity > 0.0)
+                .map(|m| format!("{} {:.2}", m.mode.name(), m.severity))
+                .collect();
+            return Err(CliError::input(
+                path,
+                format!(
+                    "diagnosed against the commissioned parameters it reads {}{}: not a healthy unit; nothing written",
+                    report.status.label(),
+                    if found.is_empty() { String::new() } else { format!(" ({})", found.join(", ")) }
+                ),
+            ));
+        }
+    }
+    let unit: Vec<UnitParamJson> = (0..UNIT_PARAM_COUNT)
+        .filter_map(|i| {
+            let field = unit_field(i)?;
+            let value = field.get(&baseline.params);
+            let sigma = tolerances.relative_sigma[i] * baseline.sigma_z[i] * field.get(&base) / value;
+            Some(UnitParamJson {
+                name: field.name,
+                nominal: field.get(&base),
+                value,
+                z: baseline.z[i],
+                sigma_relative: sigma.abs(),
+                resolved: baseline.resolved[i],
+            })
+        })
+        .collect();
+    let names: Vec<String> = args.files.iter().map(|p| p.display().to_string()).collect();
+    let file = parameter_file(&baseline.params, &names);
+    write_files(&[(out, file.as_bytes())], overwrite)?;
+    let body =
+        CommissionJson { recordings: names, out: out.display().to_string(), unit, evaluations: baseline.evaluations };
+    Ok(if args.json { Document::new(None, body).to_json() } else { render(&body) })
+}
+
+/// The parameter file of the unit: a header naming the recordings, then the template.
+fn parameter_file(params: &EmaParams, recordings: &[String]) -> String {
+    format!(
+        "# Commissioned by `ema commission` from {} recording(s): {}\n# The unit parameters of the \
+         tolerance table hold this unit's own values.\n\n{}",
+        recordings.len(),
+        recordings.join(", "),
+        template(params)
+    )
+}
+
+/// The readable report: one line per unit parameter.
+pub fn render(body: &CommissionJson) -> String {
+    let mut out =
+        format!("commissioned from {} recording(s), {} evaluations\n", body.recordings.len(), body.evaluations);
+    for p in &body.unit {
+        if p.resolved {
+            out +=
+                &format!("  {:<32} {:>12.6e}  ({:+.1}σ, ±{:.1} %)\n", p.name, p.value, p.z, 100.0 * p.sigma_relative);
+        } else {
+            out += &format!("  {:<32} {:>12.6e}  not resolved by these recordings: left nominal\n", p.name, p.value);
+        }
+    }
+    out += &format!("wrote {}", body.out);
+    out
+}
