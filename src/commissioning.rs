@@ -239,6 +239,34 @@ pub fn commission<const W: usize, const P: usize>(
     Ok(Baseline { z, sigma_z, resolved, params, cost, evaluations: fit.evaluations() })
 }
 
+/// `true` when a diagnosis pays for its fault parameters against an ordinary unit: when the
+/// recording is explained better by the faults `k` on the unit as described (fitness
+/// `error_fault`, `fault_parameters` free parameters) than by a healthy unit moved within its
+/// tolerances (fitness `error_unit` at deviations of squared norm `unit_z_sq`, the prior's price).
+/// In the currency of model selection ([`crate::monitor::group_pays`]), with the prior's
+/// `−2·ln` density in place of the parameters' price on the unit's side:
+///
+/// ```text
+/// n_eff·ln(E_unit/E_fault) + |z|² > m·ln(n_eff)
+/// ```
+///
+/// A unit that was never commissioned is judged against the tolerance table; a commissioned one
+/// against the 1σ its commissioning left, so that a fault it has since developed is not taken for
+/// a tolerance.
+pub fn fault_pays_over_unit(
+    error_fault: f32,
+    error_unit: f32,
+    unit_z_sq: f32,
+    fault_parameters: usize,
+    effective_samples: f32,
+) -> bool {
+    if !(error_fault > 0.0 && error_unit.is_finite() && effective_samples > 1.0) {
+        return error_unit > error_fault;
+    }
+    effective_samples * libm::logf(error_unit / error_fault) + unit_z_sq
+        > fault_parameters as f32 * libm::logf(effective_samples)
+}
+
 /// Most trial steps of one descent (each one evaluation of `J`; an accepted one also a lockstep
 /// run).
 const MAX_TRIALS: usize = 40;

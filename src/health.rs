@@ -125,15 +125,21 @@ pub enum Abstain {
     PartialCoverage,
     /// The recording's declared sample rate is not the monitor's control rate.
     RateMismatch,
+    /// An ordinary unit, moved within its tolerances, explains the recording as well as the
+    /// faults found ([`crate::commissioning::fault_pays_over_unit`]): the unit differs from the
+    /// parameters the monitor has for it. Commissioning the unit gives it its own.
+    UnitMismatch,
 }
 
 impl Abstain {
-    /// Lower-case reason, as logged: `poor fit`, `partial coverage`, `rate mismatch`.
+    /// Lower-case reason, as logged: `poor fit`, `partial coverage`, `rate mismatch`,
+    /// `unit mismatch`.
     pub const fn label(self) -> &'static str {
         match self {
             Abstain::PoorFit => "poor fit",
             Abstain::PartialCoverage => "partial coverage",
             Abstain::RateMismatch => "rate mismatch",
+            Abstain::UnitMismatch => "unit mismatch",
         }
     }
 }

@@ -154,7 +154,7 @@ impl Default for HealthRecord {
 
 /// The one-byte code of a [`Status`] in the record: 0 healthy, 1 degraded, 2 failing,
 /// 3 inconclusive (poor fit), 4 inconclusive (partial coverage), 5 inconclusive (rate mismatch),
-/// 6 sensor fault.
+/// 6 sensor fault, 7 inconclusive (unit mismatch).
 pub const fn status_code(status: Status) -> u8 {
     match status {
         Status::Healthy => 0,
@@ -163,6 +163,7 @@ pub const fn status_code(status: Status) -> u8 {
         Status::Inconclusive(Abstain::PoorFit) => 3,
         Status::Inconclusive(Abstain::PartialCoverage) => 4,
         Status::Inconclusive(Abstain::RateMismatch) => 5,
+        Status::Inconclusive(Abstain::UnitMismatch) => 7,
         Status::SensorFault => 6,
     }
 }
@@ -181,6 +182,7 @@ pub const fn status_of_code(code: u8) -> Result<Option<Status>, RecordError> {
         4 => Status::Inconclusive(Abstain::PartialCoverage),
         5 => Status::Inconclusive(Abstain::RateMismatch),
         6 => Status::SensorFault,
+        7 => Status::Inconclusive(Abstain::UnitMismatch),
         NO_STATUS => return Ok(None),
         _ => return Err(RecordError::Status(code)),
     }))

@@ -68,8 +68,8 @@ fn record_refuses_other_versions_and_bad_fields() {
     bad[0] = RECORD_VERSION + 1;
     assert_eq!(HealthRecord::decode(&bad), Err(RecordError::Version(RECORD_VERSION + 1)));
     let mut bad = buf;
-    bad[1] = 7;
-    assert_eq!(HealthRecord::decode(&bad), Err(RecordError::Status(7)));
+    bad[1] = 8;
+    assert_eq!(HealthRecord::decode(&bad), Err(RecordError::Status(8)));
     let mut bad = buf;
     bad[100] = HISTORY_LEN as u8 + 1;
     assert_eq!(HealthRecord::decode(&bad), Err(RecordError::History));
@@ -93,6 +93,25 @@ fn new_flight_counts_flights_and_keeps_the_last_history() {
     assert_eq!(r.pooled_flights(), 40);
     assert!(!HealthRecord::new().has_prior());
     assert_eq!(HealthRecord::new().status(), None);
+}
+
+#[test]
+fn every_status_has_its_own_code_and_reads_back() {
+    use crate::persist::record::{status_code, status_of_code};
+    let all = [
+        Status::Healthy,
+        Status::Degraded,
+        Status::Failing,
+        Status::Inconclusive(Abstain::PoorFit),
+        Status::Inconclusive(Abstain::PartialCoverage),
+        Status::Inconclusive(Abstain::RateMismatch),
+        Status::Inconclusive(Abstain::UnitMismatch),
+        Status::SensorFault,
+    ];
+    for (i, &s) in all.iter().enumerate() {
+        assert!(all[..i].iter().all(|&t| status_code(t) != status_code(s)), "{s:?}");
+        assert_eq!(status_of_code(status_code(s)), Ok(Some(s)));
+    }
 }
 
 #[test]
