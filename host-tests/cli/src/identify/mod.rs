@@ -37,6 +37,7 @@ use std::io::Write;
 
 use ema_monitor::effects::ModelEffects;
 use ema_monitor::monitor::IdentifyConfig;
+use ema_monitor::unit::Tolerances;
 use ema_monitor::Profile;
 
 use crate::error::CliError;
@@ -56,7 +57,8 @@ pub use crate::runtime::firmware::{
     bits_line, firmware_trace_outcome, firmware_trace_outcome_for, summary_line, Refusal, MAX_FIRMWARE_TRACE_BYTES,
 };
 pub use crate::runtime::identification::{
-    identify_recording, identify_recording_with, identify_trace, run_to_end, Outcome, WarmStart,
+    identify_recording, identify_recording_with, identify_trace, identify_unit_recording, run_to_end, Outcome,
+    WarmStart,
 };
 pub use crate::runtime::model_config::{
     effects_label, read_model_config, read_model_config_from, MAX_MODEL_CONFIG_BYTES,
@@ -110,7 +112,7 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
             loaded = Some(load.summary);
             let command = command_for(resolved, &recording, path, &params)?;
             let spinner = progress::spinner(format!("identifying {}", path.display()), args.progress.visible());
-            let outcome = identify_recording_with(&recording, path, &params, &command, &config);
+            let outcome = identify_unit_recording(&recording, path, &params, &command, &config, &Tolerances::TYPICAL);
             spinner.finish_and_clear();
             (outcome?, command)
         }

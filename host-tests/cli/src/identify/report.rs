@@ -12,6 +12,7 @@ use crate::runtime::command::{CommandJson, ModelCommand};
 use crate::runtime::firmware::{bits_line, summary_line};
 use crate::runtime::identification::Outcome;
 use crate::runtime::model_config::effects_label;
+use crate::runtime::unit_check::UnitCheck;
 use crate::schema::Document;
 
 /// One fault mode of the JSON report, in physical terms.
@@ -252,6 +253,9 @@ pub fn render(
                 if w.report.needs_cold(&outcome.report) { "; the next identification must be cold" } else { "" }
             ));
         }
+        if let Some(c) = &outcome.unit_check {
+            text.push_str(&format!("\n  {}", unit_check_line(c)));
+        }
         if let Some(l) = loaded {
             text.push_str(&format!("\n  {}", l.line()));
         }
@@ -264,4 +268,24 @@ pub fn render(
         out.push_str(&summary_line(&outcome.report));
     }
     out
+}
+
+/// The unit check in one line: the best healthy unit's fitness against the diagnosis's, its
+/// largest deviations, and the verdict.
+pub fn unit_check_line(c: &UnitCheck) -> String {
+    let mut largest: Vec<(usize, f32)> = c.z.iter().copied().enumerate().filter(|(_, z)| z.abs() >= 1.0).collect();
+    largest.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+    let named: Vec<String> =
+        largest.iter().take(3).map(|&(i, z)| format!("{} {z:+.1}σ", ema_monitor::unit::unit_name(i))).collect();
+    format!(
+        "unit check: the best healthy unit within its tolerances{} fits {:.4e} A^2, the diagnosis {:.4e} A^2: {}",
+        if named.is_empty() { String::new() } else { format!(" ({})", named.join(", ")) },
+        c.error_unit,
+        c.error_fault,
+        if c.fault_pays {
+            "the fault pays for its parameters"
+        } else {
+            "an ordinary unit explains the recording as well; commission the unit (ema commission)"
+        }
+    )
 }

@@ -12,12 +12,14 @@ use ema_monitor::fitness::{PoolError, PooledTrace, MAX_POOLED_RECORDINGS};
 use ema_monitor::health::HealthReport;
 use ema_monitor::monitor::{Identification, IdentifyConfig, MonitorError, WarmReport, GROUP_NAMES, ONBOARD_POPULATION};
 use ema_monitor::optimizer::{Objective, SearchStatus};
+use ema_monitor::unit::Tolerances;
 use ema_monitor::FAULT_COUNT;
 use ema_monitor::{Command, EmaParams, Profile};
 use rayon::prelude::*;
 
 use super::command::ModelCommand;
 use super::recording::condition_recording_checked_for;
+use super::unit_check::{check_unit, with_unit_check, UnitCheck};
 use crate::error::CliError;
 use crate::recording::Recording;
 
@@ -30,6 +32,9 @@ pub struct Outcome {
     pub seconds: f64,
     /// The warm start's prior and what its stages did (`None`: a cold identification).
     pub warm: Option<WarmStart>,
+    /// The best healthy unit within the unit's tolerances against a fault found
+    /// ([`super::unit_check`]; `None`: not checked).
+    pub unit_check: Option<UnitCheck>,
 }
 
 /// The prior of a warm start and what its stages did ([`ema_monitor::monitor::WarmReport`]).
@@ -80,6 +85,26 @@ pub fn identify_recording_with(
     Ok(Outcome { report: outcome.report.with_acquisition(&acquired), ..outcome })
 }
 
+/// [`identify_recording_with`] for a unit known to within `tolerances`: a fault found must also
+/// pay against the best healthy unit within them ([`super::unit_check`]), or the report abstains
+/// with `unit mismatch`.
+pub fn identify_unit_recording(
+    recording: &Recording,
+    path: &Path,
+    params: &EmaParams,
+    command: &ModelCommand,
+    config: &IdentifyConfig,
+    tolerances: &Tolerances,
+) -> Result<Outcome, CliError> {
+    let (trace, acquired) = condition_recording_checked_for(recording, path, params, command)?;
+    let outcome = identify_trace(&trace, params, command.command(), config, path)?;
+    let start = Instant::now();
+    let check = check_unit(&trace, params, command.command(), config, tolerances, &outcome.report);
+    let report = with_unit_check(outcome.report, check.as_ref()).with_acquisition(&acquired);
+    let seconds = outcome.seconds + start.elapsed().as_secs_f64();
+    Ok(Outcome { report, seconds, unit_check: check, ..outcome })
+}
+
 /// Identifies a conditioned trace (any window size) of the actuator `params`, the model driven by
 /// `command` (a profile or a sampled command); `path` names the input in messages.
 pub fn identify_trace<'c, const W: usize>(
@@ -108,7 +133,7 @@ pub fn run_identification<const W: usize>(
     let warm = config.prior.zip(id.warm_report()).map(|(prior, report)| WarmStart { prior, report });
     let seconds = start.elapsed().as_secs_f64();
     // the 1σ and detectable-below severities of the reported vector, as the firmware logs them
-    Ok(Outcome { report: id.with_uncertainty(id.report()), seconds, warm })
+    Ok(Outcome { report: id.with_uncertainty(id.report()), seconds, warm, unit_check: None })
 }
 
 /// Runs `id` to its end as [`Identification::run`] does, with each sweep of the PSO global search
@@ -159,5 +184,5 @@ pub fn identify_pooled<const W: usize>(
     let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> =
         Box::new(Identification::new(first, *params, first_command, config)?.pooled_with(&more)?);
     id.run(u32::MAX);
-    Ok(Outcome { report: id.report(), seconds: start.elapsed().as_secs_f64(), warm: None })
+    Ok(Outcome { report: id.report(), seconds: start.elapsed().as_secs_f64(), warm: None, unit_check: None })
 }

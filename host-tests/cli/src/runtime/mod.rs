@@ -12,7 +12,8 @@
 //!   bit for bit the firmware's), on one trace or pooled over several;
 //! - [`firmware`]: the firmware's path on a packed trace and its one-line summary, which
 //!   `scripts/parity` compares with the firmware's in QEMU;
-//! - [`model_config`]: model configuration files (`--model-config`), read by the core's parser.
+//! - [`model_config`]: model configuration files (`--model-config`), read by the core's parser;
+//! - [`unit_check`]: whether an ordinary unit within its tolerances explains a diagnosis.
 //!
 //! Each file uses the others by their own paths (`super::source::…`), never through this module,
 //! so the runtime's files form no import cycle.
@@ -23,6 +24,7 @@ pub mod identification;
 pub mod model_config;
 pub mod recording;
 pub mod source;
+pub mod unit_check;
 
 pub use command::{CommandArg, CommandJson, ModelCommand, HOST_COMMAND_SAMPLES};
 pub use firmware::{firmware_trace_outcome, firmware_trace_outcome_for, summary_line, Refusal};

@@ -1,0 +1,78 @@
+//! Whether an ordinary unit explains a diagnosis: after an identification that found a fault,
+//! the best healthy unit within the unit's tolerances is fitted to the same recording (the core's
+//! commissioning on one flight, [`ema_monitor::commissioning`]), and the fault stands only when
+//! it pays for its parameters against that unit
+//! ([`ema_monitor::commissioning::fault_pays_over_unit`]). Otherwise the report abstains with
+//! [`Abstain::UnitMismatch`]: the recording shows a unit that differs from its parameters, not a
+//! fault, and commissioning gives the unit its own.
+//!
+//! A unit that was never commissioned is judged against the tolerance table; a commissioned one
+//! against the 1σ its commissioning left.
+
+use ema_monitor::commissioning::{commission, fault_pays_over_unit, BaselineFit, CommissioningFlight};
+use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::fitness::CurrentFit;
+use ema_monitor::health::{Abstain, HealthReport, Status};
+use ema_monitor::monitor::{group_present, IdentifyConfig, FAULT_GROUPS};
+use ema_monitor::unit::{Tolerances, UNIT_PARAM_COUNT};
+use ema_monitor::{Command, EmaParams, FaultVector};
+
+/// Particles of the unit's swarm.
+const UNIT_SWARM: usize = 24;
+/// Its iterations.
+const UNIT_SWARM_ITERATIONS: u32 = 40;
+
+/// The best healthy unit for a recording, against the diagnosis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UnitCheck {
+    /// The unit's deviations from the parameters, in tolerance σ.
+    pub z: [f32; UNIT_PARAM_COUNT],
+    /// Its fitness (healthy faults), A².
+    pub error_unit: f32,
+    /// The diagnosis's fitness, A².
+    pub error_fault: f32,
+    /// The diagnosis pays for its fault parameters against the unit.
+    pub fault_pays: bool,
+}
+
+/// The unit check of `report` (an identification of `trace` of the unit `params` under `command`
+/// with `config`), for a unit known to within `tolerances`: `None` when there is nothing to check
+/// (no fault reported, or tolerances all zero: the unit is exactly its parameters).
+pub fn check_unit<const W: usize>(
+    trace: &MeasuredTrace<W>,
+    params: &EmaParams,
+    command: Command<'_>,
+    config: &IdentifyConfig,
+    tolerances: &Tolerances,
+    report: &HealthReport,
+) -> Option<UnitCheck> {
+    if !matches!(report.status, Status::Degraded | Status::Failing)
+        || tolerances.relative_sigma.iter().all(|s| *s == 0.0)
+    {
+        return None;
+    }
+    let fit = CurrentFit::new(trace, *params, command)
+        .ok()?
+        .with_fast_regime_weight(config.fast_regime_weight)?
+        .with_effects(config.effects);
+    let flights = [CommissioningFlight { fit: &fit, temperature_c: f32::NAN }];
+    let mut objective = BaselineFit::new(&flights, *params, *tolerances, config.independent_frames_per_block).ok()?;
+    let unit = commission::<W, UNIT_SWARM>(&mut objective, UNIT_SWARM_ITERATIONS, config.seed).ok()?;
+    let error_unit = fit.error_of_unit(&unit.params, &FaultVector::HEALTHY, f32::INFINITY);
+    let k = &report.faults;
+    let error_fault = fit.error(k);
+    let parameters: usize =
+        FAULT_GROUPS.iter().filter(|&&g| group_present(&k.0, g)).map(|&(first, last)| last - first + 1).sum();
+    let z_sq: f32 = unit.z.iter().map(|z| z * z).sum();
+    let fault_pays = fault_pays_over_unit(error_fault, error_unit, z_sq, parameters, fit.effective_samples(k));
+    Some(UnitCheck { z: unit.z, error_unit, error_fault, fault_pays })
+}
+
+/// `report` as the unit check leaves it: abstaining with [`Abstain::UnitMismatch`] when the
+/// fault does not pay against the unit.
+pub fn with_unit_check(report: HealthReport, check: Option<&UnitCheck>) -> HealthReport {
+    match check {
+        Some(c) if !c.fault_pays => report.abstaining(Status::Inconclusive(Abstain::UnitMismatch)),
+        _ => report,
+    }
+}
