@@ -48,6 +48,7 @@ pub mod flight;
 pub mod health;
 pub mod model;
 pub mod monitor;
+pub mod operating_temperature;
 pub mod optimizer;
 pub mod params;
 pub mod persist;
