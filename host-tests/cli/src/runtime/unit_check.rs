@@ -2,7 +2,9 @@
 //! the best healthy unit within the unit's tolerances is fitted to the same recording (the core's
 //! commissioning on one flight, [`ema_monitor::commissioning`]), and the fault stands only when
 //! it pays for its parameters against that unit
-//! ([`ema_monitor::commissioning::fault_pays_over_unit`]). Otherwise the report abstains with
+//! ([`ema_monitor::commissioning::fault_pays_over_unit`]), or when that unit needs a parameter
+//! beyond its tolerance ([`ema_monitor::commissioning::Baseline::out_of_tolerance`]: an
+//! unmodelled effect, not an ordinary unit). Otherwise the report abstains with
 //! [`Abstain::UnitMismatch`]: the recording shows a unit that differs from its parameters, not a
 //! fault, and commissioning gives the unit its own.
 //!
@@ -64,7 +66,9 @@ pub fn check_unit<const W: usize>(
     let parameters: usize =
         FAULT_GROUPS.iter().filter(|&&g| group_present(&k.0, g)).map(|&(first, last)| last - first + 1).sum();
     let z_sq: f32 = unit.z.iter().map(|z| z * z).sum();
-    let fault_pays = fault_pays_over_unit(error_fault, error_unit, z_sq, parameters, fit.effective_samples(k));
+    // a unit that needs a parameter beyond its tolerance is not an ordinary one
+    let fault_pays = unit.out_of_tolerance().is_some()
+        || fault_pays_over_unit(error_fault, error_unit, z_sq, parameters, fit.effective_samples(k));
     Some(UnitCheck { z: unit.z, error_unit, error_fault, fault_pays })
 }
 
