@@ -40,3 +40,4 @@ pub mod recording;
 pub mod runtime;
 pub mod schema;
 pub mod simulate;
+pub mod tolerances_file;

@@ -1,6 +1,6 @@
 //! `ema`: host tools of ema-monitor. Subcommands: `simulate` (reference model → recording CSV),
 //! `identify` (core → health report), `firmware-trace`, `compare`, `campaign`, `discover` (missing
-//! effects), `params` (the actuator parameter template), `history` (trend and remaining useful life), `detectability` (what a manoeuvre can tell).
+//! effects), `params` (the actuator parameter and tolerance templates), `history` (trend and remaining useful life), `detectability` (what a manoeuvre can tell).
 
 use std::io::{ErrorKind as IoErrorKind, Write};
 use std::process::ExitCode;
@@ -40,7 +40,7 @@ enum Command {
     Campaign(CampaignArgs),
     /// Where the monitor model and a recording disagree, which library effect is missing, and the gap it closes.
     Discover(DiscoverArgs),
-    /// Print the nominal actuator parameters as a commented TOML template (edit it, pass it with --params).
+    /// Print the nominal actuator parameters (or, with --tolerances, the unit-to-unit tolerance table) as a commented TOML template.
     Params(ParamsCommandArgs),
     /// Identify successive flights of one actuator; the trend and remaining useful life per fault mode.
     History(HistoryArgs),
