@@ -41,3 +41,4 @@ pub mod runtime;
 pub mod schema;
 pub mod simulate;
 pub mod tolerances_file;
+pub mod unit_draw;
