@@ -12,7 +12,9 @@
 //!   bit for bit the firmware's), on one trace or pooled over several;
 //! - [`firmware`]: the firmware's path on a packed trace and its one-line summary, which
 //!   `scripts/parity` compares with the firmware's in QEMU;
-//! - [`model_config`]: model configuration files (`--model-config`), read by the core's parser.
+//! - [`model_config`]: model configuration files (`--model-config`), read by the core's parser;
+//! - [`temperature`]: the parameters the monitor model takes for a recording at its temperature
+//!   (every command applies them once, right after reading its recordings).
 //!
 //! Each file uses the others by their own paths (`super::source::…`), never through this module,
 //! so the runtime's files form no import cycle.
@@ -23,9 +25,11 @@ pub mod identification;
 pub mod model_config;
 pub mod recording;
 pub mod source;
+pub mod temperature;
 
 pub use command::{CommandArg, CommandJson, ModelCommand, HOST_COMMAND_SAMPLES};
 pub use firmware::{firmware_trace_outcome, firmware_trace_outcome_for, summary_line, Refusal};
 pub use identification::{identify_pooled, identify_recording, identify_trace, run_to_end, Outcome, WarmStart};
 pub use recording::{condition_recording, condition_recording_checked};
 pub use source::HOST_WINDOW;
+pub use temperature::{model_params, pooled_model_params, ModelParams, POOLED_TEMPERATURE_SPREAD_K};
