@@ -19,7 +19,7 @@ use super::args::IdentifyArgs;
 use super::report::{json_body, render as render_one, IdentifyJson};
 use crate::error::CliError;
 use crate::progress;
-use crate::recording::LoadSummary;
+use crate::recording::{LoadSummary, Recording};
 use crate::runtime::command::{command_for, resolve_command, ModelCommand};
 use crate::runtime::firmware::{bits_line, summary_line};
 use crate::runtime::identification::Outcome;
@@ -66,7 +66,7 @@ pub fn run(args: &IdentifyArgs, config: &IdentifyConfig, params: &EmaParams) -> 
         let load = args.recording.load(path, resolved.as_ref().and_then(ModelCommand::profile), params)?;
         loads.push((path, resolved, load));
     }
-    let recordings: Vec<(&Path, &crate::recording::Recording)> =
+    let recordings: Vec<(&Path, &Recording)> =
         loads.iter().map(|(path, _, load)| (path.as_path(), &load.recording)).collect();
     let model = pooled_model_params(&recordings, params)?;
     let params = &model.params;
