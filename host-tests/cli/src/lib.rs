@@ -41,3 +41,5 @@ pub mod recording;
 pub mod runtime;
 pub mod schema;
 pub mod simulate;
+pub mod tolerances_file;
+pub mod unit_draw;

@@ -1,6 +1,6 @@
 //! `ema`: host tools of ema-monitor. Subcommands: `simulate` (reference model → recording CSV),
 //! `identify` (core → health report), `firmware-trace`, `compare`, `campaign`, `discover` (missing
-//! effects), `params` (the actuator parameter template), `commission` (a unit's own parameters), `history` (trend and remaining useful life), `detectability` (what a manoeuvre can tell).
+//! effects), `params` (the actuator parameter and tolerance templates), `commission` (a unit's own parameters), `history` (trend and remaining useful life), `detectability` (what a manoeuvre can tell).
 
 use std::io::{ErrorKind as IoErrorKind, Write};
 use std::process::ExitCode;
@@ -41,7 +41,7 @@ enum Command {
     Campaign(CampaignArgs),
     /// Where the monitor model and a recording disagree, which library effect is missing, and the gap it closes.
     Discover(DiscoverArgs),
-    /// Print the nominal actuator parameters as a commented TOML template (edit it, pass it with --params).
+    /// Print the nominal actuator parameters (or, with --tolerances, the unit-to-unit tolerance table) as a commented TOML template.
     Params(ParamsCommandArgs),
     /// A unit's own parameters from a few recordings of it, healthy: a parameter file for --params.
     Commission(CommissionArgs),

@@ -3,9 +3,11 @@
 //! ```text
 //! ema params > my.toml          # the nominal set as a commented TOML template
 //! ema identify --params my.toml FILE.csv
+//! ema params --tolerances > tol.toml   # the unit-to-unit tolerance table (`ema simulate --unit`)
 //! ```
 //!
-//! The file format and its checks are [`crate::params_file`]'s.
+//! The file formats and their checks are [`crate::params_file`]'s and
+//! [`crate::tolerances_file`]'s.
 
 use std::path::{Path, PathBuf};
 
@@ -15,6 +17,7 @@ use ema_monitor::EmaParams;
 use crate::error::CliError;
 use crate::input::read_text;
 use crate::params_file::{parse_params, template};
+use crate::tolerances_file;
 
 /// Largest parameter file read (the template is about 4 kB).
 pub const MAX_PARAMS_BYTES: usize = 64 * 1024;
@@ -50,13 +53,25 @@ pub fn read_params(path: &Path) -> Result<EmaParams, CliError> {
     parse_params(&text).map_err(|e| CliError::Input { path: path.to_path_buf(), message: e.to_string() })
 }
 
-/// Arguments of `ema params` (none).
-#[derive(Args, Debug, Clone)]
-pub struct ParamsCommandArgs {}
+/// Arguments of `ema params`.
+#[derive(Args, Debug, Clone, Default)]
+pub struct ParamsCommandArgs {
+    /// Print the unit-to-unit tolerance table instead: the typical relative 1-sigma of each
+    /// parameter that varies from unit to unit (edit it, pass it with
+    /// `ema simulate --unit SEED --tolerances FILE`).
+    #[arg(long)]
+    pub tolerances: bool,
+}
 
-/// Runs `ema params`: the nominal set as a commented TOML template (printed by `main`).
-pub fn run(_args: &ParamsCommandArgs) -> Result<String, CliError> {
-    Ok(template(&EmaParams::NOMINAL).trim_end().to_owned())
+/// Runs `ema params`: the nominal set, or under `--tolerances` the typical tolerance table, as a
+/// commented TOML template (printed by `main`).
+pub fn run(args: &ParamsCommandArgs) -> Result<String, CliError> {
+    let text = if args.tolerances {
+        tolerances_file::template(&ema_monitor::Tolerances::TYPICAL)
+    } else {
+        template(&EmaParams::NOMINAL)
+    };
+    Ok(text.trim_end().to_owned())
 }
 
 /// One line of `name=value` for the recording's metadata: every field that differs from nominal

@@ -16,8 +16,9 @@ use std::fmt::Write as _;
 
 use super::core_params::{EmaParams, ParamField, FIELDS};
 
-/// Why a parameter file was refused: the 1-based line (0 when the error has no place in the file,
-/// e.g. a relation involving only nominal values) and what to change.
+/// Why a parameter file (or a tolerance table, `tolerances_file.rs`) was refused: the 1-based
+/// line (0 when the error has no place in the file, e.g. a relation involving only nominal values)
+/// and what to change.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ParamsFileError {
     /// Line of the offending key or value (0: none).
@@ -40,12 +41,12 @@ impl std::fmt::Display for ParamsFileError {
 impl std::error::Error for ParamsFileError {}
 
 /// The 1-based line of byte offset `at` in `text`.
-fn line_of(text: &str, at: usize) -> usize {
+pub fn line_of(text: &str, at: usize) -> usize {
     text.get(..at).map_or(0, |head| head.matches('\n').count()) + 1
 }
 
 /// Edit distance of two keys (for "did you mean").
-fn distance(a: &str, b: &str) -> usize {
+pub fn distance(a: &str, b: &str) -> usize {
     let b: Vec<char> = b.chars().collect();
     let mut row: Vec<usize> = (0..=b.len()).collect();
     for (i, ca) in a.chars().enumerate() {
@@ -121,7 +122,7 @@ pub fn parse_params(text: &str) -> Result<EmaParams, ParamsFileError> {
 
 /// A number as TOML that reads back to exactly `x` (`f32`'s shortest round-trip form; whole
 /// fields without a fractional part).
-fn toml_number(x: f32, integer: bool) -> String {
+pub fn toml_number(x: f32, integer: bool) -> String {
     if integer {
         format!("{}", x as i64)
     } else {

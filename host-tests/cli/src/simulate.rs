@@ -1,27 +1,35 @@
 //! `ema simulate`: runs the reference model and writes a recording.
 //!
 //! ```text
-//! ema simulate --faults k1,…,k8 [--effect ID=S]… [--profile standard|FILE] [--params FILE.toml] [--noise on|off] [--seed N] --out FILE.csv [--force]
+//! ema simulate --faults k1,…,k8 [--effect ID=S]… [--profile standard|FILE] [--params FILE.toml]
+//!              [--unit SEED [--tolerances FILE.toml]] [--temperature C] [--noise on|off] [--seed N] --out FILE.csv [--force]
 //! ```
+//!
+//! The actuator is `--params` (or the nominal set) at 20 °C; `--unit SEED` draws one unit of it
+//! from the tolerance table ([`crate::unit_draw`], `--tolerances` or
+//! [`Tolerances::TYPICAL`]); `--temperature C` runs the reference model with that unit's
+//! parameters at `C` ([`EmaParams::at_temperature`]) and adds the `temperature_C` column.
 //!
 //! `--out F.csv` gets a plain CSV (header and rows, [`crate::recording::write`]) and its metadata
 //! in the sidecar `F.json` ([`crate::recording::sidecar`]). Both are checked before the
 //! simulation runs; an existing one is replaced only with `--force`, and both are written in one
 //! [`write_files`] call: whole or not at all ([`crate::output`]).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
-use ema_monitor::{EffectId, FaultVector, ModelEffects, Profile, FAULT_COUNT};
+use ema_monitor::{EffectId, EmaParams, FaultVector, ModelEffects, Profile, Tolerances, FAULT_COUNT};
 use ema_reference::{simulate, Effect, Effects, SimConfig};
 
 use crate::error::CliError;
 use crate::output::{check_file, write_files, OutputArgs};
 use crate::params::ParamsArgs;
 use crate::profile_file::read_profile;
-use crate::recording::sidecar::{sidecar_path, Sidecar, SCHEMA_VERSION};
+use crate::recording::sidecar::{sidecar_path, Sidecar, SidecarUnit, SCHEMA_VERSION};
 use crate::recording::write::csv_bytes;
-use crate::recording::{Recording, HEADER};
+use crate::recording::{Recording, HEADER, MAX_TEMPERATURE_C, MIN_TEMPERATURE_C, TEMPERATURE_HEADER};
+use crate::tolerances_file::read_tolerances;
+use crate::unit_draw::draw_unit;
 
 /// Sensor noise switch.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -63,6 +71,83 @@ pub struct SimulateArgs {
     /// The actuator's parameters (recorded in the file's metadata).
     #[command(flatten)]
     pub params: ParamsArgs,
+    /// Draw one unit of the actuator: each parameter that varies from unit to unit moved by z
+    /// standard deviations of its tolerance, z ~ N(0, 1) from a generator seeded by SEED (same
+    /// seed, same unit); the base is --params or the nominal set.
+    #[arg(long, value_name = "SEED")]
+    pub unit: Option<u64>,
+    /// Tolerance table of --unit (TOML; `ema params --tolerances` prints the template)
+    /// [default: the typical tolerances].
+    #[arg(long, value_name = "FILE.toml", requires = "unit")]
+    pub tolerances: Option<PathBuf>,
+    /// The actuator's temperature, °C (-100 to 200): the reference model runs with the
+    /// parameters at that temperature, and the CSV gets a temperature_C column [default: 20 °C,
+    /// no column].
+    #[arg(long, value_name = "C", allow_hyphen_values = true)]
+    pub temperature: Option<f64>,
+}
+
+/// The simulated actuator: its parameters at 20 °C (the unit's under `--unit`), the unit drawn and
+/// the temperature.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Actuator {
+    /// The parameters at 20 °C: `--params` (or nominal), or the unit drawn from them.
+    pub params: EmaParams,
+    /// The unit drawn (`--unit`), as the sidecar records it.
+    pub unit: Option<SidecarUnit>,
+    /// The temperature (`--temperature`, °C).
+    pub temperature_c: Option<f64>,
+}
+
+impl Actuator {
+    /// The parameters the reference model runs: [`Actuator::params`] at the temperature, if any.
+    pub fn simulated(&self) -> EmaParams {
+        match self.temperature_c {
+            Some(t) => self.params.at_temperature(t as f32),
+            None => self.params,
+        }
+    }
+}
+
+/// `--temperature C`: finite and within [`MIN_TEMPERATURE_C`] and [`MAX_TEMPERATURE_C`].
+pub fn check_temperature(c: f64) -> Result<f64, CliError> {
+    if !c.is_finite() {
+        return Err(CliError::flag("--temperature", format!("{c} is not a temperature; give degrees Celsius")));
+    }
+    if !(MIN_TEMPERATURE_C..=MAX_TEMPERATURE_C).contains(&c) {
+        return Err(CliError::flag(
+            "--temperature",
+            format!("{c} °C is outside {MIN_TEMPERATURE_C} to {MAX_TEMPERATURE_C} °C"),
+        ));
+    }
+    Ok(c)
+}
+
+/// The actuator the arguments describe: `--params` (or nominal), the unit `--unit` draws from it
+/// with `--tolerances` (or [`Tolerances::TYPICAL`]), at `--temperature`; refused when its
+/// parameters at that temperature fail [`EmaParams::check`].
+pub fn actuator(args: &SimulateArgs) -> Result<Actuator, CliError> {
+    let temperature_c = args.temperature.map(check_temperature).transpose()?;
+    let base = args.params.load()?;
+    let (params, unit) = match args.unit {
+        Some(seed) => {
+            let tolerances = match &args.tolerances {
+                Some(path) => read_tolerances(path)?,
+                None => Tolerances::TYPICAL,
+            };
+            let name = args.tolerances.as_ref().map_or_else(|| "typical".to_owned(), |p| p.display().to_string());
+            let drawn = draw_unit(&base, &tolerances, seed).map_err(|e| CliError::flag("--unit", e.to_string()))?;
+            (drawn.params, Some(drawn.to_sidecar(&base, &tolerances, name)))
+        }
+        None => (base, None),
+    };
+    let actuator = Actuator { params, unit, temperature_c };
+    if let Some(t) = temperature_c {
+        actuator.simulated().check().map_err(|e| {
+            CliError::flag("--temperature", format!("at {t} °C the actuator's parameters are refused: {e}"))
+        })?;
+    }
+    Ok(actuator)
 }
 
 /// Parses `k1,…,k8`: exactly eight numbers in `[0, 1]`.
@@ -146,8 +231,13 @@ pub fn resolve_profile(name: &str) -> Result<Profile, CliError> {
 
 /// The simulation configuration the arguments describe.
 pub fn config(args: &SimulateArgs) -> Result<SimConfig, CliError> {
+    config_for(args, &actuator(args)?)
+}
+
+/// The simulation configuration of `actuator` under the other arguments.
+fn config_for(args: &SimulateArgs, actuator: &Actuator) -> Result<SimConfig, CliError> {
     Ok(SimConfig {
-        params: args.params.load()?,
+        params: actuator.simulated(),
         faults: parse_faults(&args.faults)?,
         effects: parse_effects(&args.effects)?,
         profile: resolve_profile(&args.profile)?,
@@ -159,7 +249,8 @@ pub fn config(args: &SimulateArgs) -> Result<SimConfig, CliError> {
 
 /// Runs `ema simulate`; returns the one-line summary printed on success.
 pub fn run(args: &SimulateArgs) -> Result<String, CliError> {
-    let cfg = config(args)?;
+    let actuator = actuator(args)?;
+    let cfg = config_for(args, &actuator)?;
     let overwrite = args.output.overwrite();
     let out = args.output.out.as_deref().ok_or_else(|| CliError::flag("--out", "give the output CSV file"))?;
     let side = sidecar_path(out);
@@ -169,13 +260,18 @@ pub fn run(args: &SimulateArgs) -> Result<String, CliError> {
     check_file(out, overwrite)?;
     check_file(&side, overwrite)?;
     let result = simulate(&cfg).map_err(|e| CliError::Simulation(e.to_string()))?;
-    let rec = Recording::from_reference(&result, Vec::new());
+    let mut rec = Recording::from_reference(&result, Vec::new());
+    let mut columns = HEADER.map(str::to_owned).to_vec();
+    if let Some(t) = actuator.temperature_c {
+        rec.temperature_c = Some(vec![t; rec.len()]);
+        columns.push(TEMPERATURE_HEADER.to_owned());
+    }
     let sidecar = Sidecar {
         schema_version: SCHEMA_VERSION,
         tool_version: env!("CARGO_PKG_VERSION").to_owned(),
         generator: "ema simulate: reference model".to_owned(),
         recording: out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
-        columns: HEADER.map(str::to_owned).to_vec(),
+        columns,
         sample_rate_hz: ema_monitor::trace::SAMPLE_RATE_HZ,
         rows: rec.len(),
         duration_s: f64::from(cfg.profile.duration_s()),
@@ -183,13 +279,22 @@ pub fn run(args: &SimulateArgs) -> Result<String, CliError> {
         effects: cfg.effects.active().map(|(e, s)| (e.to_string(), s)).collect(),
         profile: args.profile.clone(),
         params_file: args.params.source(),
-        params: ema_monitor::params::FIELDS.iter().map(|f| (f.name.to_owned(), f.get(&cfg.params))).collect(),
+        params: ema_monitor::params::FIELDS.iter().map(|f| (f.name.to_owned(), f.get(&actuator.params))).collect(),
         noise: cfg.noise,
         seed: cfg.seed,
+        unit: actuator.unit.clone(),
+        temperature_c: actuator.temperature_c,
     };
     write_files(&[(out, &csv_bytes(&rec)), (&side, sidecar.to_json().as_bytes())], overwrite)?;
+    let mut what = String::new();
+    if let Some(u) = &actuator.unit {
+        what.push_str(&format!(" of unit {} ({} tolerances)", u.seed, u.tolerances_file));
+    }
+    if let Some(t) = actuator.temperature_c {
+        what.push_str(&format!(" at {t} °C"));
+    }
     Ok(format!(
-        "wrote {} samples ({} s at {} Hz) to {} and its metadata to {}",
+        "wrote {} samples ({} s at {} Hz){what} to {} and its metadata to {}",
         rec.len(),
         cfg.profile.duration_s(),
         ema_monitor::trace::SAMPLE_RATE_HZ,

@@ -52,6 +52,8 @@ struct Bench {
     pre_trigger_s: f64,
     trailing_s: f64,
     quantum_rad: f64,
+    /// A `temperature_C` column (last): a ramp from the first to the second value over the rows.
+    temperature_c: Option<(f64, f64)>,
 }
 
 impl Default for Bench {
@@ -67,6 +69,7 @@ impl Default for Bench {
             pre_trigger_s: 0.0,
             trailing_s: 0.0,
             quantum_rad: 0.0,
+            temperature_c: None,
         }
     }
 }
@@ -157,11 +160,15 @@ fn bench_file(b: &Bench) -> String {
     let mut text = if b.bom { "\u{feff}".to_owned() } else { String::new() };
     let mut header: Vec<&str> = b.header.to_vec();
     if b.extra_column {
-        header.insert(2, "temperature_C");
+        header.insert(2, "supply_V");
     }
+    if b.temperature_c.is_some() {
+        header.push("temperature_C");
+    }
+    let total = rows.len();
     text.push_str(&header.join(&d));
     text.push('\n');
-    for r in rows {
+    for (j, r) in rows.into_iter().enumerate() {
         let mut v = r;
         v[0] += b.jitter_s * rng.next();
         if b.quantum_rad > 0.0 {
@@ -169,7 +176,10 @@ fn bench_file(b: &Bench) -> String {
         }
         let mut fields: Vec<String> = v.iter().map(|x| x.to_string()).collect();
         if b.extra_column {
-            fields.insert(2, "21.5".to_owned());
+            fields.insert(2, "270.5".to_owned());
+        }
+        if let Some(t) = b.temperature_c {
+            fields.push(ramp(t, j, total).to_string());
         }
         let mut line = fields.join(&d);
         if b.decimal_comma {
@@ -179,6 +189,11 @@ fn bench_file(b: &Bench) -> String {
         text.push('\n');
     }
     text
+}
+
+/// Row `j` of `n` of the temperature ramp `(first, last)`.
+fn ramp((first, last): (f64, f64), j: usize, n: usize) -> f64 {
+    first + (last - first) * j as f64 / (n - 1) as f64
 }
 
 /// Writes `text` to a fresh file `name`.
@@ -294,6 +309,52 @@ fn padding_at_the_monitor_rate_is_cut_exactly() {
     let given = RecordingArgs { start: Some(0.0123), ..RecordingArgs::default() };
     let l = given.load(&path, Some(&Profile::STANDARD), &EmaParams::NOMINAL).expect("reads");
     assert_eq!((l.recording.ia_a, l.summary.start_from), (rec.ia_a.clone(), "given"));
+}
+
+/// A temperature column follows the rows: cut with them at the monitor's rate, interpolated with
+/// them from 20 kHz, the pre-trigger and trailing idle left out; the identification reads it.
+#[test]
+fn the_temperature_column_follows_the_trimming_and_the_resampling() {
+    let dir = scratch("formats", "temperature");
+    let ramp_c = (-40.0, -30.0);
+    for rate_hz in [10_000.0, 20_000.0] {
+        let b = Bench {
+            rate_hz,
+            header: ["t", "cmd", "pos", "Ia", "Ib", "Ic"],
+            extra_column: true,
+            delimiter: ';',
+            decimal_comma: true,
+            pre_trigger_s: 0.0123,
+            trailing_s: 0.05,
+            temperature_c: Some(ramp_c),
+            ..Bench::default()
+        };
+        let text = bench_file(&b);
+        let rows = text.lines().count() - 1;
+        let path = write(&dir, &format!("{rate_hz}.csv"), &text);
+        let args = RecordingArgs { columns: columns(&b), ..RecordingArgs::default() };
+        let loaded = args.load(&path, Some(&Profile::STANDARD), &EmaParams::NOMINAL).unwrap_or_else(|e| panic!("{e}"));
+        let (rec, summary) = (&loaded.recording, &loaded.summary);
+        assert_eq!(summary.resampled, rate_hz != 10_000.0, "{}", summary.line());
+        let t = rec.temperature_c.as_ref().expect("the temperature column");
+        assert_eq!((t.len(), rec.len()), (clean().len(), clean().len()));
+        // each output row carries the ramp at its own place in the file: at the monitor's rate the
+        // row `start + k`; from 20 kHz the file time `start + k·T`, T the control period (f32)
+        let period = f64::from(EmaParams::NOMINAL.control_period_s);
+        let first_row = (summary.start_s * rate_hz).round();
+        for (k, &value) in t.iter().enumerate() {
+            let file_row =
+                if summary.resampled { (summary.start_s + k as f64 * period) * rate_hz } else { first_row + k as f64 };
+            let want = ramp_c.0 + (ramp_c.1 - ramp_c.0) * file_row / (rows - 1) as f64;
+            assert!((value - want).abs() < 1e-9, "{rate_hz} Hz, row {k}: {value} against {want}");
+        }
+        let mean = rec.mean_temperature_c().expect("a mean");
+        assert!(mean > t[0] && mean < t[t.len() - 1], "{mean}");
+    }
+    // a file without the column and with another extra one reads as before
+    let plain = write(&dir, "plain.csv", &bench_file(&Bench { extra_column: true, ..Bench::default() }));
+    let loaded = RecordingArgs::default().load(&plain, Some(&Profile::STANDARD), &EmaParams::NOMINAL).expect("reads");
+    assert_eq!(loaded.recording.temperature_c, None);
 }
 
 #[test]

@@ -3,7 +3,8 @@
 //! accepted recording, `ema identify`'s checks and conditioning
 //! ([`condition_recording_checked`] under the standard profile). Every input gives a value, never
 //! a panic. An accepted recording holds `MIN_ROWS..=MAX_ROWS` rows of finite numbers at strictly
-//! increasing times spanning at most `MAX_DURATION_S`, and reads back unchanged from what
+//! increasing times spanning at most `MAX_DURATION_S` (and, with a temperature column, a
+//! temperature per row within `MIN_TEMPERATURE_C..=MAX_TEMPERATURE_C`), and reads back unchanged from what
 //! [`write_csv`] makes of it. Its alignment with the standard profile and the command check
 //! (`recording::align`) and the first samples of its resampling to 10 kHz (`recording::resample`)
 //! give a value too, the resampled samples finite.
@@ -15,7 +16,8 @@ use ema_cli::identify::condition_recording_checked;
 use ema_cli::recording::read::{parse_file, ReadOptions};
 use ema_cli::recording::{align, resample};
 use ema_cli::recording::{
-    parse_recording, write_csv, MAX_COMMENT_LINES, MAX_DURATION_S, MAX_LINE_BYTES, MAX_ROWS, MIN_ROWS,
+    parse_recording, write_csv, MAX_COMMENT_LINES, MAX_DURATION_S, MAX_LINE_BYTES, MAX_ROWS, MAX_TEMPERATURE_C,
+    MIN_ROWS, MIN_TEMPERATURE_C,
 };
 use ema_monitor::Profile;
 use libfuzzer_sys::fuzz_target;
@@ -37,6 +39,10 @@ fuzz_target!(|data: &[u8]| {
         assert!(column.iter().all(|v| v.is_finite()));
     }
     assert_eq!(rec.row_line.len(), n);
+    if let Some(t) = &rec.temperature_c {
+        assert_eq!(t.len(), n);
+        assert!(t.iter().all(|v| (MIN_TEMPERATURE_C..=MAX_TEMPERATURE_C).contains(v)));
+    }
     assert!(rec.time_s.windows(2).all(|w| w[1] > w[0]));
     assert!(rec.time_s[n - 1] - rec.time_s[0] <= MAX_DURATION_S);
     // Written back and read again: the same recording (a comment is written as `# TEXT`, two
@@ -50,6 +56,7 @@ fuzz_target!(|data: &[u8]| {
             (&back.position_rad, &back.ia_a, &back.ib_a, &back.ic_a),
             (&rec.position_rad, &rec.ia_a, &rec.ib_a, &rec.ic_a)
         );
+        assert_eq!(back.temperature_c, rec.temperature_c);
     }
     let parsed = parse_file(data, path, &ReadOptions::default()).expect("the same bytes parse again");
     let column = ("command_rad", 2);

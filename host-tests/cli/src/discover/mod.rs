@@ -90,6 +90,7 @@ use crate::runtime::command::{command_for, resolve_command, CommandArg, ModelCom
 use crate::runtime::identification::identify_trace;
 use crate::runtime::recording::condition_recording_for;
 use crate::runtime::source::HOST_WINDOW;
+use crate::runtime::temperature::model_params;
 use crate::simulate::parse_faults;
 use localisation::window_rms;
 use naming::search_round;
@@ -341,6 +342,8 @@ pub fn run(args: &DiscoverArgs) -> Result<String, CliError> {
     let params = args.params.load()?;
     let recording =
         args.recording.load(&args.file, resolved.as_ref().and_then(ModelCommand::profile), &params)?.recording;
+    // the actuator at the recording's temperature, when it has one
+    let params = model_params(&recording, &args.file, &params)?.params;
     let command = command_for(resolved, &recording, &args.file, &params)?;
     let trace = condition_recording_for(&recording, &args.file, &params, &command)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));

@@ -13,6 +13,10 @@ pub struct FlightJson {
     /// The recording (absent under `--simulate`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub file: Option<String>,
+    /// The recording's mean temperature (°C), at which the model took the actuator's parameters
+    /// (absent without a temperature column).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub temperature_c: Option<f64>,
     /// `cold` or `warm`.
     pub start: Start,
     /// Objective evaluations.

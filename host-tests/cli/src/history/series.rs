@@ -21,6 +21,7 @@ use crate::error::CliError;
 use crate::progress;
 use crate::recording::Recording;
 use crate::runtime::command::ModelCommand;
+use crate::runtime::temperature::model_params;
 use crate::simulate::resolve_profile;
 
 /// One flight to identify: its recording and, under `--simulate`, the truth.
@@ -106,6 +107,9 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
     let mut declared: [Vec<u32>; 5] = Default::default();
     for n in 0..count {
         let f = flight_source(args, laws, params, &profile, n)?;
+        // the actuator at the flight's temperature, when its recording has one
+        let model = model_params(&f.recording, &f.label, params)?;
+        let params = &model.params;
         let config = IdentifyConfig { seed: f.seed, ..IdentifyConfig::onboard() };
         let prior = record.has_prior().then(|| record.faults().0);
         let since_cold = (record.flights_since_cold(), last_warm_needs_cold);
@@ -142,6 +146,7 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
         flights.push(FlightJson {
             flight: number,
             file: f.file,
+            temperature_c: model.temperature_c,
             start: result.start,
             evaluations: r.evaluations,
             probes_fired: result.warm.map(|w| {

@@ -20,6 +20,10 @@
 //!   evaluations, fault bits; or [`Refusal::summary_line`] for a refused trace), which
 //!   `scripts/parity` compares line for line with the firmware's in QEMU.
 //!
+//! A recording with a temperature column is identified with the actuator's parameters at its
+//! mean temperature ([`crate::runtime::temperature`]); the report says so
+//! (`temperature: T °C (recording)`, `temperature_c` in the JSON).
+//!
 //! `--model-config FILE` switches the monitor model's effect terms on from a model configuration
 //! file (`effect ID SEVERITY` lines, [`ema_monitor::effects::parse_model_config`]), the same file
 //! and the same parser as the firmware build (`EMA_MODEL_CONFIG=FILE cargo run --release`), so a
@@ -68,6 +72,7 @@ pub use crate::runtime::recording::{
     COMMAND_TOLERANCE_RAD,
 };
 pub use crate::runtime::source::HOST_WINDOW;
+pub use crate::runtime::temperature::{model_params, pooled_model_params, ModelParams, POOLED_TEMPERATURE_SPREAD_K};
 
 /// Runs `ema identify`.
 pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
@@ -86,6 +91,7 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
     };
     let config = method_flags(config, args.paper_only, args.fast_regime_weight);
     let mut loaded = None;
+    let mut temperature_c = None;
     let params = args.params.load()?;
     if args.files.len() > 1 && args.firmware_trace.is_none() {
         let pooled = pooled::run(args, &config, &params)?;
@@ -107,6 +113,10 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
             let resolved = resolve_command(args.command, &args.profile)?;
             let load = args.recording.load(path, resolved.as_ref().and_then(ModelCommand::profile), &params)?;
             let recording = load.recording;
+            // the actuator at the recording's temperature, when it has one
+            let model = model_params(&recording, path, &params)?;
+            let params = model.params;
+            temperature_c = model.temperature_c;
             let config =
                 IdentifyConfig { independent_frames_per_block: load.summary.independent_frames_per_block(), ..config };
             loaded = Some(load.summary);
@@ -118,5 +128,5 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
         }
         (None, None) => return Err(CliError::flag("FILE", "give a recording CSV or --firmware-trace FILE")),
     };
-    Ok(render(&outcome, &config.effects, &command, loaded.as_ref(), args))
+    Ok(render(&outcome, &config.effects, &command, loaded.as_ref(), temperature_c, args))
 }

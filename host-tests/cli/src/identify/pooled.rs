@@ -19,12 +19,13 @@ use super::args::IdentifyArgs;
 use super::report::{json_body, render as render_one, IdentifyJson};
 use crate::error::CliError;
 use crate::progress;
-use crate::recording::LoadSummary;
+use crate::recording::{LoadSummary, Recording};
 use crate::runtime::command::{command_for, resolve_command, ModelCommand};
 use crate::runtime::firmware::{bits_line, summary_line};
 use crate::runtime::identification::Outcome;
 use crate::runtime::recording::condition_recording_checked_for;
 use crate::runtime::source::HOST_WINDOW;
+use crate::runtime::temperature::pooled_model_params;
 use crate::schema::Document;
 
 pub use crate::runtime::identification::identify_pooled;
@@ -40,12 +41,17 @@ pub struct PooledOutcome {
     pub loaded: LoadSummary,
     /// The recordings, in order.
     pub files: Vec<PathBuf>,
+    /// Their mean temperature (°C), at which the model took the actuator's parameters; `None`
+    /// without temperature columns.
+    pub temperature_c: Option<f64>,
 }
 
 /// `ema identify A.csv B.csv …`: every file read with the same flags (`--params`, `--column`,
-/// `--profile`, `--command`, …), conditioned through the frame checks, then one identification
-/// over all of them. The noise model takes the fewest independent frames per block of the files;
-/// the refused frames add up, and a file with too many makes the report `SENSOR_FAULT`.
+/// `--profile`, `--command`, …), the actuator's parameters taken at their common temperature
+/// ([`pooled_model_params`]: all within 5 K, or no temperature column at all), every file
+/// conditioned through the frame checks, then one identification over all of them. The noise
+/// model takes the fewest independent frames per block of the files; the refused frames add up,
+/// and a file with too many makes the report `SENSOR_FAULT`.
 pub fn run(args: &IdentifyArgs, config: &IdentifyConfig, params: &EmaParams) -> Result<PooledOutcome, CliError> {
     let files = &args.files;
     if files.len() > MAX_POOLED_RECORDINGS {
@@ -54,14 +60,22 @@ pub fn run(args: &IdentifyArgs, config: &IdentifyConfig, params: &EmaParams) -> 
             format!("{} recordings given; at most {MAX_POOLED_RECORDINGS} are pooled", files.len()),
         ));
     }
+    let mut loads = Vec::new();
+    for path in files {
+        let resolved = resolve_command(args.command, &args.profile)?;
+        let load = args.recording.load(path, resolved.as_ref().and_then(ModelCommand::profile), params)?;
+        loads.push((path, resolved, load));
+    }
+    let recordings: Vec<(&Path, &Recording)> =
+        loads.iter().map(|(path, _, load)| (path.as_path(), &load.recording)).collect();
+    let model = pooled_model_params(&recordings, params)?;
+    let params = &model.params;
     let mut traces: Vec<Box<MeasuredTrace<HOST_WINDOW>>> = Vec::new();
     let mut commands: Vec<ModelCommand> = Vec::new();
     let mut acquired: Vec<AcquisitionSummary> = Vec::new();
     let mut first_load: Option<LoadSummary> = None;
     let mut frames_per_block = f32::INFINITY;
-    for path in files {
-        let resolved = resolve_command(args.command, &args.profile)?;
-        let load = args.recording.load(path, resolved.as_ref().and_then(ModelCommand::profile), params)?;
+    for (path, resolved, load) in loads {
         frames_per_block = frames_per_block.min(load.summary.independent_frames_per_block());
         let command = command_for(resolved, &load.recording, path, params)?;
         let (trace, summary) = condition_recording_checked_for(&load.recording, path, params, &command)?;
@@ -92,7 +106,7 @@ pub fn run(args: &IdentifyArgs, config: &IdentifyConfig, params: &EmaParams) -> 
     }
     drop(cores);
     let command = commands.swap_remove(0);
-    Ok(PooledOutcome { outcome, command, loaded, files: files.clone() })
+    Ok(PooledOutcome { outcome, command, loaded, files: files.clone(), temperature_c: model.temperature_c })
 }
 
 /// `pooled over N recordings: A.csv, B.csv, …`, the text report's first line.
@@ -119,7 +133,7 @@ pub struct PooledJson {
 pub fn render(pooled: &PooledOutcome, effects: &ModelEffects, args: &IdentifyArgs) -> String {
     if args.json {
         let body = PooledJson {
-            report: json_body(&pooled.outcome, effects, &pooled.command, Some(&pooled.loaded)),
+            report: json_body(&pooled.outcome, effects, &pooled.command, Some(&pooled.loaded), pooled.temperature_c),
             pooled_recordings: pooled.files.len(),
             input_files: pooled.files.iter().map(|p| p.display().to_string()).collect(),
         };
@@ -132,7 +146,8 @@ pub fn render(pooled: &PooledOutcome, effects: &ModelEffects, args: &IdentifyArg
         }
         out
     } else {
-        let text = render_one(&pooled.outcome, effects, &pooled.command, Some(&pooled.loaded), args);
+        let text =
+            render_one(&pooled.outcome, effects, &pooled.command, Some(&pooled.loaded), pooled.temperature_c, args);
         format!("{}\n{text}", pooled_line(&pooled.files))
     }
 }

@@ -105,6 +105,9 @@ pub struct IdentifyJson {
     /// How the recording file was read (rate, resampling, trimmed start), for a recording.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub recording: Option<LoadSummary>,
+    /// The recording's mean temperature (°C), at which the monitor model took the actuator's
+    /// parameters; null without a temperature column (the parameters as given).
+    pub temperature_c: Option<f64>,
     /// The monitor model's effect terms (`--model-config`): effect ID to severity.
     pub model_effects: std::collections::BTreeMap<&'static str, f32>,
     /// `cold` (the global search) or `warm` (from `--prior`).
@@ -133,12 +136,14 @@ pub struct WarmJson {
     pub cold_next: bool,
 }
 
-/// The JSON report's body of `outcome`, the monitor model run with `effects`.
+/// The JSON report's body of `outcome`, the monitor model run with `effects` at `temperature_c`
+/// (the recording's, when it has one).
 pub fn json_body(
     outcome: &Outcome,
     effects: &ModelEffects,
     command: &ModelCommand,
     loaded: Option<&LoadSummary>,
+    temperature_c: Option<f64>,
 ) -> IdentifyJson {
     let r = &outcome.report;
     let diagnosis = r.status.is_diagnosis();
@@ -185,6 +190,7 @@ pub fn json_body(
         sigma: r.uncertainty.map(|u| u.sigma),
         command: command.to_json(),
         recording: loaded.cloned(),
+        temperature_c,
         model_effects: effects.active().map(|(e, s)| (e.id(), s)).collect(),
         start: if outcome.warm.is_some() { "warm" } else { "cold" },
         warm: outcome.warm.map(|w| WarmJson {
@@ -206,20 +212,28 @@ pub fn to_json(
     effects: &ModelEffects,
     command: &ModelCommand,
     loaded: Option<&LoadSummary>,
+    temperature_c: Option<f64>,
     input_file: Option<&Path>,
 ) -> String {
-    Document::new(input_file, json_body(outcome, effects, command, loaded)).to_json()
+    Document::new(input_file, json_body(outcome, effects, command, loaded, temperature_c)).to_json()
+}
+
+/// `temperature: -40.0 °C (recording)`, the text report's line for a recording's temperature.
+pub fn temperature_line(temperature_c: f64) -> String {
+    format!("temperature: {temperature_c:.1} °C (recording)")
 }
 
 /// The output of `ema identify` for one recording or trace: the JSON document under `--json`,
-/// else the report with the command, the identification's time, the model effects (under
-/// `--model-config`), the warm start's stages and how the recording was read; `--bits` adds the
-/// fault vector's bit patterns and the firmware's summary line.
+/// else the report with the command, the recording's temperature (when it has one), the
+/// identification's time, the model effects (under `--model-config`), the warm start's stages and
+/// how the recording was read; `--bits` adds the fault vector's bit patterns and the firmware's
+/// summary line.
 pub fn render(
     outcome: &Outcome,
     effects: &ModelEffects,
     command: &ModelCommand,
     loaded: Option<&LoadSummary>,
+    temperature_c: Option<f64>,
     args: &IdentifyArgs,
 ) -> String {
     let mut out = if args.json {
@@ -228,15 +242,15 @@ pub fn render(
             effects,
             command,
             loaded,
+            temperature_c,
             args.firmware_trace.as_deref().or(args.files.first().map(PathBuf::as_path)),
         )
     } else {
-        let mut text = format!(
-            "{}\n  command: {}\n  identification took {:.3} s",
-            outcome.report,
-            command.label(),
-            outcome.seconds
-        );
+        let mut text = format!("{}\n  command: {}", outcome.report, command.label());
+        if let Some(t) = temperature_c {
+            text.push_str(&format!("\n  {}", temperature_line(t)));
+        }
+        text.push_str(&format!("\n  identification took {:.3} s", outcome.seconds));
         if args.model_config.is_some() {
             text.push_str(&format!("\n  model effects: {}", effects_label(effects)));
         }

@@ -19,7 +19,8 @@ use crate::error::CliError;
 #[derive(Args, Debug, Clone, Default, PartialEq)]
 pub struct RecordingArgs {
     /// The file's header of a channel, as KEY=HEADER (repeatable; keys time, command, position,
-    /// ia, ib, ic) [default: time_s, command_rad, position_rad, ia_A, ib_A, ic_A].
+    /// ia, ib, ic, temperature) [default: time_s, command_rad, position_rad, ia_A, ib_A, ic_A;
+    /// temperature_C when the file has it].
     #[arg(long = "column", value_name = "KEY=HEADER")]
     pub columns: Vec<String>,
     /// Field delimiter: comma, semicolon, tab or one ASCII character [default: detected from the
@@ -124,6 +125,7 @@ impl RecordingArgs {
     /// ([`resample::resample`]) from any other. Under a profile the command column is the
     /// profile's at the monitor's sample times (the recorded one matched it within
     /// [`align::COMMAND_TOLERANCE_RAD`]); without one, the recorded command linearly interpolated.
+    /// A temperature column comes along: cut with the rows, or linearly interpolated.
     pub fn load(&self, path: &Path, profile: Option<&Profile>, params: &EmaParams) -> Result<Loaded, CliError> {
         let flag = |m: String| CliError::from(RecordingError::file(path, RecordingErrorKind::Flag(m)));
         let options = self.options().map_err(flag)?;
@@ -166,6 +168,7 @@ impl RecordingArgs {
                 ib_a: cut(&raw.ib_a),
                 ic_a: cut(&raw.ic_a),
                 row_line: raw.row_line[i0..i0 + n].to_vec(),
+                temperature_c: raw.temperature_c.as_ref().map(cut),
             };
             (rec, start)
         } else {
@@ -188,6 +191,11 @@ impl RecordingArgs {
                 ib_a: next(),
                 ic_a: next(),
                 row_line: times.iter().map(|&u| raw.row_line[nearest(u)]).collect(),
+                // a slow quantity: linear between neighbours, which stays within the file's values
+                temperature_c: raw
+                    .temperature_c
+                    .as_ref()
+                    .map(|t| times.iter().map(|&u| resample::linear(t, &grid, u)).collect()),
             };
             (rec, start)
         };

@@ -1,10 +1,19 @@
-//! The recording in memory: its six channels as columns, the line of each row in its file, and
-//! the bounds every recording file is read within.
+//! The recording in memory: its six channels as columns, the optional temperature column, the
+//! line of each row in its file, and the bounds every recording file is read within.
 
 /// Default column names, in the order of [`KEYS`].
 pub const HEADER: [&str; 6] = ["time_s", "command_rad", "position_rad", "ia_A", "ib_A", "ic_A"];
 /// The keys of `--column KEY=HEADER`, in the order of [`HEADER`].
 pub const KEYS: [&str; 6] = ["time", "command", "position", "ia", "ib", "ic"];
+/// The key of the optional temperature column in `--column KEY=HEADER`.
+pub const TEMPERATURE_KEY: &str = "temperature";
+/// Default header of the optional temperature column (the actuator's temperature, °C).
+pub const TEMPERATURE_HEADER: &str = "temperature_C";
+/// Lowest temperature a recording may hold, °C: the lower bound of the parameter table's declared
+/// operating range (`temperature_min_c` in [`ema_monitor::params::FIELDS`]).
+pub const MIN_TEMPERATURE_C: f64 = -100.0;
+/// Highest temperature a recording may hold, °C: the upper bound of that range.
+pub const MAX_TEMPERATURE_C: f64 = 200.0;
 /// Fewest data rows a recording may have (a time step needs two).
 pub const MIN_ROWS: usize = 2;
 /// Longest line, in bytes (a row in shortest round-trip form takes at most about 150).
@@ -56,6 +65,9 @@ pub struct Recording {
     pub ic_a: Vec<f64>,
     /// Line of each row in its file (1-based), for messages that name the line.
     pub row_line: Vec<usize>,
+    /// The actuator's temperature at each row (°C, within [`MIN_TEMPERATURE_C`] and
+    /// [`MAX_TEMPERATURE_C`]), when the file has a temperature column.
+    pub temperature_c: Option<Vec<f64>>,
 }
 
 impl Recording {
@@ -96,11 +108,31 @@ impl Recording {
             // as `write_csv` lays the file out: comments, header, then one line per row
             row_line: (0..r.samples.len()).map(|k| comments_len + 2 + k).collect(),
             comments,
+            temperature_c: None,
         }
+    }
+
+    /// The mean of the temperature column (°C); `None` without one (or without rows).
+    pub fn mean_temperature_c(&self) -> Option<f64> {
+        let t = self.temperature_c.as_ref().filter(|t| !t.is_empty())?;
+        Some(t.iter().sum::<f64>() / t.len() as f64)
     }
 
     /// The six channels in the order of [`HEADER`].
     pub fn columns(&self) -> [&Vec<f64>; 6] {
         [&self.time_s, &self.command_rad, &self.position_rad, &self.ia_a, &self.ib_a, &self.ic_a]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_temperature_range_is_the_parameter_tables() {
+        for name in ["temperature_min_c", "temperature_max_c"] {
+            let field = ema_monitor::params::ParamField::find(name).expect("a field");
+            assert_eq!((f64::from(field.min), f64::from(field.max)), (MIN_TEMPERATURE_C, MAX_TEMPERATURE_C), "{name}");
+        }
     }
 }

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use super::data::{
     HEADER, JITTER_TOLERANCE_S, MAX_COMMENT_LINES, MAX_DURATION_S, MAX_FILE_BYTES, MAX_LINE_BYTES, MAX_RATE_HZ,
-    MAX_ROWS, MIN_RATE_HZ, MIN_ROWS, STEP_TOLERANCE,
+    MAX_ROWS, MAX_TEMPERATURE_C, MIN_RATE_HZ, MIN_ROWS, MIN_TEMPERATURE_C, STEP_TOLERANCE,
 };
 
 /// What is wrong with a recording file.
@@ -29,6 +29,8 @@ pub enum RecordingErrorKind {
     NotANumber(String),
     /// A field is NaN or infinite.
     NotFinite(String),
+    /// A temperature (°C) outside [`MIN_TEMPERATURE_C`]..=[`MAX_TEMPERATURE_C`].
+    Temperature(f64),
     /// Time does not increase.
     TimeNotIncreasing {
         /// Previous row's time.
@@ -140,6 +142,11 @@ impl fmt::Display for RecordingError {
             }
             RecordingErrorKind::NotANumber(s) => write!(f, "'{s}' is not a number"),
             RecordingErrorKind::NotFinite(s) => write!(f, "'{s}' is not a finite number"),
+            RecordingErrorKind::Temperature(t) => write!(
+                f,
+                "temperature {t} °C is outside the {MIN_TEMPERATURE_C} to {MAX_TEMPERATURE_C} °C a recording may hold; \
+                 give the actuator's temperature in °C"
+            ),
             RecordingErrorKind::TimeNotIncreasing { previous, current } => {
                 write!(f, "time {current} s does not increase (previous row {previous} s)")
             }

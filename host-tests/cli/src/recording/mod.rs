@@ -10,13 +10,15 @@
 //!
 //! The path from a file to what the monitor identifies, one concept per module:
 //! 1. [`read`]: the CSV itself, on the `csv` crate — any header order and names
-//!    (`--column KEY=HEADER`), extra columns ignored, the delimiter detected (comma, semicolon,
-//!    tab) or given (`--delimiter`), a UTF-8 BOM, `#` comment lines and blank lines accepted;
+//!    (`--column KEY=HEADER`), extra columns ignored, an optional temperature column, the
+//!    delimiter detected (comma, semicolon, tab) or given (`--delimiter`), a UTF-8 BOM, `#`
+//!    comment lines and blank lines accepted;
 //! 2. [`grid`]: the time base — a mean sample rate from 5 to 100 kHz, timestamps within
 //!    [`grid::JITTER_TOLERANCE_S`] of the uniform grid;
 //! 3. [`align`]: where the manoeuvre starts in the file (least squares of the recorded command
 //!    against the profile, or `--start SECONDS`), and the command check;
-//! 4. [`resample`]: the channels on the monitor's 10 kHz grid from that start, band-limited;
+//! 4. [`resample`]: the channels on the monitor's 10 kHz grid from that start, band-limited (the
+//!    temperature, a slow quantity, linearly interpolated);
 //! 5. [`args`]: the flags of all this ([`RecordingArgs`]) and the pipeline ([`RecordingArgs::load`]).
 //!
 //! [`mod@write`] writes a plain CSV (header and rows, numbers in Rust's shortest round-trip form:
@@ -44,7 +46,8 @@ pub mod write;
 
 pub use args::{LoadSummary, Loaded, RecordingArgs};
 pub use data::{
-    Recording, HEADER, KEYS, MAX_COMMENT_LINES, MAX_DURATION_S, MAX_FILE_BYTES, MAX_LINE_BYTES, MAX_ROWS, MIN_ROWS,
+    Recording, HEADER, KEYS, MAX_COMMENT_LINES, MAX_DURATION_S, MAX_FILE_BYTES, MAX_LINE_BYTES, MAX_ROWS,
+    MAX_TEMPERATURE_C, MIN_ROWS, MIN_TEMPERATURE_C, TEMPERATURE_HEADER, TEMPERATURE_KEY,
 };
 pub use error::{MissingColumn, RecordingError, RecordingErrorKind};
 pub use read::{parse_recording, parse_recording_with, read_recording, Columns, ReadOptions};

@@ -3,6 +3,10 @@
 //! - **Columns** by header name: [`HEADER`] by default, any of them renamed with
 //!   `--column KEY=HEADER` ([`Columns`]); columns in any order, extra columns ignored. A missing
 //!   one is refused with the headers found and the `--column` to give.
+//! - **Temperature** (optional): the column [`TEMPERATURE_HEADER`] (or the one
+//!   `--column temperature=HEADER` names, which must then exist), the actuator's temperature in
+//!   °C, each value within [`MIN_TEMPERATURE_C`] and [`MAX_TEMPERATURE_C`]. A file without it reads
+//!   as a recording without a temperature.
 //! - **Delimiter**: `--delimiter`, or detected from the header line: the most frequent of comma,
 //!   semicolon and tab (comma when none occurs). With a semicolon or tab delimiter a decimal comma
 //!   (`0,05`, a spreadsheet's export in many locales) reads as a decimal point.
@@ -19,43 +23,57 @@ use std::fs::File;
 use std::io::Read;
 use std::path::Path;
 
-use super::data::{Recording, HEADER, KEYS};
+use super::data::{Recording, HEADER, KEYS, MAX_TEMPERATURE_C, MIN_TEMPERATURE_C, TEMPERATURE_HEADER, TEMPERATURE_KEY};
 use super::data::{MAX_COMMENT_LINES, MAX_DURATION_S, MAX_FILE_BYTES, MAX_LINE_BYTES, MAX_ROWS, MIN_ROWS};
 use super::error::{MissingColumn, RecordingError, RecordingErrorKind};
 use super::grid;
 use crate::input::{read_bounded, ReadError};
 
-/// The header of each channel, in the order of [`KEYS`] (`time`, `command`, `position`, `ia`,
-/// `ib`, `ic`).
+/// The header of each channel, and of the optional temperature column.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Columns(pub [String; 6]);
+pub struct Columns {
+    /// The header of each channel, in the order of [`KEYS`] (`time`, `command`, `position`, `ia`,
+    /// `ib`, `ic`).
+    pub channels: [String; 6],
+    /// The temperature column as `--column temperature=HEADER` names it, which the file must then
+    /// have; `None` reads [`TEMPERATURE_HEADER`] when the file has it.
+    pub temperature: Option<String>,
+}
 
 impl Default for Columns {
     fn default() -> Self {
-        Columns(HEADER.map(str::to_owned))
+        Columns { channels: HEADER.map(str::to_owned), temperature: None }
     }
 }
 
 impl Columns {
-    /// [`HEADER`] with the `KEY=HEADER` items of `--column` applied (each key at most once).
+    /// [`HEADER`] with the `KEY=HEADER` items of `--column` applied (each key at most once; the
+    /// keys are [`KEYS`] and [`TEMPERATURE_KEY`]).
     pub fn parse(items: &[String]) -> Result<Self, String> {
         let mut columns = Columns::default();
-        let mut seen = [false; 6];
+        let mut seen = [false; 7];
         for item in items {
             let Some((key, header)) = item.split_once('=') else {
                 return Err(format!("--column: '{item}' is not KEY=HEADER (e.g. ia=Ia)"));
             };
-            let Some(i) = KEYS.iter().position(|k| *k == key.trim()) else {
-                return Err(format!("--column: unknown key '{}', the keys are {}", key.trim(), KEYS.join(", ")));
+            let key = key.trim();
+            let Some(i) = KEYS.iter().chain([&TEMPERATURE_KEY]).position(|k| *k == key) else {
+                return Err(format!(
+                    "--column: unknown key '{key}', the keys are {}, {TEMPERATURE_KEY}",
+                    KEYS.join(", ")
+                ));
             };
             if std::mem::replace(&mut seen[i], true) {
-                return Err(format!("--column: the key '{}' is given more than once", KEYS[i]));
+                return Err(format!("--column: the key '{key}' is given more than once"));
             }
             let header = header.trim();
             if header.is_empty() {
                 return Err(format!("--column: '{item}' names no header"));
             }
-            columns.0[i] = header.to_owned();
+            match columns.channels.get_mut(i) {
+                Some(channel) => *channel = header.to_owned(),
+                None => columns.temperature = Some(header.to_owned()),
+            }
         }
         Ok(columns)
     }
@@ -129,6 +147,8 @@ pub struct Parsed {
     pub grid: grid::Grid,
     /// Each channel's header and 1-based column in the file, in the order of [`KEYS`].
     pub headers: [(String, usize); 6],
+    /// The temperature column's header and 1-based column, when the file has one.
+    pub temperature_header: Option<(String, usize)>,
 }
 
 /// Reads and validates a recording from any reader under `options`: the columns of
@@ -197,18 +217,27 @@ pub fn parse_file(reader: impl Read, path: &Path, options: &ReadOptions) -> Resu
         Some(r) => r.map_err(io)?.iter().map(|h| h.trim().to_owned()).collect(),
         None => return Err(RecordingError::file(path, RecordingErrorKind::Empty)),
     };
+    let missing = |key: &'static str, wanted: &str| {
+        at(
+            header_line,
+            RecordingErrorKind::MissingColumn(Box::new(MissingColumn {
+                key,
+                wanted: wanted.to_owned(),
+                found: names.clone(),
+            })),
+        )
+    };
     let mut index = [0usize; 6];
-    for (i, wanted) in options.columns.0.iter().enumerate() {
-        index[i] = names.iter().position(|h| h == wanted).ok_or_else(|| {
-            at(
-                header_line,
-                RecordingErrorKind::MissingColumn(Box::new(MissingColumn {
-                    key: KEYS[i],
-                    wanted: wanted.clone(),
-                    found: names.clone(),
-                })),
-            )
-        })?;
+    for (i, wanted) in options.columns.channels.iter().enumerate() {
+        index[i] = names.iter().position(|h| h == wanted).ok_or_else(|| missing(KEYS[i], wanted))?;
+    }
+    // the temperature column: required when named, read when the default header is there
+    let temperature = match &options.columns.temperature {
+        Some(wanted) => Some(names.iter().position(|h| h == wanted).ok_or_else(|| missing(TEMPERATURE_KEY, wanted))?),
+        None => names.iter().position(|h| h == TEMPERATURE_HEADER),
+    };
+    if temperature.is_some() {
+        rec.temperature_c = Some(Vec::new());
     }
     for record in records {
         let record = record.map_err(io)?;
@@ -228,6 +257,18 @@ pub fn parse_file(reader: impl Read, path: &Path, options: &ReadOptions) -> Resu
                 ..at(n, kind)
             })?;
         }
+        let field_error =
+            |c: usize, kind| RecordingError { field: Some(names[c].clone()), column: Some(c + 1), ..at(n, kind) };
+        let temperature_c = match temperature {
+            Some(c) => {
+                let t = number(&record[c], delimiter).map_err(|kind| field_error(c, kind))?;
+                if !(MIN_TEMPERATURE_C..=MAX_TEMPERATURE_C).contains(&t) {
+                    return Err(field_error(c, RecordingErrorKind::Temperature(t)));
+                }
+                Some(t)
+            }
+            None => None,
+        };
         let time_error =
             |kind| RecordingError { field: Some(names[index[0]].clone()), column: Some(index[0] + 1), ..at(n, kind) };
         if let Some(&previous) = rec.time_s.last() {
@@ -251,13 +292,17 @@ pub fn parse_file(reader: impl Read, path: &Path, options: &ReadOptions) -> Resu
         rec.ib_a.push(v[4]);
         rec.ic_a.push(v[5]);
         rec.row_line.push(n);
+        if let (Some(column), Some(t)) = (rec.temperature_c.as_mut(), temperature_c) {
+            column.push(t);
+        }
     }
     if rec.len() < MIN_ROWS {
         return Err(RecordingError::file(path, RecordingErrorKind::TooFewRows(rec.len())));
     }
     let grid = grid::check(&rec, path, &names[index[0]], index[0] + 1)?;
     let headers = index.map(|c| (names[c].clone(), c + 1));
-    Ok(Parsed { recording: rec, grid, headers })
+    let temperature_header = temperature.map(|c| (names[c].clone(), c + 1));
+    Ok(Parsed { recording: rec, grid, headers, temperature_header })
 }
 
 #[cfg(test)]
@@ -277,13 +322,20 @@ mod tests {
             ib_a: vec![0.0; 4],
             ic_a: vec![1e-300, -1e300, 5e-324, 0.0],
             row_line: vec![3, 4, 5, 6], // one comment line, the header, then the rows
+            temperature_c: None,
         };
         let path = std::env::temp_dir().join(format!("ema-rt-{}.csv", std::process::id()));
         let _ = std::fs::remove_file(&path);
         write_recording(&path, &rec, Overwrite::Refuse).expect("writable temp dir");
         let back = read_recording(&path).expect("valid file");
+        assert_eq!(back, rec);
+        // with a temperature column: written after the channels, read back exactly
+        let rec = Recording { temperature_c: Some(vec![-40.0, -39.5, 1.0 / 3.0, 200.0]), ..rec };
+        write_recording(&path, &rec, Overwrite::Replace).expect("writable temp dir");
+        let back = read_recording(&path).expect("valid file");
         let _ = std::fs::remove_file(&path);
         assert_eq!(back, rec);
+        assert_eq!(back.mean_temperature_c(), Some((-79.5 + 1.0 / 3.0 + 200.0) / 4.0));
         assert!((back.sample_period_s() - 1e-4).abs() < 1e-12);
     }
 
@@ -347,5 +399,39 @@ mod tests {
         let options = ReadOptions { columns: Columns::parse(&items).expect("valid"), delimiter: None };
         let r = parse_recording_with(text.as_bytes(), Path::new("r.csv"), &options).expect("valid");
         assert_eq!((r.ia_a, r.time_s, r.row_line), (vec![0.5, 0.25], vec![0.0, 1e-4], vec![2, 3]));
+    }
+
+    #[test]
+    fn the_temperature_column_is_optional_and_checked() {
+        let head = "time_s,command_rad,position_rad,ia_A,ib_A,ic_A";
+        // absent: no temperature; present under its default header: read, in any place
+        assert_eq!(parse(rows(3, 1e4).as_bytes()).expect("valid").temperature_c, None);
+        let text = format!("temperature_C,{head}\n-40,0,0,0,0,0,0\n-39.5,0.0001,0,0,0,0,0\n");
+        let r = parse(text.as_bytes()).expect("valid");
+        assert_eq!((r.temperature_c.clone(), r.mean_temperature_c()), (Some(vec![-40.0, -39.5]), Some(-39.75)));
+        // renamed with --column temperature=T; a named column the file lacks is refused
+        let text = format!("{head},T\n0,0,0,0,0,0,85\n0.0001,0,0,0,0,0,85\n");
+        let named = |h: &str| ReadOptions {
+            columns: Columns::parse(&[format!("temperature={h}")]).expect("valid"),
+            delimiter: None,
+        };
+        let r = parse_recording_with(text.as_bytes(), Path::new("r.csv"), &named("T")).expect("valid");
+        assert_eq!(r.mean_temperature_c(), Some(85.0));
+        let e = parse_recording_with(text.as_bytes(), Path::new("r.csv"), &named("temp")).expect_err("missing");
+        assert!(e.to_string().contains("line 1: no column 'temp' for the temperature channel"), "{e}");
+        // out of range, not finite, not a number: the file, line and field named
+        for (value, needle) in
+            [("-100.5", "outside"), ("201", "outside"), ("NaN", "not a finite"), ("cold", "not a number")]
+        {
+            let text = format!("{head},temperature_C\n0,0,0,0,0,0,20\n0.0001,0,0,0,0,0,{value}\n");
+            let e = parse(text.as_bytes()).expect_err(value);
+            assert_eq!((e.line, e.field.as_deref(), e.column), (Some(3), Some("temperature_C"), Some(7)), "{e}");
+            assert!(e.to_string().contains("'r.csv' line 3 field 'temperature_C' (column 7)"), "{e}");
+            assert!(e.to_string().contains(needle), "{e}");
+        }
+        for bad in [["temperature=a", "temperature=b"], ["temp=a", "ia=b"]] {
+            let items: Vec<String> = bad.map(String::from).to_vec();
+            assert!(Columns::parse(&items).is_err(), "{bad:?}");
+        }
     }
 }

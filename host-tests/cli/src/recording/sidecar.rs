@@ -2,8 +2,9 @@
 //! `F.json` ([`sidecar_path`]).
 //!
 //! The CSV stays plain (a header and rows: pandas, polars and a spreadsheet load it with default
-//! options); what made it — fault vector, unmodelled effects, profile, actuator parameters, noise
-//! and seed, sample rate — is in [`Sidecar`], with [`SCHEMA_VERSION`] and the tool's version. No command needs it
+//! options); what made it — fault vector, unmodelled effects, profile, actuator parameters, the
+//! unit drawn from its tolerances and the temperature (when given), noise and seed, sample rate —
+//! is in [`Sidecar`], with [`SCHEMA_VERSION`] and the tool's version. No command needs it
 //! to identify a recording: it tells the user (and the tests) what the file holds.
 
 use std::collections::BTreeMap;
@@ -15,8 +16,10 @@ use serde::{Deserialize, Serialize};
 use crate::error::CliError;
 use crate::input;
 
-/// Version of the sidecar's schema: raised when a field changes meaning or is removed.
-pub const SCHEMA_VERSION: u32 = 1;
+/// Version of the sidecar's schema: raised when a field changes meaning or is removed. Version 2:
+/// `params` are the actuator's parameters at 20 °C (the reference model ran them at
+/// `temperature_c` when that is given), and the optional `unit` and `temperature_c`.
+pub const SCHEMA_VERSION: u32 = 2;
 
 /// Largest sidecar file read, in bytes.
 pub const MAX_SIDECAR_BYTES: usize = 64 * 1024;
@@ -48,13 +51,51 @@ pub struct Sidecar {
     pub profile: String,
     /// The actuator's parameter file (`--params`), or `nominal`.
     pub params_file: String,
-    /// The actuator's parameters the reference model simulated: every `EmaParams` field (the unit
-    /// is in its name) and its value.
+    /// The actuator's parameters at 20 °C, as a parameter file gives them (the unit's, under
+    /// `unit`): every `EmaParams` field (the unit is in its name) and its value. The reference
+    /// model simulated them at `temperature_c` when that is given
+    /// ([`ema_monitor::EmaParams::at_temperature`]).
     pub params: BTreeMap<String, f32>,
     /// Sensor noise on.
     pub noise: bool,
     /// Seed of the noise generator.
     pub seed: u64,
+    /// The unit drawn from the tolerance table (`--unit`); absent without one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unit: Option<SidecarUnit>,
+    /// The actuator's temperature during the manoeuvre (`--temperature`, °C; also the CSV's
+    /// `temperature_C` column); absent without one (20 °C, no column).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature_c: Option<f64>,
+}
+
+/// The unit of a recording (`ema simulate --unit SEED`, [`crate::unit_draw`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SidecarUnit {
+    /// The seed of the unit's draw.
+    pub seed: u64,
+    /// Draws taken: the last one is the unit (a draw the parameter check refuses is redrawn).
+    pub draws: u32,
+    /// The tolerance table (`--tolerances FILE` as given), or `typical`.
+    pub tolerances_file: String,
+    /// Each parameter that varies from unit to unit, in the core's order
+    /// ([`ema_monitor::unit::UNIT_PARAMS`]).
+    pub parameters: Vec<SidecarUnitParameter>,
+}
+
+/// One unit parameter of [`SidecarUnit`]: `value = base·(1 + relative_sigma·z)`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SidecarUnitParameter {
+    /// The parameter's name (a parameter file's key; the unit is in it).
+    pub name: String,
+    /// Its relative 1σ in the tolerance table.
+    pub relative_sigma: f32,
+    /// The unit's deviation, in standard deviations.
+    pub z: f32,
+    /// Its value in the base set (`--params`, or nominal).
+    pub base: f32,
+    /// The unit's value (also under `params`).
+    pub value: f32,
 }
 
 /// The sidecar's path for a recording: the same name with the extension `.json`.

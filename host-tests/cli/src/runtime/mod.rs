@@ -13,6 +13,8 @@
 //! - [`firmware`]: the firmware's path on a packed trace and its one-line summary, which
 //!   `scripts/parity` compares with the firmware's in QEMU;
 //! - [`model_config`]: model configuration files (`--model-config`), read by the core's parser;
+//! - [`temperature`]: the parameters the monitor model takes for a recording at its temperature
+//!   (every command applies them once, right after reading its recordings);
 //! - [`unit_check`]: whether an ordinary unit within its tolerances explains a diagnosis.
 //!
 //! Each file uses the others by their own paths (`super::source::…`), never through this module,
@@ -24,6 +26,7 @@ pub mod identification;
 pub mod model_config;
 pub mod recording;
 pub mod source;
+pub mod temperature;
 pub mod unit_check;
 
 pub use command::{CommandArg, CommandJson, ModelCommand, HOST_COMMAND_SAMPLES};
@@ -31,3 +34,4 @@ pub use firmware::{firmware_trace_outcome, firmware_trace_outcome_for, summary_l
 pub use identification::{identify_pooled, identify_recording, identify_trace, run_to_end, Outcome, WarmStart};
 pub use recording::{condition_recording, condition_recording_checked};
 pub use source::HOST_WINDOW;
+pub use temperature::{model_params, pooled_model_params, ModelParams, POOLED_TEMPERATURE_SPREAD_K};
