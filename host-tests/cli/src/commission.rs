@@ -7,10 +7,12 @@
 //!
 //! Each recording is read and acquired as `ema identify` reads it (the host runtime), then the
 //! core's commissioning ([`ema_monitor::commissioning`]) fits the unit parameters of the
-//! tolerance table to all of them with the faults held healthy, each recording at its own
-//! temperature when it has a temperature column. The result is written as a parameter file that
-//! `--params` takes: the base parameters (`--params`, or the drawing's) with the unit's own
-//! values in place.
+//! tolerance table (`--tolerances`, or the typical one) to all of them with the faults held
+//! healthy, each recording at its own temperature when it has a temperature column (20 °C
+//! without). Two files are written: the parameter file that `--params` takes (the base
+//! parameters, `--params` or the drawing's, with the unit's own values at 20 °C in place), and
+//! beside it `NAME.tolerances.toml`, the 1σ commissioning left on each parameter, which `ema
+//! identify --tolerances` takes for its unit check.
 //!
 //! Nothing is written when the recordings do not look like a healthy unit within its
 //! tolerances, because a fault present at commissioning must not become the baseline:
@@ -42,6 +44,7 @@ use crate::runtime::identification::identify_trace;
 use crate::runtime::recording::condition_recording_checked_for;
 use crate::runtime::source::HOST_WINDOW;
 use crate::schema::Document;
+use crate::tolerances_file::{read_tolerances, template as tolerances_template};
 
 /// Arguments of `ema commission`.
 #[derive(Args, Debug, Clone)]
@@ -61,6 +64,10 @@ pub struct CommissionArgs {
     /// What drives the monitor model: the profile or each recording's own command column.
     #[arg(long, value_enum, default_value = "profile")]
     pub command: CommandArg,
+    /// Tolerance table of the unit parameters, the prior (TOML; `ema params --tolerances` prints
+    /// the template) [default: the typical tolerances].
+    #[arg(long, value_name = "FILE.toml")]
+    pub tolerances: Option<PathBuf>,
     /// Print JSON instead of the readable report.
     #[arg(long)]
     pub json: bool,
@@ -100,6 +107,8 @@ pub struct CommissionJson {
     pub recordings: Vec<String>,
     /// The parameter file written.
     pub out: String,
+    /// The posterior tolerance file written beside it.
+    pub tolerances_out: String,
     /// Each unit parameter.
     pub unit: Vec<UnitParamJson>,
     /// Evaluations of the fitness spent (one model run per recording each).
@@ -116,9 +125,14 @@ pub fn run(args: &CommissionArgs) -> Result<String, CliError> {
             format!("{} recordings; commissioning takes at most {MAX_COMMISSIONING_FLIGHTS}", args.files.len()),
         ));
     }
+    let posterior_out = tolerances_path(out);
     check_file(out, overwrite)?;
+    check_file(&posterior_out, overwrite)?;
     let base = args.params.load()?;
-    let tolerances = Tolerances::TYPICAL;
+    let tolerances = match &args.tolerances {
+        Some(path) => read_tolerances(path)?,
+        None => Tolerances::TYPICAL,
+    };
     let resolved = resolve_command(args.command, &args.profile)?;
     let mut traces: Vec<(Box<MeasuredTrace<HOST_WINDOW>>, ModelCommand, f32)> = Vec::new();
     let mut independent = f32::INFINITY;
@@ -136,7 +150,8 @@ pub fn run(args: &CommissionArgs) -> Result<String, CliError> {
                 ),
             ));
         }
-        traces.push((trace, command, f32::NAN));
+        let temperature_c = load.recording.mean_temperature_c().map_or(f32::NAN, |t| t as f32);
+        traces.push((trace, command, temperature_c));
     }
     let config = IdentifyConfig { independent_frames_per_block: independent, ..IdentifyConfig::default() };
     let fits = traces
@@ -168,8 +183,9 @@ pub fn run(args: &CommissionArgs) -> Result<String, CliError> {
             ),
         ));
     }
-    for ((trace, command, _), path) in traces.iter().zip(&args.files) {
-        let outcome = identify_trace(trace.as_ref(), &baseline.params, command.command(), &config, path)?;
+    for ((trace, command, temperature_c), path) in traces.iter().zip(&args.files) {
+        let params = baseline.params.at_temperature(*temperature_c);
+        let outcome = identify_trace(trace.as_ref(), &params, command.command(), &config, path)?;
         let report = outcome.report;
         if report.status != Status::Healthy {
             let found: Vec<String> = report
@@ -205,10 +221,31 @@ pub fn run(args: &CommissionArgs) -> Result<String, CliError> {
         .collect();
     let names: Vec<String> = args.files.iter().map(|p| p.display().to_string()).collect();
     let file = parameter_file(&baseline.params, &names);
-    write_files(&[(out, file.as_bytes())], overwrite)?;
-    let body =
-        CommissionJson { recordings: names, out: out.display().to_string(), unit, evaluations: baseline.evaluations };
+    let posterior = Tolerances {
+        relative_sigma: core::array::from_fn(|i| {
+            unit.get(i).map_or(0.0, |p| p.sigma_relative.min(ema_monitor::unit::MAX_RELATIVE_SIGMA))
+        }),
+    };
+    let posterior_file = format!(
+        "# The 1σ commissioning left on each unit parameter of {} (`ema identify --tolerances`).\n\n{}",
+        out.display(),
+        tolerances_template(&posterior)
+    );
+    write_files(&[(out, file.as_bytes()), (&posterior_out, posterior_file.as_bytes())], overwrite)?;
+    let body = CommissionJson {
+        recordings: names,
+        out: out.display().to_string(),
+        tolerances_out: posterior_out.display().to_string(),
+        unit,
+        evaluations: baseline.evaluations,
+    };
     Ok(if args.json { Document::new(None, body).to_json() } else { render(&body) })
+}
+
+/// `NAME.tolerances.toml` beside the parameter file `NAME.toml` (or `NAME.EXT`).
+pub fn tolerances_path(out: &std::path::Path) -> PathBuf {
+    let stem = out.file_stem().map_or_else(|| "unit".into(), |s| s.to_string_lossy().into_owned());
+    out.with_file_name(format!("{stem}.tolerances.toml"))
 }
 
 /// The parameter file of the unit: a header naming the recordings, then the template.
@@ -234,6 +271,6 @@ pub fn render(body: &CommissionJson) -> String {
             out += &format!("  {:<32} {:>12.6e}  not resolved by these recordings: left nominal\n", p.name, p.value);
         }
     }
-    out += &format!("wrote {}", body.out);
+    out += &format!("wrote {} and {}", body.out, body.tolerances_out);
     out
 }

@@ -93,6 +93,12 @@ pub struct IdentifyArgs {
     /// (docs/identification.md, "Warm start").
     #[arg(long, value_name = "K1,...,K8", value_parser = parse_prior)]
     pub prior: Option<[f32; 8]>,
+    /// The unit's tolerances for the unit check (TOML; `ema params --tolerances` prints the
+    /// template; `ema commission` writes a commissioned unit's as `NAME.tolerances.toml`): a
+    /// fault found must explain the recording better than a healthy unit within them
+    /// [default: the typical tolerances, for a unit not commissioned].
+    #[arg(long, value_name = "FILE.toml", conflicts_with = "firmware_trace")]
+    pub tolerances: Option<PathBuf>,
     /// Print JSON instead of the readable report.
     #[arg(long)]
     pub json: bool,

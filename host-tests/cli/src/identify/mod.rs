@@ -47,6 +47,7 @@ use ema_monitor::Profile;
 use crate::error::CliError;
 use crate::progress;
 use crate::runtime::firmware::read_firmware_trace;
+use crate::tolerances_file::read_tolerances;
 
 pub use args::{check_fast_regime_weight, method_flags, AlgorithmArg, IdentifyArgs};
 pub use report::{json_body, render, to_json, FitTestJson, IdentifyJson, ModeJson, WarmJson};
@@ -122,7 +123,11 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
             loaded = Some(load.summary);
             let command = command_for(resolved, &recording, path, &params)?;
             let spinner = progress::spinner(format!("identifying {}", path.display()), args.progress.visible());
-            let outcome = identify_unit_recording(&recording, path, &params, &command, &config, &Tolerances::TYPICAL);
+            let tolerances = match &args.tolerances {
+                Some(file) => read_tolerances(file)?,
+                None => Tolerances::TYPICAL,
+            };
+            let outcome = identify_unit_recording(&recording, path, &params, &command, &config, &tolerances);
             spinner.finish_and_clear();
             (outcome?, command)
         }
