@@ -24,13 +24,13 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use ema_monitor::commissioning::{commission, BaselineFit, CommissioningFlight, MAX_COMMISSIONING_FLIGHTS};
+use ema_monitor::commissioning::{commission, Baseline, BaselineFit, CommissioningFlight, MAX_COMMISSIONING_FLIGHTS};
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::fitness::CurrentFit;
 use ema_monitor::health::Status;
 use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::unit::{unit_field, unit_name, Tolerances, UNIT_PARAM_COUNT};
-use ema_monitor::EmaParams;
+use ema_monitor::{Command, EmaParams};
 use serde::Serialize;
 
 use crate::error::CliError;
@@ -43,6 +43,7 @@ use crate::runtime::command::{command_for, resolve_command, CommandArg, ModelCom
 use crate::runtime::identification::identify_trace;
 use crate::runtime::recording::condition_recording_checked_for;
 use crate::runtime::source::HOST_WINDOW;
+use crate::runtime::unit_check::{UNIT_SWARM, UNIT_SWARM_ITERATIONS};
 use crate::schema::Document;
 use crate::tolerances_file::{read_tolerances, template as tolerances_template};
 
@@ -154,56 +155,20 @@ pub fn run(args: &CommissionArgs) -> Result<String, CliError> {
         traces.push((trace, command, temperature_c));
     }
     let config = IdentifyConfig { independent_frames_per_block: independent, ..IdentifyConfig::default() };
-    let fits = traces
+    let recordings: Vec<CommissioningRecording<'_>> = traces
         .iter()
         .zip(&args.files)
-        .map(|((trace, command, _), path)| {
-            CurrentFit::new(trace, base, command.command())
-                .ok()
-                .and_then(|fit| fit.with_fast_regime_weight(config.fast_regime_weight))
-                .ok_or_else(|| CliError::input(path, "the recording could not be fitted (unfinished trace)"))
+        .map(|((trace, command, temperature_c), path)| CommissioningRecording {
+            trace: trace.as_ref(),
+            command: command.command(),
+            temperature_c: *temperature_c,
+            path,
         })
-        .collect::<Result<Vec<_>, _>>()?;
-    let flights: Vec<CommissioningFlight<'_, '_, HOST_WINDOW>> =
-        fits.iter().zip(&traces).map(|(fit, (_, _, t))| CommissioningFlight { fit, temperature_c: *t }).collect();
+        .collect();
     let spinner = crate::progress::spinner("commissioning".to_owned(), args.progress.visible());
-    let mut objective = BaselineFit::new(&flights, base, tolerances, config.independent_frames_per_block)
-        .map_err(|e| CliError::flag("FILE", e.to_string()))?;
-    let baseline = commission::<HOST_WINDOW, 24>(&mut objective, 40, 1);
+    let baseline = commission_recordings(&recordings, &base, &tolerances, &config);
     spinner.finish_and_clear();
-    let first = &args.files[0];
-    let baseline = baseline.map_err(|e| CliError::input(first, e.to_string()))?;
-    if let Some((i, z)) = baseline.out_of_tolerance() {
-        return Err(CliError::input(
-            first,
-            format!(
-                "these recordings do not look like a healthy unit: {} fits {z:+.1}σ from nominal, beyond its \
-                 tolerance (a fault, or another actuator); nothing written",
-                unit_name(i)
-            ),
-        ));
-    }
-    for ((trace, command, temperature_c), path) in traces.iter().zip(&args.files) {
-        let params = baseline.params.at_temperature(*temperature_c);
-        let outcome = identify_trace(trace.as_ref(), &params, command.command(), &config, path)?;
-        let report = outcome.report;
-        if report.status != Status::Healthy {
-            let found: Vec<String> = report
-                .modes
-                .iter()
-                .filter(|m| m.severity > 0.0)
-                .map(|m| format!("{} {:.2}", m.mode.name(), m.severity))
-                .collect();
-            return Err(CliError::input(
-                path,
-                format!(
-                    "diagnosed against the commissioned parameters it reads {}{}: not a healthy unit; nothing written",
-                    report.status.label(),
-                    if found.is_empty() { String::new() } else { format!(" ({})", found.join(", ")) }
-                ),
-            ));
-        }
-    }
+    let baseline = baseline?;
     let unit: Vec<UnitParamJson> = (0..UNIT_PARAM_COUNT)
         .filter_map(|i| {
             let field = unit_field(i)?;
@@ -240,6 +205,82 @@ pub fn run(args: &CommissionArgs) -> Result<String, CliError> {
         evaluations: baseline.evaluations,
     };
     Ok(if args.json { Document::new(None, body).to_json() } else { render(&body) })
+}
+
+/// One recording to commission from, acquired.
+#[derive(Clone, Copy, Debug)]
+pub struct CommissioningRecording<'a> {
+    /// Its measured trace.
+    pub trace: &'a MeasuredTrace<HOST_WINDOW>,
+    /// What drives the monitor model.
+    pub command: Command<'a>,
+    /// Its mean temperature (°C); NaN without one (20 °C).
+    pub temperature_c: f32,
+    /// Its file, for messages.
+    pub path: &'a std::path::Path,
+}
+
+/// The baseline of the unit behind `recordings` (module doc), the unit being `base` moved by
+/// `tolerances`: refused, naming the first recording, when a resolved parameter lies beyond 3σ,
+/// and naming the recording, when one of them diagnosed against the baseline is not HEALTHY.
+pub fn commission_recordings(
+    recordings: &[CommissioningRecording<'_>],
+    base: &EmaParams,
+    tolerances: &Tolerances,
+    config: &IdentifyConfig,
+) -> Result<Baseline, CliError> {
+    let Some(first) = recordings.first().map(|r| r.path) else {
+        return Err(CliError::flag("FILE", "give at least one recording"));
+    };
+    let fits = recordings
+        .iter()
+        .map(|r| {
+            CurrentFit::new(r.trace, *base, r.command)
+                .ok()
+                .and_then(|fit| fit.with_fast_regime_weight(config.fast_regime_weight))
+                .ok_or_else(|| CliError::input(r.path, "the recording could not be fitted (unfinished trace)"))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let flights: Vec<CommissioningFlight<'_, '_, HOST_WINDOW>> = fits
+        .iter()
+        .zip(recordings)
+        .map(|(fit, r)| CommissioningFlight { fit, temperature_c: r.temperature_c })
+        .collect();
+    let mut objective = BaselineFit::new(&flights, *base, *tolerances, config.independent_frames_per_block)
+        .map_err(|e| CliError::flag("FILE", e.to_string()))?;
+    let baseline = commission::<HOST_WINDOW, UNIT_SWARM>(&mut objective, UNIT_SWARM_ITERATIONS, config.seed)
+        .map_err(|e| CliError::input(first, e.to_string()))?;
+    if let Some((i, z)) = baseline.out_of_tolerance() {
+        return Err(CliError::input(
+            first,
+            format!(
+                "these recordings do not look like a healthy unit: {} fits {z:+.1}σ from nominal, beyond its \
+                 tolerance (a fault, or another actuator); nothing written",
+                unit_name(i)
+            ),
+        ));
+    }
+    for r in recordings {
+        let params = baseline.params.at_temperature(r.temperature_c);
+        let report = identify_trace(r.trace, &params, r.command, config, r.path)?.report;
+        if report.status != Status::Healthy {
+            let found: Vec<String> = report
+                .modes
+                .iter()
+                .filter(|m| m.severity > 0.0)
+                .map(|m| format!("{} {:.2}", m.mode.name(), m.severity))
+                .collect();
+            return Err(CliError::input(
+                r.path,
+                format!(
+                    "diagnosed against the commissioned parameters it reads {}{}: not a healthy unit; nothing written",
+                    report.status.label(),
+                    if found.is_empty() { String::new() } else { format!(" ({})", found.join(", ")) }
+                ),
+            ));
+        }
+    }
+    Ok(baseline)
 }
 
 /// `NAME.tolerances.toml` beside the parameter file `NAME.toml` (or `NAME.EXT`).

@@ -93,6 +93,11 @@ pub struct IdentifyArgs {
     /// (docs/identification.md, "Warm start").
     #[arg(long, value_name = "K1,...,K8", value_parser = parse_prior)]
     pub prior: Option<[f32; 8]>,
+    /// For a recording without a temperature column: take the temperature as a nuisance
+    /// parameter, the one in the parameter file's declared range at which the healthy unit fits
+    /// best, and identify there (docs/commissioning.md) [default: 20 °C].
+    #[arg(long, conflicts_with = "firmware_trace")]
+    pub estimate_temperature: bool,
     /// The unit's tolerances for the unit check (TOML; `ema params --tolerances` prints the
     /// template; `ema commission` writes a commissioned unit's as `NAME.tolerances.toml`): a
     /// fault found must explain the recording better than a healthy unit within them

@@ -146,8 +146,14 @@ pub fn render(pooled: &PooledOutcome, effects: &ModelEffects, args: &IdentifyArg
         }
         out
     } else {
-        let text =
-            render_one(&pooled.outcome, effects, &pooled.command, Some(&pooled.loaded), pooled.temperature_c, args);
+        let text = render_one(
+            &pooled.outcome,
+            effects,
+            &pooled.command,
+            Some(&pooled.loaded),
+            pooled.temperature_c.map(|t| (t, false)),
+            args,
+        );
         format!("{}\n{text}", pooled_line(&pooled.files))
     }
 }

@@ -106,7 +106,8 @@ pub struct IdentifyJson {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub recording: Option<LoadSummary>,
     /// The recording's mean temperature (°C), at which the monitor model took the actuator's
-    /// parameters; null without a temperature column (the parameters as given).
+    /// parameters (or the estimated one under `--estimate-temperature`); null without a
+    /// temperature column (the parameters as given).
     pub temperature_c: Option<f64>,
     /// The monitor model's effect terms (`--model-config`): effect ID to severity.
     pub model_effects: std::collections::BTreeMap<&'static str, f32>,
@@ -218,9 +219,10 @@ pub fn to_json(
     Document::new(input_file, json_body(outcome, effects, command, loaded, temperature_c)).to_json()
 }
 
-/// `temperature: -40.0 °C (recording)`, the text report's line for a recording's temperature.
-pub fn temperature_line(temperature_c: f64) -> String {
-    format!("temperature: {temperature_c:.1} °C (recording)")
+/// `temperature: -40.0 °C (recording)`, the text report's line for a recording's temperature
+/// (`(estimated)` under `--estimate-temperature`).
+pub fn temperature_line(temperature_c: f64, estimated: bool) -> String {
+    format!("temperature: {temperature_c:.1} °C ({})", if estimated { "estimated" } else { "recording" })
 }
 
 /// The output of `ema identify` for one recording or trace: the JSON document under `--json`,
@@ -233,9 +235,10 @@ pub fn render(
     effects: &ModelEffects,
     command: &ModelCommand,
     loaded: Option<&LoadSummary>,
-    temperature_c: Option<f64>,
+    temperature: Option<(f64, bool)>,
     args: &IdentifyArgs,
 ) -> String {
+    let temperature_c = temperature.map(|(t, _)| t);
     let mut out = if args.json {
         to_json(
             outcome,
@@ -247,8 +250,8 @@ pub fn render(
         )
     } else {
         let mut text = format!("{}\n  command: {}", outcome.report, command.label());
-        if let Some(t) = temperature_c {
-            text.push_str(&format!("\n  {}", temperature_line(t)));
+        if let Some((t, estimated)) = temperature {
+            text.push_str(&format!("\n  {}", temperature_line(t, estimated)));
         }
         text.push_str(&format!("\n  identification took {:.3} s", outcome.seconds));
         if args.model_config.is_some() {

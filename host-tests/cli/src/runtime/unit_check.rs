@@ -19,10 +19,10 @@ use ema_monitor::monitor::{group_present, IdentifyConfig, FAULT_GROUPS};
 use ema_monitor::unit::{Tolerances, UNIT_PARAM_COUNT};
 use ema_monitor::{Command, EmaParams, FaultVector};
 
-/// Particles of the unit's swarm.
-const UNIT_SWARM: usize = 24;
+/// Particles of the unit's swarm (here and in `ema commission`).
+pub const UNIT_SWARM: usize = 24;
 /// Its iterations.
-const UNIT_SWARM_ITERATIONS: u32 = 40;
+pub const UNIT_SWARM_ITERATIONS: u32 = 40;
 
 /// The best healthy unit for a recording, against the diagnosis.
 #[derive(Clone, Copy, Debug, PartialEq)]
