@@ -38,6 +38,7 @@ use crate::command::{Command, CommandCursor, SampledCursor};
 use crate::conditioning::{MeasuredEnvelope, SensorErrorEnvelope, DECIMATION};
 use crate::faults::FaultVector;
 use crate::fitness::CurrentFit;
+use crate::health::DEGRADED_AT;
 use crate::model::{ModelState, MonitorModel};
 use crate::monitor::{covariance_noise_a2, window_noise_variance_a2, MODEL_MISMATCH_A};
 use crate::optimizer::pso::{ParticleSwarm, PsoConfig};
@@ -265,6 +266,13 @@ pub fn fault_pays_over_unit(
     }
     effective_samples * libm::logf(error_unit / error_fault) + unit_z_sq
         > fault_parameters as f32 * libm::logf(effective_samples)
+}
+
+/// `true` when every phase reads shorted at DEGRADED size or more ([`DEGRADED_AT`]): the
+/// signature of a unit that differs from its parameters (its EMF constant or inductance), not of
+/// an inter-turn short, which starts in one coil.
+pub fn every_phase_shorted(k: &FaultVector) -> bool {
+    k.0[2..5].iter().all(|&s| s >= DEGRADED_AT)
 }
 
 /// Most trial steps of one descent (each one evaluation of `J`; an accepted one also a lockstep

@@ -131,3 +131,11 @@ fn invert_gives_the_inverse_and_refuses_a_singular_matrix() {
     singular[3] = singular[2];
     assert!(invert(singular).is_none());
 }
+
+#[test]
+fn every_phase_shorted_is_the_pattern_of_three_phases_at_degraded_size() {
+    let k = |a: f32, b: f32, c: f32| FaultVector([0.1, 0.0, a, b, c, 0.0, 0.5, 0.5]);
+    assert!(every_phase_shorted(&k(0.8, 0.54, 0.56)));
+    assert!(!every_phase_shorted(&k(0.8, 0.54, 0.05)));
+    assert!(!every_phase_shorted(&k(0.3, 0.0, 0.0)));
+}

@@ -446,8 +446,8 @@ fn identify_takes_the_recording_flags() {
 
 /// The README's worked example: `traces/bench/bench.csv` (20 kHz, the bench's column names,
 /// semicolons, a pre-trigger) on the actuator of `traces/bench/actuator.toml` is identified as
-/// recorded (friction 0.3, a 0.2 short on phase A), and the nominal actuator's parameters do not
-/// explain it.
+/// recorded (friction 0.3, a 0.2 short on phase A); against the nominal actuator's parameters every
+/// phase reads shorted, and the monitor abstains (unit mismatch) instead of a false diagnosis.
 #[test]
 fn the_shipped_bench_recording_is_identified_with_its_actuator() {
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../traces/bench");
@@ -483,6 +483,11 @@ fn the_shipped_bench_recording_is_identified_with_its_actuator() {
     let start_s = with["recording"]["start_s"].as_f64().unwrap_or(f64::NAN);
     assert!((start_s - 0.01).abs() < 1e-6, "{with}");
     let without = run(false);
+    assert_eq!(
+        (&without["status"], &without["reason"]),
+        (&"INCONCLUSIVE".into(), &"unit mismatch".into()),
+        "{without}"
+    );
     let k = without.get("k").or_else(|| without.get("k_not_a_diagnosis")).expect("k");
     let k: Vec<f32> = k.as_array().expect("k").iter().map(|v| v.as_f64().unwrap_or(f64::NAN) as f32).collect();
     let err_without = FaultVector(k.try_into().expect("8 values")).paper_error_percent(&truth);

@@ -301,6 +301,8 @@ pub fn unit_check_line(c: &UnitCheck) -> String {
         c.error_fault,
         if c.fault_pays {
             "the fault pays for its parameters"
+        } else if c.every_phase_shorted {
+            "every phase reads shorted, the signature of a unit that differs from its parameters; commission the unit (ema commission) or check --params"
         } else {
             "an ordinary unit explains the recording as well; commission the unit (ema commission)"
         }

@@ -4,14 +4,17 @@
 //! it pays for its parameters against that unit
 //! ([`ema_monitor::commissioning::fault_pays_over_unit`]), or when that unit needs a parameter
 //! beyond its tolerance ([`ema_monitor::commissioning::Baseline::out_of_tolerance`]: an
-//! unmodelled effect, not an ordinary unit). Otherwise the report abstains with
+//! unmodelled effect, not an ordinary unit); and never when every phase reads shorted
+//! ([`ema_monitor::commissioning::every_phase_shorted`]). Otherwise the report abstains with
 //! [`Abstain::UnitMismatch`]: the recording shows a unit that differs from its parameters, not a
 //! fault, and commissioning gives the unit its own.
 //!
 //! A unit that was never commissioned is judged against the tolerance table; a commissioned one
 //! against the 1σ its commissioning left.
 
-use ema_monitor::commissioning::{commission, fault_pays_over_unit, BaselineFit, CommissioningFlight};
+use ema_monitor::commissioning::{
+    commission, every_phase_shorted, fault_pays_over_unit, BaselineFit, CommissioningFlight,
+};
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::fitness::CurrentFit;
 use ema_monitor::health::{Abstain, HealthReport, Status};
@@ -33,7 +36,11 @@ pub struct UnitCheck {
     pub error_unit: f32,
     /// The diagnosis's fitness, A².
     pub error_fault: f32,
-    /// The diagnosis pays for its fault parameters against the unit.
+    /// Every phase reads shorted ([`every_phase_shorted`]): a unit that differs from its
+    /// parameters, whatever the fits say.
+    pub every_phase_shorted: bool,
+    /// The diagnosis pays for its fault parameters against the unit (and not every phase reads
+    /// shorted).
     pub fault_pays: bool,
 }
 
@@ -67,9 +74,10 @@ pub fn check_unit<const W: usize>(
         FAULT_GROUPS.iter().filter(|&&g| group_present(&k.0, g)).map(|&(first, last)| last - first + 1).sum();
     let z_sq: f32 = unit.z.iter().map(|z| z * z).sum();
     // a unit that needs a parameter beyond its tolerance is not an ordinary one
-    let fault_pays = unit.out_of_tolerance().is_some()
+    let pays = unit.out_of_tolerance().is_some()
         || fault_pays_over_unit(error_fault, error_unit, z_sq, parameters, fit.effective_samples(k));
-    Some(UnitCheck { z: unit.z, error_unit, error_fault, fault_pays })
+    let pattern = every_phase_shorted(k);
+    Some(UnitCheck { z: unit.z, error_unit, error_fault, every_phase_shorted: pattern, fault_pays: pays && !pattern })
 }
 
 /// `report` as the unit check leaves it: abstaining with [`Abstain::UnitMismatch`] when the
