@@ -23,8 +23,8 @@
 //! hinge load trade against it), a long valley that Gauss–Newton follows and a compass search
 //! does not; the response is rough on the scale of an event moving by one control period, which
 //! stops a descent from the drawing in a dip that the swarm steps over. The inverse of the
-//! Gauss–Newton Hessian is the posterior covariance once the data term is scaled to the noise the fault uncertainty uses
-//! ([`covariance_noise_a2`]: the mismatch counted as correlated); a parameter whose posterior 1σ
+//! Gauss–Newton Hessian is the posterior covariance once the data term is scaled to the noise
+//! the fault uncertainty uses ([`covariance_noise_a2`]: the mismatch counted as correlated); a parameter whose posterior 1σ
 //! is below [`RESOLVED_BELOW`] of its prior is resolved. Those that are not are put back to
 //! nominal (the prior holds them near there already) and the resolved ones descend again
 //! without them.
@@ -34,17 +34,14 @@
 //! its tolerances, or a fault, and must not become a baseline; the caller also diagnoses the
 //! recordings against the new baseline before it keeps it.
 
-use crate::command::{Command, CommandCursor, SampledCursor};
-use crate::conditioning::{MeasuredEnvelope, SensorErrorEnvelope, DECIMATION};
 use crate::faults::FaultVector;
 use crate::fitness::CurrentFit;
 use crate::health::DEGRADED_AT;
-use crate::model::{ModelState, MonitorModel};
+use crate::model::MonitorModel;
 use crate::monitor::{covariance_noise_a2, window_noise_variance_a2, MODEL_MISMATCH_A};
 use crate::optimizer::pso::{ParticleSwarm, PsoConfig};
 use crate::optimizer::{run, Bounds, ConfigError, Objective, Optimizer};
 use crate::params::{EmaParams, ParamsError};
-use crate::profile::ProfileCursor;
 use crate::unit::{ToleranceError, Tolerances, UNIT_PARAM_COUNT};
 
 /// Dimension of the search: the unit parameters.
@@ -64,9 +61,6 @@ pub const RESOLVED_BELOW: f32 = 0.9;
 /// A resolved parameter further than this from nominal (in its tolerance's σ) is not an ordinary
 /// unit: [`Baseline::out_of_tolerance`].
 pub const OUT_OF_TOLERANCE_SIGMAS: f32 = 3.0;
-
-/// Step of the central differences of the Hessian, in tolerance σ.
-pub const HESSIAN_STEP: f32 = 0.25;
 
 /// One recording of the unit: its fitness (built for the base parameters) and the temperature it
 /// was flown at.
@@ -394,22 +388,8 @@ impl<const W: usize> BaselineFit<'_, '_, W> {
                 MonitorModel::with_effects(&params[m], &FaultVector::HEALTHY, flight.fit.effects())
             });
             let mut sums = Sums { a: [[0.0; D]; D], g: [0.0; D] };
-            let terms = models[0].has_step_terms();
             let fit = flight.fit;
-            match (fit.command(), terms) {
-                (Command::Profile(p), true) => {
-                    lockstep::<true, W>(&models, &params[0], ProfileCursor::new(p), fit, &mut sums)
-                }
-                (Command::Profile(p), false) => {
-                    lockstep::<false, W>(&models, &params[0], ProfileCursor::new(p), fit, &mut sums)
-                }
-                (Command::Sampled(s), true) => {
-                    lockstep::<true, W>(&models, &params[0], SampledCursor::new(s), fit, &mut sums)
-                }
-                (Command::Sampled(s), false) => {
-                    lockstep::<false, W>(&models, &params[0], SampledCursor::new(s), fit, &mut sums)
-                }
-            }
+            crate::lockstep::lockstep(&models, &params[0], fit, |y, v, means| sums.add(y, v, means));
             // J's data term is scale·E = scale·(1/n)·Σ v r²: its gradient −2·scale/n·Σ v r d
             let c = 2.0 * scale / fit.samples().max(1) as f32;
             for i in (0..D).filter(|&i| free[i]) {
@@ -437,61 +417,19 @@ fn mirror_upper(m: &mut [[f32; D]; D]) {
     }
 }
 
-/// One recording's lockstep run of the base model and the 11 stepped ones (the fitness's own
-/// conditioning of the model current: the measured envelope or the sensor-error envelope, block
-/// means, fast-regime weights).
-fn lockstep<const TERMS: bool, const W: usize>(
-    models: &[MonitorModel; MODELS],
-    params: &EmaParams,
-    mut command: impl CommandCursor,
-    fit: &CurrentFit<'_, W>,
-    sums: &mut Sums,
-) {
-    let envelope = MeasuredEnvelope::of(params);
-    let sensors = SensorErrorEnvelope::of(params, fit.effects());
-    let dt = models[0].dt_s();
-    let mut states = [ModelState::at_rest(); MODELS];
-    let (y, w) = (fit.trace().current_a(), fit.trace().weight());
-    let (intervals, fast_weight) = fit.fast_regime();
-    let mut next_interval = 0usize;
-    let mut step = 0u32;
-    let inv_decimation = 1.0 / DECIMATION as f32;
-    for (i, (&y_i, &w_i)) in y.iter().zip(w).enumerate() {
-        let mut block = [0.0f32; MODELS];
-        for _ in 0..DECIMATION {
-            let theta = command.command_rad(step, step as f32 * dt);
-            for ((model, state), b) in models.iter().zip(states.iter_mut()).zip(block.iter_mut()) {
-                *b += match &sensors {
-                    Some(e) if TERMS => {
-                        e.expected_a(model.commutation_sector(state), state.output_current_a, &state.freewheel_shift_a)
-                    }
-                    _ => envelope.expected_a(state.output_current_a),
-                };
-                model.step_with::<TERMS>(state, theta);
-            }
-            step += 1;
-        }
-        let at = i as u32;
-        while let Some(&(_, end)) = intervals.get(next_interval) {
-            if at < end {
-                break;
-            }
-            next_interval += 1;
-        }
-        let rho = match intervals.get(next_interval) {
-            Some(&(start, _)) if at >= start => fast_weight,
-            _ => 1.0,
-        };
-        let v = rho * w_i;
-        let base = block[0] * inv_decimation;
+impl Sums {
+    /// One window sample of the lockstep run ([`crate::lockstep`]): the measured block mean `y_i`,
+    /// its weight `v_i`, and the block means of the base model and the 11 stepped ones.
+    fn add(&mut self, y_i: f32, v: f32, means: &[f32; MODELS]) {
+        let base = means[0];
         let r = y_i - base;
         let mut d = [0.0f32; D];
-        for (dj, b) in d.iter_mut().zip(&block[1..]) {
-            *dj = (b * inv_decimation - base) * (1.0 / SENSITIVITY_STEP);
+        for (dj, b) in d.iter_mut().zip(&means[1..]) {
+            *dj = (b - base) * (1.0 / SENSITIVITY_STEP);
         }
-        for (j, (&dj, row)) in d.iter().zip(sums.a.iter_mut()).enumerate() {
+        for (j, (&dj, row)) in d.iter().zip(self.a.iter_mut()).enumerate() {
             let vd = v * dj;
-            sums.g[j] += vd * r;
+            self.g[j] += vd * r;
             for (a, &dl) in row.iter_mut().zip(&d).skip(j) {
                 *a += vd * dl;
             }

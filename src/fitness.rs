@@ -225,7 +225,7 @@ pub struct CurrentFit<'a, const W: usize> {
 
 /// The weight `ρ_i` of each window sample in turn (samples asked for in increasing order).
 #[derive(Clone, Debug)]
-struct RegimeWeights<'f> {
+pub(crate) struct RegimeWeights<'f> {
     intervals: &'f [(u32, u32)],
     next: usize,
     weight: f32,
@@ -233,7 +233,7 @@ struct RegimeWeights<'f> {
 
 impl RegimeWeights<'_> {
     /// `ρ_i` of window sample `i`; `i` must not decrease between calls.
-    fn at(&mut self, i: usize) -> f32 {
+    pub(crate) fn at(&mut self, i: usize) -> f32 {
         let i = i as u32;
         while let Some(&(_, end)) = self.intervals.get(self.next) {
             if i < end {
@@ -367,7 +367,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
     }
 
     /// A walker over the sample weights `ρ_i`.
-    fn regime_weights(&self) -> RegimeWeights<'_> {
+    pub(crate) fn regime_weights(&self) -> RegimeWeights<'_> {
         RegimeWeights { intervals: &self.fast_intervals, next: 0, weight: self.fast_weight }
     }
 

@@ -46,6 +46,7 @@ pub mod faults;
 pub mod fitness;
 pub mod flight;
 pub mod health;
+mod lockstep;
 pub mod model;
 pub mod monitor;
 pub mod operating_temperature;

@@ -56,15 +56,13 @@ use super::config::{configured_fit, IdentifyConfig, PHASE_INDEX};
 use super::groups::{group_present, FAULT_GROUPS};
 use super::identification::Identification;
 use super::verdict::{window_noise_variance_a2, MODEL_MISMATCH_A};
-use crate::command::{Command, CommandCursor, SampledCursor};
-use crate::conditioning::{MeasuredEnvelope, MeasuredTrace, SensorErrorEnvelope, DECIMATION};
-use crate::effects::ModelEffects;
+use crate::command::Command;
+use crate::conditioning::MeasuredTrace;
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::{CurrentFit, EVIDENCE_WINDOW_SAMPLES};
 use crate::health::{lag_correlation, HealthReport, Uncertainty};
-use crate::model::{ModelState, MonitorModel};
+use crate::model::MonitorModel;
 use crate::params::EmaParams;
-use crate::profile::ProfileCursor;
 
 /// The finite-difference step `|h|` of the sensitivities, in normalized fault units: 0.01, a
 /// tenth of [`crate::health::DEGRADED_AT`], large against the `f32` rounding of a model run
@@ -147,21 +145,7 @@ impl Fisher {
         let inv_step: [f32; FAULT_COUNT] = core::array::from_fn(|j| 1.0 / steps[j]);
         let zero = [[0.0; FAULT_COUNT]; FAULT_COUNT];
         let mut sums = Sums { a: zero, b: zero, sq: 0.0, lag: 0.0, previous: 0.0 };
-        let terms = models[0].has_step_terms();
-        match (fit.command(), terms) {
-            (Command::Profile(p), true) => {
-                lockstep::<true, W>(&models, params, &effects, ProfileCursor::new(p), fit, &inv_step, &mut sums)
-            }
-            (Command::Profile(p), false) => {
-                lockstep::<false, W>(&models, params, &effects, ProfileCursor::new(p), fit, &inv_step, &mut sums)
-            }
-            (Command::Sampled(s), true) => {
-                lockstep::<true, W>(&models, params, &effects, SampledCursor::new(s), fit, &inv_step, &mut sums)
-            }
-            (Command::Sampled(s), false) => {
-                lockstep::<false, W>(&models, params, &effects, SampledCursor::new(s), fit, &inv_step, &mut sums)
-            }
-        }
+        crate::lockstep::lockstep(&models, params, fit, |y, v, means| accumulate(&mut sums, &inv_step, y, v, means));
         for j in 0..FAULT_COUNT {
             for l in 0..j {
                 sums.a[j][l] = sums.a[l][j];
@@ -483,72 +467,27 @@ fn sqrt_or_inf(x: f32) -> f32 {
     }
 }
 
-/// The lockstep run of [`Fisher::at`]: the base model and the 8 stepped ones under one command,
-/// each window sample's block means compared and accumulated.
+/// One window sample of [`Fisher::at`]'s lockstep run ([`crate::lockstep`]): the measured block
+/// mean `y_i`, its weight `v_i` and the block means of the base model and the 8 stepped ones,
+/// compared and accumulated.
 #[allow(clippy::needless_range_loop, reason = "the upper triangle of A and B, by index")]
-fn lockstep<const TERMS: bool, const W: usize>(
-    models: &[MonitorModel; MODELS],
-    params: &EmaParams,
-    effects: &ModelEffects,
-    mut command: impl CommandCursor,
-    fit: &CurrentFit<'_, W>,
-    inv_step: &[f32; FAULT_COUNT],
-    sums: &mut Sums,
-) {
-    let envelope = MeasuredEnvelope::of(params);
-    let sensors = SensorErrorEnvelope::of(params, effects);
-    let dt = models[0].dt_s();
-    let mut states = [ModelState::at_rest(); MODELS];
-    let (y, w) = (fit.trace().current_a(), fit.trace().weight());
-    let (intervals, fast_weight) = fit.fast_regime();
-    let mut next_interval = 0usize;
-    let mut step = 0u32;
-    for (i, (&y_i, &w_i)) in y.iter().zip(w).enumerate() {
-        let mut block = [0.0f32; MODELS];
-        for _ in 0..DECIMATION {
-            let theta = command.command_rad(step, step as f32 * dt);
-            for ((model, state), b) in models.iter().zip(states.iter_mut()).zip(block.iter_mut()) {
-                *b += match &sensors {
-                    Some(e) if TERMS => {
-                        e.expected_a(model.commutation_sector(state), state.output_current_a, &state.freewheel_shift_a)
-                    }
-                    _ => envelope.expected_a(state.output_current_a),
-                };
-                model.step_with::<TERMS>(state, theta);
-            }
-            step += 1;
-        }
-        // ρ_i: the fast-regime weight inside the fitness's intervals
-        let at = i as u32;
-        while let Some(&(_, end)) = intervals.get(next_interval) {
-            if at < end {
-                break;
-            }
-            next_interval += 1;
-        }
-        let rho = match intervals.get(next_interval) {
-            Some(&(start, _)) if at >= start => fast_weight,
-            _ => 1.0,
-        };
-        let v = rho * w_i;
-        let inv_decimation = 1.0 / DECIMATION as f32;
-        let base = block[0] * inv_decimation;
-        let r = y_i - base;
-        let u = libm::sqrtf(v) * r;
-        sums.sq += u * u;
-        sums.lag += u * sums.previous;
-        sums.previous = u;
-        let mut dcol = [0.0f32; FAULT_COUNT];
-        for ((dj, b), h) in dcol.iter_mut().zip(&block[1..]).zip(inv_step) {
-            *dj = (b * inv_decimation - base) * h;
-        }
-        for j in 0..FAULT_COUNT {
-            let vd = v * dcol[j];
-            let v2d = v * vd;
-            for l in j..FAULT_COUNT {
-                sums.a[j][l] += vd * dcol[l];
-                sums.b[j][l] += v2d * dcol[l];
-            }
+fn accumulate(sums: &mut Sums, inv_step: &[f32; FAULT_COUNT], y_i: f32, v: f32, means: &[f32; MODELS]) {
+    let base = means[0];
+    let r = y_i - base;
+    let u = libm::sqrtf(v) * r;
+    sums.sq += u * u;
+    sums.lag += u * sums.previous;
+    sums.previous = u;
+    let mut dcol = [0.0f32; FAULT_COUNT];
+    for ((dj, b), h) in dcol.iter_mut().zip(&means[1..]).zip(inv_step) {
+        *dj = (b - base) * h;
+    }
+    for j in 0..FAULT_COUNT {
+        let vd = v * dcol[j];
+        let v2d = v * vd;
+        for l in j..FAULT_COUNT {
+            sums.a[j][l] += vd * dcol[l];
+            sums.b[j][l] += v2d * dcol[l];
         }
     }
 }
@@ -556,6 +495,7 @@ fn lockstep<const TERMS: bool, const W: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::conditioning::DECIMATION;
     use crate::fitness::simulate_window;
     use crate::monitor::{IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
     use crate::profile::Profile;
