@@ -137,7 +137,7 @@ impl IdentifyConfig {
 /// The fitness of `trace` under `command` as `config` sets it (its effect terms and fast-regime
 /// weight): what the identification minimises, and what its uncertainty and the evidence over
 /// flights evaluate again after it.
-pub(super) fn configured_fit<'a, const W: usize>(
+pub fn configured_fit<'a, const W: usize>(
     trace: &'a MeasuredTrace<W>,
     params: EmaParams,
     command: impl Into<Command<'a>>,

@@ -26,9 +26,8 @@ use std::path::PathBuf;
 use clap::Args;
 use ema_monitor::commissioning::{commission, Baseline, BaselineFit, CommissioningFlight, MAX_COMMISSIONING_FLIGHTS};
 use ema_monitor::conditioning::MeasuredTrace;
-use ema_monitor::fitness::CurrentFit;
 use ema_monitor::health::Status;
-use ema_monitor::monitor::IdentifyConfig;
+use ema_monitor::monitor::{configured_fit, IdentifyConfig};
 use ema_monitor::unit::{unit_field, unit_name, Tolerances, UNIT_PARAM_COUNT};
 use ema_monitor::{Command, EmaParams};
 use serde::Serialize;
@@ -234,12 +233,7 @@ pub fn commission_recordings(
     };
     let fits = recordings
         .iter()
-        .map(|r| {
-            CurrentFit::new(r.trace, *base, r.command)
-                .ok()
-                .and_then(|fit| fit.with_fast_regime_weight(config.fast_regime_weight))
-                .ok_or_else(|| CliError::input(r.path, "the recording could not be fitted (unfinished trace)"))
-        })
+        .map(|r| configured_fit(r.trace, *base, r.command, config).map_err(|e| CliError::input(r.path, e.to_string())))
         .collect::<Result<Vec<_>, _>>()?;
     let flights: Vec<CommissioningFlight<'_, '_, HOST_WINDOW>> = fits
         .iter()

@@ -54,6 +54,20 @@ fn commissioned_units_read_healthy_and_their_faults_are_found() {
         let cold = flight(&dir, &format!("u{unit}-cold.csv"), unit, "10", "-40", None);
         let (status, _) = identify(&[&own[..], &[s(&cold)]].concat());
         assert_eq!(status, "HEALTHY", "unit {unit} at -40 °C");
+        // the same rows without the column: the temperature estimated as a nuisance parameter
+        let text = std::fs::read_to_string(&cold).expect("reads");
+        let stripped: String = text.lines().map(|l| format!("{}\n", &l[..l.rfind(',').expect("a comma")])).collect();
+        let bare = dir.join(format!("u{unit}-cold-bare.csv"));
+        std::fs::write(&bare, stripped).expect("writes");
+        let v: serde_json::Value = serde_json::from_str(
+            accepted(
+                &[&["identify", "--json", "--quiet", "--estimate-temperature"][..], &own[..], &[s(&bare)]].concat(),
+            )
+            .trim(),
+        )
+        .expect("JSON");
+        let t = v["temperature_c"].as_f64().expect("an estimated temperature");
+        assert!(v["status"] == "HEALTHY" && (t + 40.0).abs() < 5.0, "unit {unit} without its column: {t} °C, {v}");
         // a short circuit and a friction fault at 0.3
         for (name, k) in [("short", short), ("friction", "0.3,0,0,0,0,0,0.5,0.5")] {
             let faulty = flight(&dir, &format!("u{unit}-{name}.csv"), unit, "12", "20", Some(k));

@@ -86,8 +86,17 @@ fn record(params: &EmaParams, faults: &FaultVector, temperature_c: f32, seed: u6
 /// `rec` identified as `ema identify` does, against `params` (at the flight's temperature).
 fn identify(rec: &Recording, params: &EmaParams, tolerances: &Tolerances) -> Result<Outcome, String> {
     let command = ModelCommand::Profile { profile: Profile::STANDARD, name: "standard".to_owned() };
-    identify_unit_recording(rec, Path::new("fleet.csv"), params, &command, &IdentifyConfig::default(), tolerances)
-        .map_err(|e| e.to_string())
+    identify_unit_recording(
+        rec,
+        Path::new("fleet.csv"),
+        params,
+        &command,
+        &IdentifyConfig::default(),
+        tolerances,
+        false,
+    )
+    .map(|(outcome, _)| outcome)
+    .map_err(|e| e.to_string())
 }
 
 fn run_unit(seed: u64) -> Result<UnitResult, String> {

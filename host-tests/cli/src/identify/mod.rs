@@ -75,23 +75,6 @@ pub use crate::runtime::recording::{
 pub use crate::runtime::source::HOST_WINDOW;
 pub use crate::runtime::temperature::{model_params, pooled_model_params, ModelParams, POOLED_TEMPERATURE_SPREAD_K};
 
-/// The temperature at which the healthy unit `params` fits the recording best, in the parameter
-/// file's declared range ([`ema_monitor::operating_temperature::estimate_temperature_c`]).
-fn estimated_temperature_c(
-    recording: &crate::recording::Recording,
-    path: &std::path::Path,
-    params: &ema_monitor::EmaParams,
-    command: &ModelCommand,
-    config: &IdentifyConfig,
-) -> Result<f32, CliError> {
-    let (trace, _) = condition_recording_checked_for(recording, path, params, command)?;
-    let fit = ema_monitor::fitness::CurrentFit::new(&trace, *params, command.command())
-        .ok()
-        .and_then(|fit| fit.with_fast_regime_weight(config.fast_regime_weight))
-        .ok_or_else(|| CliError::input(path, "the recording could not be fitted"))?;
-    Ok(ema_monitor::operating_temperature::estimate_temperature_c(&fit, params))
-}
-
 /// Runs `ema identify`.
 pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
     let base = if args.firmware_trace.is_some() { IdentifyConfig::onboard() } else { IdentifyConfig::default() };
@@ -109,8 +92,7 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
     };
     let config = method_flags(config, args.paper_only, args.fast_regime_weight);
     let mut loaded = None;
-    let mut temperature_c = None;
-    let mut estimated = false;
+    let mut temperature = None;
     let params = args.params.load()?;
     if args.files.len() > 1 && args.firmware_trace.is_none() {
         let pooled = pooled::run(args, &config, &params)?;
@@ -134,29 +116,28 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
             let recording = load.recording;
             // the actuator at the recording's temperature, when it has one
             let model = model_params(&recording, path, &params)?;
-            let mut params = model.params;
-            temperature_c = model.temperature_c;
-            if temperature_c.is_none() && args.estimate_temperature {
-                let command = command_for(resolved.clone(), &recording, path, &params)?;
-                let t = estimated_temperature_c(&recording, path, &params, &command, &config)?;
-                params = params.at_temperature(t);
-                temperature_c = Some(f64::from(t));
-                estimated = true;
-            }
+            let params = model.params;
+            temperature = model.temperature_c.map(|t| (t, false));
             let config =
                 IdentifyConfig { independent_frames_per_block: load.summary.independent_frames_per_block(), ..config };
             loaded = Some(load.summary);
             let command = command_for(resolved, &recording, path, &params)?;
-            let spinner = progress::spinner(format!("identifying {}", path.display()), args.progress.visible());
             let tolerances = match &args.tolerances {
                 Some(file) => read_tolerances(file)?,
                 None => Tolerances::TYPICAL,
             };
-            let outcome = identify_unit_recording(&recording, path, &params, &command, &config, &tolerances);
+            // without a temperature reading, --estimate-temperature takes it as a nuisance parameter
+            let estimate = temperature.is_none() && args.estimate_temperature;
+            let spinner = progress::spinner(format!("identifying {}", path.display()), args.progress.visible());
+            let outcome = identify_unit_recording(&recording, path, &params, &command, &config, &tolerances, estimate);
             spinner.finish_and_clear();
-            (outcome?, command)
+            let (outcome, estimated_c) = outcome?;
+            if let Some(t) = estimated_c {
+                temperature = Some((f64::from(t), true));
+            }
+            (outcome, command)
         }
         (None, None) => return Err(CliError::flag("FILE", "give a recording CSV or --firmware-trace FILE")),
     };
-    Ok(render(&outcome, &config.effects, &command, loaded.as_ref(), temperature_c.map(|t| (t, estimated)), args))
+    Ok(render(&outcome, &config.effects, &command, loaded.as_ref(), temperature, args))
 }

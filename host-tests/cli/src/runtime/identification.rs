@@ -10,7 +10,10 @@ use ema_monitor::command::CommandSource;
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::fitness::{PoolError, PooledTrace, MAX_POOLED_RECORDINGS};
 use ema_monitor::health::HealthReport;
-use ema_monitor::monitor::{Identification, IdentifyConfig, MonitorError, WarmReport, GROUP_NAMES, ONBOARD_POPULATION};
+use ema_monitor::monitor::{
+    configured_fit, Identification, IdentifyConfig, MonitorError, WarmReport, GROUP_NAMES, ONBOARD_POPULATION,
+};
+use ema_monitor::operating_temperature::estimate_temperature_c;
 use ema_monitor::optimizer::{Objective, SearchStatus};
 use ema_monitor::unit::Tolerances;
 use ema_monitor::FAULT_COUNT;
@@ -87,7 +90,9 @@ pub fn identify_recording_with(
 
 /// [`identify_recording_with`] for a unit known to within `tolerances`: a fault found must also
 /// pay against the best healthy unit within them ([`super::unit_check`]), or the report abstains
-/// with `unit mismatch`.
+/// with `unit mismatch`. With `estimate_temperature` (a recording without a temperature reading),
+/// the unit is first taken at the temperature where it fits the recording best
+/// ([`ema_monitor::operating_temperature::estimate_temperature_c`]), returned beside the outcome.
 pub fn identify_unit_recording(
     recording: &Recording,
     path: &Path,
@@ -95,14 +100,23 @@ pub fn identify_unit_recording(
     command: &ModelCommand,
     config: &IdentifyConfig,
     tolerances: &Tolerances,
-) -> Result<Outcome, CliError> {
+    estimate_temperature: bool,
+) -> Result<(Outcome, Option<f32>), CliError> {
     let (trace, acquired) = condition_recording_checked_for(recording, path, params, command)?;
+    let temperature_c = if estimate_temperature {
+        let fit = configured_fit(&*trace, *params, command.command(), config)
+            .map_err(|e| CliError::input(path, e.to_string()))?;
+        Some(estimate_temperature_c(&fit, params))
+    } else {
+        None
+    };
+    let params = &temperature_c.map_or(*params, |t| params.at_temperature(t));
     let outcome = identify_trace(&trace, params, command.command(), config, path)?;
     let start = Instant::now();
     let check = check_unit(&trace, params, command.command(), config, tolerances, &outcome.report);
     let report = with_unit_check(outcome.report, check.as_ref()).with_acquisition(&acquired);
     let seconds = outcome.seconds + start.elapsed().as_secs_f64();
-    Ok(Outcome { report, seconds, unit_check: check, ..outcome })
+    Ok((Outcome { report, seconds, unit_check: check, ..outcome }, temperature_c))
 }
 
 /// Identifies a conditioned trace (any window size) of the actuator `params`, the model driven by

@@ -16,9 +16,8 @@ use ema_monitor::commissioning::{
     commission, every_phase_shorted, fault_pays_over_unit, BaselineFit, CommissioningFlight,
 };
 use ema_monitor::conditioning::MeasuredTrace;
-use ema_monitor::fitness::CurrentFit;
 use ema_monitor::health::{Abstain, HealthReport, Status};
-use ema_monitor::monitor::{group_present, IdentifyConfig, FAULT_GROUPS};
+use ema_monitor::monitor::{configured_fit, group_present, IdentifyConfig, FAULT_GROUPS};
 use ema_monitor::unit::{Tolerances, UNIT_PARAM_COUNT};
 use ema_monitor::{Command, EmaParams, FaultVector};
 
@@ -60,10 +59,7 @@ pub fn check_unit<const W: usize>(
     {
         return None;
     }
-    let fit = CurrentFit::new(trace, *params, command)
-        .ok()?
-        .with_fast_regime_weight(config.fast_regime_weight)?
-        .with_effects(config.effects);
+    let fit = configured_fit(trace, *params, command, config).ok()?;
     let flights = [CommissioningFlight { fit: &fit, temperature_c: f32::NAN }];
     let mut objective = BaselineFit::new(&flights, *params, *tolerances, config.independent_frames_per_block).ok()?;
     let unit = commission::<W, UNIT_SWARM>(&mut objective, UNIT_SWARM_ITERATIONS, config.seed).ok()?;
