@@ -26,8 +26,8 @@ mod verdict;
 mod warm;
 
 pub use config::{
-    configured_fit, fault_bounds, starting_guesses, Algorithm, IdentifyConfig, ONBOARD_MAX_ITERATIONS, ONBOARD_POPULATION,
-    ONBOARD_WINDOW, SELECTION_POLISH_MAX_EVALUATIONS,
+    configured_fit, fault_bounds, starting_guesses, Algorithm, IdentifyConfig, ONBOARD_MAX_ITERATIONS,
+    ONBOARD_POPULATION, ONBOARD_WINDOW, SELECTION_POLISH_MAX_EVALUATIONS,
 };
 pub use groups::{group_present, without_group, FAULT_GROUPS, GROUP_NAMES};
 pub use identification::Identification;
