@@ -66,20 +66,64 @@ fn nearest(key: &str) -> Option<&'static str> {
     FIELDS.iter().map(|f| (distance(key, f.name), f.name)).filter(|(d, _)| *d <= 4).min().map(|(_, name)| name)
 }
 
-/// Reads a parameter file's text: every key a field of [`EmaParams`] holding a number, missing
-/// keys nominal, the whole set checked by [`EmaParams::check`].
-pub fn parse_params(text: &str) -> Result<EmaParams, ParamsFileError> {
+/// One `key = value` entry of a flat TOML table ([`flat_entries`]).
+pub struct FlatEntry {
+    /// The key.
+    pub name: String,
+    /// The line of the key (1-based).
+    pub line: usize,
+    /// The line of the value.
+    pub value_line: usize,
+    /// The value as TOML.
+    pub value: toml::Value,
+}
+
+impl FlatEntry {
+    /// The value as a number (a float or an integer), or an error naming the value's line and
+    /// the key, with `example` as what to write instead (`hint` before it, e.g. `"e.g. "`).
+    pub fn number(&self, example: &str, hint: &str) -> Result<f32, ParamsFileError> {
+        match &self.value {
+            toml::Value::Float(x) => Ok(*x as f32),
+            toml::Value::Integer(i) => Ok(*i as f32),
+            other => {
+                let name = &self.name;
+                Err(ParamsFileError {
+                    line: self.value_line,
+                    key: Some(name.clone()),
+                    message: format!("{name} = {other} is not a number (write {hint}{name} = {example})"),
+                })
+            }
+        }
+    }
+}
+
+/// The entries of a flat TOML table (a parameter or tolerance file), in key order, each with its
+/// lines; text that is not TOML is refused with its line.
+pub fn flat_entries(text: &str) -> Result<Vec<FlatEntry>, ParamsFileError> {
     type Table = BTreeMap<toml::Spanned<String>, toml::Spanned<toml::Value>>;
     let table: Table = toml::from_str(text).map_err(|e| ParamsFileError {
         line: e.span().map_or(0, |s| line_of(text, s.start)),
         key: None,
         message: format!("not valid TOML: {}", e.message().trim()),
     })?;
+    Ok(table
+        .into_iter()
+        .map(|(key, value)| FlatEntry {
+            line: line_of(text, key.span().start),
+            value_line: line_of(text, value.span().start),
+            name: key.into_inner(),
+            value: value.into_inner(),
+        })
+        .collect())
+}
+
+/// Reads a parameter file's text: every key a field of [`EmaParams`] holding a number, missing
+/// keys nominal, the whole set checked by [`EmaParams::check`].
+pub fn parse_params(text: &str) -> Result<EmaParams, ParamsFileError> {
     let mut params = EmaParams::NOMINAL;
     let mut lines: BTreeMap<&'static str, usize> = BTreeMap::new();
-    for (key, value) in &table {
-        let line = line_of(text, key.span().start);
-        let name = key.get_ref().as_str();
+    for entry in flat_entries(text)? {
+        let (name, line) = (entry.name.as_str(), entry.line);
         let Some(field) = ParamField::find(name) else {
             let hint = match nearest(name) {
                 Some(near) => format!(" (did you mean {near}?)"),
@@ -91,20 +135,7 @@ pub fn parse_params(text: &str) -> Result<EmaParams, ParamsFileError> {
                 message: format!("unknown key '{name}'{hint}"),
             });
         };
-        let number = match value.get_ref() {
-            toml::Value::Float(x) => *x as f32,
-            toml::Value::Integer(i) => *i as f32,
-            other => {
-                return Err(ParamsFileError {
-                    line: line_of(text, value.span().start),
-                    key: Some(name.to_owned()),
-                    message: format!(
-                        "{name} = {other} is not a number (write e.g. {name} = {})",
-                        toml_number(field.get(&EmaParams::NOMINAL), field.integer)
-                    ),
-                })
-            }
-        };
+        let number = entry.number(&toml_number(field.get(&EmaParams::NOMINAL), field.integer), "e.g. ")?;
         field.set(&mut params, number);
         lines.insert(field.name, line);
     }

@@ -13,7 +13,6 @@
 //! ema simulate --unit 7 --tolerances tol.toml --out unit7.csv
 //! ```
 
-use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -21,7 +20,7 @@ use ema_monitor::unit::{unit_field, unit_name, Tolerances, MAX_RELATIVE_SIGMA, U
 
 use crate::error::CliError;
 use crate::input::read_text;
-use crate::params_file::{distance, line_of, toml_number, ParamsFileError};
+use crate::params_file::{distance, flat_entries, toml_number, ParamsFileError};
 
 /// Largest tolerance file read (the template is about 2 kB).
 pub const MAX_TOLERANCES_BYTES: usize = 64 * 1024;
@@ -50,37 +49,18 @@ fn unknown_key(name: &str) -> String {
 /// Reads a tolerance table's text: every key a unit parameter holding a number, missing keys
 /// typical, every value accepted by [`Tolerances::check`].
 pub fn parse_tolerances(text: &str) -> Result<Tolerances, ParamsFileError> {
-    type Table = BTreeMap<toml::Spanned<String>, toml::Spanned<toml::Value>>;
-    let table: Table = toml::from_str(text).map_err(|e| ParamsFileError {
-        line: e.span().map_or(0, |s| line_of(text, s.start)),
-        key: None,
-        message: format!("not valid TOML: {}", e.message().trim()),
-    })?;
     let mut tolerances = Tolerances::TYPICAL;
-    for (key, value) in &table {
-        let name = key.get_ref().as_str();
-        let line = line_of(text, key.span().start);
+    for entry in flat_entries(text)? {
+        let name = entry.name.as_str();
         let Some(i) = unit_index(name) else {
-            return Err(ParamsFileError { line, key: Some(name.to_owned()), message: unknown_key(name) });
+            return Err(ParamsFileError { line: entry.line, key: Some(name.to_owned()), message: unknown_key(name) });
         };
-        let sigma = match value.get_ref() {
-            toml::Value::Float(x) => *x as f32,
-            toml::Value::Integer(n) => *n as f32,
-            other => {
-                return Err(ParamsFileError {
-                    line: line_of(text, value.span().start),
-                    key: Some(name.to_owned()),
-                    message: format!(
-                        "{name} = {other} is not a number (write the relative 1-sigma, e.g. {name} = {})",
-                        toml_number(Tolerances::TYPICAL.relative_sigma[i], false)
-                    ),
-                })
-            }
-        };
+        let example = toml_number(Tolerances::TYPICAL.relative_sigma[i], false);
+        let sigma = entry.number(&example, "the relative 1-sigma, e.g. ")?;
         let mut one = Tolerances::TYPICAL;
         one.relative_sigma[i] = sigma;
         one.check().map_err(|e| ParamsFileError {
-            line: line_of(text, value.span().start),
+            line: entry.value_line,
             key: Some(name.to_owned()),
             message: format!("{e} (a relative 1-sigma: 0.03 is 3 %)"),
         })?;
