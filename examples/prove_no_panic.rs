@@ -30,7 +30,7 @@ use ema_monitor::acquisition::{
 };
 use ema_monitor::command::ONBOARD_COMMAND_SAMPLES;
 use ema_monitor::conditioning::MeasuredTrace;
-use ema_monitor::flight::{HealthMonitor, NoHooks};
+use ema_monitor::flight::{Acquired, HealthMonitor, NoHooks};
 use ema_monitor::monitor::{Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::persist::{HealthRecord, RamFlash};
 use ema_monitor::trace::PackedTrace;
@@ -68,10 +68,14 @@ fn main() -> ! {
         let monitor = HealthMonitor::<'_, ONBOARD_WINDOW, ONBOARD_POPULATION>::new(params, command, config).ok()?;
         let mut measured = MeasuredTrace::<ONBOARD_WINDOW>::new();
         let acquired = monitor.acquire(&mut live, &mut measured, black_box(10_000.0)).ok()?;
+        let acquired = Acquired { temperature_c: black_box(f32::NAN), ..acquired };
         live.outcome().ok()?;
         let mut bytes = [0u8; HealthRecord::ENCODED_LEN];
         black_box(&mut bytes);
-        let mut record = HealthRecord::decode(&bytes).unwrap_or_default();
+        // a record of either version and of any identity, adopted
+        let len = black_box(HealthRecord::ENCODED_LEN);
+        let mut record = bytes.get(..len).and_then(|b| HealthRecord::decode(b).ok()).unwrap_or_default();
+        black_box(monitor.with_unit_serial(black_box(3)).adopt(&mut record));
         let flight = monitor.diagnose(&measured, &acquired, &mut record, &mut NoHooks).ok()?;
         black_box(&record);
         // the identification's public calls in any order: a report before the first

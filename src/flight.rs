@@ -18,6 +18,18 @@
 //!    - **record** the flight in the [`HealthRecord`] through the evidence pooled over flights
 //!      ([`evidence::record_flight`]: a mode declared by the summed evidence is refitted in).
 //!
+//! The record belongs to one unit under one set of parameters ([`RecordIdentity`]: the
+//! parameters' identity and the unit's serial number). [`HealthMonitor::adopt`] makes a loaded
+//! record this monitor's: one made under other parameters (a firmware update with another
+//! parameter file), for another unit (an actuator swapped without the maintenance reset) or of a
+//! version that did not say, is handed back for the caller to archive, and a new history starts.
+//! [`HealthMonitor::diagnose`] refuses a record that is not its own, so that no diagnosis is
+//! pooled with another unit's evidence.
+//!
+//! The temperature: a flight flown at a known temperature ([`Acquired::temperature_c`]) is
+//! diagnosed with the parameters at that temperature ([`EmaParams::at_temperature`]: winding
+//! resistance, EMF constant, friction); without a reading, at the parameters' 20 °C.
+//!
 //! Saving the record to flash stays with the caller: it knows its flash and what an erase
 //! costs it (the board raises its watchdog timeout).
 //!
@@ -33,7 +45,7 @@ use crate::monitor::{
     WarmReport, ONBOARD_POPULATION, ONBOARD_WINDOW,
 };
 use crate::optimizer::SearchStatus;
-use crate::persist::HealthRecord;
+use crate::persist::{HealthRecord, RecordIdentity};
 use crate::{Command, EmaParams, ModelEffects};
 
 /// What the firmware does around the identification. Every method does nothing by default.
@@ -57,8 +69,9 @@ pub struct NoHooks;
 
 impl FlightHooks for NoHooks {}
 
-/// What an acquisition gave besides the window: its counts and how the frames were timed.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+/// What an acquisition gave besides the window: its counts, how the frames were timed and the
+/// actuator's temperature.
+#[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Acquired {
     /// Frames read, refused and the longest refused run.
@@ -69,6 +82,9 @@ pub struct Acquired {
     /// Frames whose sampling came late (a tick's handler overran its period), so that the frames
     /// are not evenly spaced; 0 in a replay.
     pub late_frames: u32,
+    /// The actuator's temperature during the flight (°C), NaN when none was read: the flight is
+    /// then diagnosed at the parameters' 20 °C.
+    pub temperature_c: f32,
 }
 
 impl Acquired {
@@ -84,6 +100,8 @@ impl Acquired {
 pub struct Flight {
     /// The flight's number in the record (1 for the first after maintenance).
     pub number: u32,
+    /// The temperature the flight was diagnosed at (°C), NaN when none was read.
+    pub temperature_c: f32,
     /// How the identification was planned to start.
     pub start: Start,
     /// `true` when the flight counts as a cold identification in the record: planned cold, or a
@@ -115,6 +133,7 @@ pub struct HealthMonitor<'c, const W: usize = ONBOARD_WINDOW, const P: usize = O
     params: EmaParams,
     command: Command<'c>,
     config: IdentifyConfig,
+    unit_serial: u32,
 }
 
 impl<'c> HealthMonitor<'c> {
@@ -142,7 +161,33 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         if params.check().is_err() {
             return Err(MonitorError::Params);
         }
-        Ok(Self { params, command: command.into(), config: IdentifyConfig { prior: None, ..config } })
+        Ok(Self { params, command: command.into(), config: IdentifyConfig { prior: None, ..config }, unit_serial: 0 })
+    }
+
+    /// The same monitor for the unit of serial number `serial` (0: none given), as the integrator
+    /// reads it (a label, the actuator's own memory); part of the record's identity.
+    pub fn with_unit_serial(self, serial: u32) -> Self {
+        Self { unit_serial: serial, ..self }
+    }
+
+    /// The identity of the records this monitor keeps: its parameters' and its unit's.
+    pub fn identity(&self) -> RecordIdentity {
+        RecordIdentity { params: self.params.identity(), unit_serial: self.unit_serial }
+    }
+
+    /// Makes `record` (as loaded from flash) this monitor's. A record of this monitor's identity
+    /// is left as it is, and so is a new one (no flight), which takes the identity. Any other
+    /// (other parameters, another unit, a record of version 1 that does not say) is replaced by
+    /// a new record of this identity and returned: the caller keeps it where it stays readable
+    /// ([`crate::persist::HealthStore::archive`]).
+    pub fn adopt(&self, record: &mut HealthRecord) -> Option<HealthRecord> {
+        let identity = self.identity();
+        if record.identity() == identity {
+            return None;
+        }
+        let old = *record;
+        *record = HealthRecord::for_unit(identity);
+        (old.flights() > 0).then_some(old)
     }
 
     /// The actuator's healthy parameters.
@@ -183,13 +228,15 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         sample_rate_hz: f32,
     ) -> Result<Acquired, MonitorError> {
         let summary = monitor::acquire(source, trace)?;
-        Ok(Acquired { summary, sample_rate_hz, late_frames: 0 })
+        Ok(Acquired { summary, sample_rate_hz, late_frames: 0, temperature_c: f32::NAN })
     }
 
     /// Diagnoses one flight on the acquired `trace` and adds it to `record` (module doc): plan,
-    /// identify, report with its uncertainty, record with the pooled evidence. A refused
-    /// identification (a trace longer than the command, settings out of range) leaves `record`
-    /// as it was.
+    /// identify, report with its uncertainty, record with the pooled evidence, all with the
+    /// parameters at the flight's temperature. A record of another identity that holds flights
+    /// is refused ([`MonitorError::ForeignRecord`]: [`HealthMonitor::adopt`] it first); a new one
+    /// takes this identity. A refused identification (a trace longer than the command, settings
+    /// out of range) leaves `record` as it was.
     pub fn diagnose(
         &self,
         trace: &MeasuredTrace<W>,
@@ -197,6 +244,13 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         record: &mut HealthRecord,
         hooks: &mut impl FlightHooks,
     ) -> Result<Flight, MonitorError> {
+        if record.identity() != self.identity() {
+            if record.flights() > 0 {
+                return Err(MonitorError::ForeignRecord);
+            }
+            *record = HealthRecord::for_unit(self.identity());
+        }
+        let params = self.params.at_temperature(acquired.temperature_c);
         let start = self.plan(record);
         let prior = match start {
             Start::Warm => Some(record.faults().0),
@@ -204,18 +258,18 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         };
         let number = record.flights().saturating_add(1);
         hooks.identification_start(number, start);
-        let identified = self.identify(trace, prior, hooks);
+        let identified = self.identify(trace, &params, prior, hooks);
         hooks.identification_end();
         let (report, warm) = identified?;
-        let report = self.with_uncertainty(trace, report).with_acquisition(&acquired.summary);
+        let report = self.with_uncertainty(trace, &params, report).with_acquisition(&acquired.summary);
         let report = if acquired.rate_ok(&self.params) {
             report
         } else {
             report.abstaining(Status::Inconclusive(Abstain::RateMismatch))
         };
         let cold = prior.is_none() || warm.is_some_and(|w| w.cold_fallback);
-        let pooled = self.record(record, trace, &report, cold);
-        Ok(Flight { number, start, cold, report, warm, pooled })
+        let pooled = self.record(record, trace, &params, &report, cold);
+        Ok(Flight { number, temperature_c: acquired.temperature_c, start, cold, report, warm, pooled })
     }
 
     /// The identification, cold without a prior and warm from it, one evaluation per step with
@@ -225,6 +279,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     fn identify(
         &self,
         trace: &MeasuredTrace<W>,
+        params: &EmaParams,
         prior: Option<[f32; 8]>,
         hooks: &mut impl FlightHooks,
     ) -> Result<(HealthReport, Option<WarmReport>), MonitorError> {
@@ -232,7 +287,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         // worked on in place, inside the `Result` it is built in: moving it out would put a
         // second copy of its state (tens of KiB on board) in this frame
         let mut built: Result<Identification<'_, W, P>, MonitorError> =
-            Identification::new(trace, self.params, self.command, &config);
+            Identification::new(trace, *params, self.command, &config);
         let id = match &mut built {
             Ok(id) => id,
             Err(e) => return Err(*e),
@@ -251,8 +306,8 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     /// `report` with its uncertainty ([`with_uncertainty`]: the fitness built again, 9 model runs
     /// in lockstep). Not inlined, as [`HealthMonitor::identify`].
     #[inline(never)]
-    fn with_uncertainty(&self, trace: &MeasuredTrace<W>, report: HealthReport) -> HealthReport {
-        with_uncertainty(trace, self.params, self.command, &self.config, report)
+    fn with_uncertainty(&self, trace: &MeasuredTrace<W>, params: &EmaParams, report: HealthReport) -> HealthReport {
+        with_uncertainty(trace, *params, self.command, &self.config, report)
     }
 
     /// Adds the flight's `report` to `record` through the pooled evidence
@@ -262,10 +317,11 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         &self,
         record: &mut HealthRecord,
         trace: &MeasuredTrace<W>,
+        params: &EmaParams,
         report: &HealthReport,
         cold: bool,
     ) -> Option<PooledFlight> {
-        evidence::record_flight_on(record, trace, self.params, self.command, &self.config, report, cold)
+        evidence::record_flight_on(record, trace, *params, self.command, &self.config, report, cold)
     }
 }
 
@@ -399,5 +455,78 @@ mod tests {
             HealthMonitor::onboard(bad, Profile::STANDARD, ModelEffects::NONE).unwrap_err(),
             MonitorError::Params
         );
+    }
+
+    #[test]
+    fn a_record_of_other_parameters_or_another_unit_is_archived_and_a_new_history_starts() {
+        let [a, b] = units();
+        let monitor = HealthMonitor::onboard(a, Profile::STANDARD, ModelEffects::NONE).unwrap();
+        let report = crate::health::HealthReport::new(FaultVector::HEALTHY, &a, 0.01, 100, 10, None);
+        // a new record takes the monitor's identity, and stays
+        let mut record = HealthRecord::new();
+        assert!(monitor.adopt(&mut record).is_none());
+        assert_eq!(record.identity(), monitor.identity());
+        record.new_flight(&report, true);
+        record.new_flight(&report, false);
+        let own = record;
+        assert!(monitor.adopt(&mut record).is_none());
+        assert!(record.same_bits(&own));
+        // other parameters, another unit's serial, a record that does not say: archived
+        let others =
+            [HealthMonitor::onboard(b, Profile::STANDARD, ModelEffects::NONE).unwrap(), monitor.with_unit_serial(7)];
+        for other in others {
+            assert_ne!(other.identity(), monitor.identity());
+            let mut loaded = own;
+            let mut trace = MeasuredTrace::new();
+            let acquired = other.acquire(&mut Frames::of(&b, &FaultVector::HEALTHY, 5), &mut trace, 10_000.0).unwrap();
+            assert_eq!(
+                other.diagnose(&trace, &acquired, &mut loaded, &mut NoHooks).unwrap_err(),
+                MonitorError::ForeignRecord
+            );
+            assert!(loaded.same_bits(&own), "a refused flight leaves the record as it was");
+            let archived = other.adopt(&mut loaded).expect("the old history is handed back");
+            assert!(archived.same_bits(&own));
+            assert_eq!((loaded.flights(), loaded.identity()), (0, other.identity()));
+            let f = other.diagnose(&trace, &acquired, &mut loaded, &mut NoHooks).unwrap();
+            assert_eq!((f.number, f.start), (1, Start::Cold(ColdReason::NoPrior)));
+        }
+        let mut encoded = [0u8; HealthRecord::ENCODED_LEN];
+        own.encode(&mut encoded).unwrap();
+        encoded[0] = 1;
+        let mut version_1 = HealthRecord::decode(&encoded[..HealthRecord::ENCODED_LEN - 8]).unwrap();
+        assert_eq!(monitor.adopt(&mut version_1).map(|r| r.flights()), Some(2));
+        assert_eq!(version_1.identity(), monitor.identity());
+    }
+
+    #[test]
+    fn a_flight_with_a_temperature_is_diagnosed_at_that_temperature() {
+        let truth = FaultVector([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+        for (u, unit) in units().iter().enumerate() {
+            let monitor = HealthMonitor::onboard(*unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+            for temperature_c in [-35.0f32, 65.0] {
+                let hot_or_cold = unit.at_temperature(temperature_c);
+                let mut trace = MeasuredTrace::new();
+                let seed = 40 + u as u64;
+                let acquired =
+                    monitor.acquire(&mut Frames::of(&hot_or_cold, &truth, seed), &mut trace, 10_000.0).unwrap();
+                let read = Acquired { temperature_c, ..acquired };
+                let with = monitor.diagnose(&trace, &read, &mut HealthRecord::new(), &mut NoHooks).unwrap();
+                let without = monitor.diagnose(&trace, &acquired, &mut HealthRecord::new(), &mut NoHooks).unwrap();
+                assert_eq!(with.temperature_c.to_bits(), temperature_c.to_bits());
+                assert!(without.temperature_c.is_nan());
+                // the largest error over the eight parameters: a phantom short counts
+                let error = |f: &Flight| {
+                    f.report.faults.0.iter().zip(&truth.0).map(|(k, t)| (k - t).abs()).fold(0.0f32, f32::max)
+                };
+                assert!(with.report.status.is_diagnosis(), "unit {u} at {temperature_c}: {:?}", with.report.status);
+                assert!(error(&with) < 0.03, "unit {u} at {temperature_c}: {:?}", with.report.faults.0);
+                assert!(
+                    !without.report.status.is_diagnosis() || error(&without) > 2.0 * error(&with),
+                    "unit {u} at {temperature_c}: the temperature changes nothing ({:?} without, {:?} with)",
+                    without.report.faults.0,
+                    with.report.faults.0
+                );
+            }
+        }
     }
 }

@@ -9,7 +9,8 @@
 //!    `OneShot` reader, one frame per TIMER0 interrupt (`qemu_live.rs`), into the monitor's
 //!    acquisition: the manoeuvre's 8500 frames, a refused frame held at the last good one;
 //! 3. flight 1, then flight 2 on the same recording, each through [`HealthMonitor::diagnose`]:
-//!    planned from the health record (cold first, then warm from its diagnosis), identified
+//!    planned from the health record (cold first, then warm from its diagnosis; a record of
+//!    other parameters is archived and a new one started), identified
 //!    between the instruction-count markers `ema_identification_start` and
 //!    `ema_identification_end` (`scripts/qemu-run` prints `identification (cold|warm): N
 //!    instructions`), reported with its uncertainty, recorded with its evidence, saved to the
@@ -50,7 +51,7 @@ mod record_flash;
 mod semihosting_host;
 
 use insn_markers::CountedRegion;
-use record_flash::{load_record, maintenance_reset, save_record, RecordFlash};
+use record_flash::{archive_record, load_record, maintenance_reset, save_record, RecordFlash};
 use semihosting_host::exit;
 
 /// Ticks the sampler waits for its trigger (100 ms); the replay triggers on the first tick.
@@ -123,8 +124,9 @@ fn main() -> ! {
 }
 
 /// One flight: the record loaded from `flash` (a new one when none is stored or it is
-/// unreadable), the flight diagnosed and logged, the record saved and read back. `false` (logged)
-/// when the identification or the flash refuses.
+/// unreadable; a record of other parameters archived and a new one started,
+/// [`HealthMonitor::adopt`]), the flight diagnosed and logged, the record saved and read back.
+/// `false` (logged) when the identification or the flash refuses.
 #[inline(never)]
 fn fly(
     monitor: &HealthMonitor<'_>,
@@ -133,11 +135,29 @@ fn fly(
     flash: &mut RecordFlash,
 ) -> bool {
     let Some(mut record) = load_record(flash) else { return false };
+    if !adopt(monitor, &mut record, flash) {
+        return false;
+    }
     match monitor.diagnose(window, acquired, &mut record, &mut CountedRegion) {
         Ok(flight) => report_log::log_flight(&flight),
         Err(e) => refuse("identification", e),
     }
     save_record(flash, &record)
+}
+
+/// [`HealthMonitor::adopt`]: a record of other parameters is archived in `flash` and a new one
+/// started; `false` (logged) when the flash refuses. Not inlined: the old record stays out of
+/// the identification's stack.
+#[inline(never)]
+fn adopt(
+    monitor: &HealthMonitor<'_>,
+    record: &mut ema_monitor::persist::HealthRecord,
+    flash: &mut RecordFlash,
+) -> bool {
+    match monitor.adopt(record) {
+        Some(old) => archive_record(flash, &old),
+        None => true,
+    }
 }
 
 /// Logs where the trace, the parameters and the model effects come from when they are not the

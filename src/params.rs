@@ -143,6 +143,20 @@ impl EmaParams {
         self.motor_inertia_kg_m2 + self.surface_inertia_kg_m2 / (self.gear_ratio * self.gear_ratio)
     }
 
+    /// A 32-bit identity of the parameter set: FNV-1a over the IEEE-754 bits of every field, in
+    /// [`FIELDS`] order. Two sets with one field differing by one bit get different identities
+    /// with probability `1 − 2⁻³²`; the health record keeps it to tell a record made under other
+    /// parameters ([`crate::persist::RecordIdentity`]). An identity, not an integrity check (the
+    /// store's CRC is that), so the eight-line hash is written here rather than a dependency added.
+    pub fn identity(&self) -> u32 {
+        const OFFSET_BASIS: u32 = 0x811c_9dc5;
+        const PRIME: u32 = 0x0100_0193;
+        FIELDS
+            .iter()
+            .flat_map(|f| f.get(self).to_bits().to_le_bytes())
+            .fold(OFFSET_BASIS, |h, byte| (h ^ u32::from(byte)).wrapping_mul(PRIME))
+    }
+
     /// The same unit at `temperature_c`: resistance, EMF constant and the three friction terms
     /// follow their coefficients from [`REFERENCE_TEMPERATURE_C`]:
     ///

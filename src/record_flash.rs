@@ -46,6 +46,25 @@ pub fn load_record(flash: &mut RecordFlash) -> Option<HealthRecord> {
     }
 }
 
+/// Keeps `old`, the record of other parameters or another unit, in the store's archive
+/// ([`HealthStore::archive`]) and logs it; `false` (logged) when the flash refuses.
+#[inline(never)]
+pub fn archive_record(flash: &mut RecordFlash, old: &HealthRecord) -> bool {
+    match open(flash).and_then(|mut store| store.archive(old)) {
+        Ok(()) => {
+            defmt::warn!(
+                "health record of other parameters or another unit archived ({=u32} flights); a new record starts",
+                old.flights()
+            );
+            true
+        }
+        Err(e) => {
+            defmt::error!("health record of another unit not archived: {}", e);
+            false
+        }
+    }
+}
+
 /// Saves `record` to `flash` and reads it back as the next power-up does; `false` (logged) when
 /// the flash refuses or gives back another record.
 #[inline(never)]

@@ -71,6 +71,9 @@ pub enum MonitorError {
     Prior,
     /// The recordings to pool were refused.
     Pool(PoolError),
+    /// The health record belongs to another unit or was made under other parameters
+    /// ([`crate::flight::HealthMonitor::adopt`]).
+    ForeignRecord,
 }
 
 impl core::fmt::Display for MonitorError {
@@ -85,6 +88,9 @@ impl core::fmt::Display for MonitorError {
             MonitorError::FastRegimeWeight => f.write_str("the fast-regime weight is not in (0, 1]"),
             MonitorError::Prior => f.write_str("the prior of a warm start is not a fault vector in [0, 1]"),
             MonitorError::Pool(e) => write!(f, "recordings refused: {e}"),
+            MonitorError::ForeignRecord => {
+                f.write_str("the health record is another unit's or was made under other parameters")
+            }
         }
     }
 }

@@ -22,5 +22,5 @@ pub mod store;
 mod tests;
 
 pub use flash::{block_on, Blocking, RamFlash, RamFlashError};
-pub use record::{HealthRecord, HistoryEntry, ModeHistory, RecordError, HISTORY_LEN, RECORD_VERSION};
+pub use record::{HealthRecord, HistoryEntry, ModeHistory, RecordError, RecordIdentity, HISTORY_LEN, RECORD_VERSION};
 pub use store::{FlashFault, HealthStore, StoreError};

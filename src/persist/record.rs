@@ -1,7 +1,8 @@
 //! The health record: what the monitor keeps from one flight to the next, fixed-size and without
 //! allocation, with an explicit little-endian encoding of [`HealthRecord::ENCODED_LEN`] bytes.
 //!
-//! It holds the flight count, the flights since the last cold identification, the last diagnosis
+//! It holds the identity of the unit and parameters it was made under ([`RecordIdentity`]), the
+//! flight count, the flights since the last cold identification, the last diagnosis
 //! (fault vector `k`, its 1σ uncertainty `sigma`, the status), a short history per fault mode (the
 //! last [`HISTORY_LEN`] `(flight, severity)` pairs of each of the five [`FaultMode`]s, a ring
 //! buffer) and the evidence accumulators of pooling over flights (one summed log-likelihood ratio
@@ -25,16 +26,25 @@
 //! | 105 | 5 | history ring head per mode (`u8`, the slot the next entry goes to) |
 //! | 110 | 2 | reserved, 0 |
 //! | 112 | 640 | history: per mode, [`HISTORY_LEN`] × (flight `u32`, severity `f32`) |
+//! | 752 | 4 | identity of the parameters ([`crate::EmaParams::identity`]) |
+//! | 756 | 4 | unit serial number (0: not given) |
 //!
-//! A record whose version byte is not [`RECORD_VERSION`], whose status code is unknown or whose
-//! ring indices are out of range does not decode ([`RecordError`]): the monitor then starts cold.
+//! A record of version 1 (the same layout without the identity, 752 bytes) decodes with the
+//! identity [`RecordIdentity::UNKNOWN`]: its history stays readable, and the flight API keeps it
+//! aside and starts a new one ([`crate::flight::HealthMonitor::adopt`]), since nothing says which
+//! parameters it was made under. A record of any other version, of a length that is not its
+//! version's, with an unknown status code or ring indices out of range does not decode
+//! ([`RecordError`]): the monitor then starts cold.
 //! Integrity against bit errors is the store's (CRC-32 per stored item, `docs/persistence.md`).
 
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::health::{Abstain, FaultMode, HealthReport, Status};
 
 /// Format version of the encoding; a change of layout takes the next number.
-pub const RECORD_VERSION: u8 = 1;
+pub const RECORD_VERSION: u8 = 2;
+
+/// Bytes of a version-1 record: the layout without the identity.
+const ENCODED_LEN_V1: usize = OFF_IDENTITY;
 
 /// Entries of history kept per fault mode.
 pub const HISTORY_LEN: usize = 16;
@@ -54,14 +64,32 @@ const OFF_HIST_HEAD: usize = OFF_HIST_LEN + MODES;
 const OFF_HISTORY: usize = 112;
 /// Bytes of one history entry: flight `u32` + severity `f32`.
 const ENTRY_LEN: usize = 8;
+const OFF_IDENTITY: usize = OFF_HISTORY + MODES * HISTORY_LEN * ENTRY_LEN;
+const OFF_SERIAL: usize = OFF_IDENTITY + 4;
+
+/// Which unit, under which parameters, a record belongs to: the diagnoses, history and evidence
+/// it holds mean something only for that unit and those parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RecordIdentity {
+    /// [`crate::EmaParams::identity`] of the parameters the monitor diagnosed with.
+    pub params: u32,
+    /// The unit's serial number as the integrator gives it; 0 when none is given.
+    pub unit_serial: u32,
+}
+
+impl RecordIdentity {
+    /// The identity of a record that does not say (a new record, or one of version 1).
+    pub const UNKNOWN: Self = Self { params: 0, unit_serial: 0 };
+}
 
 /// Why bytes do not decode as a [`HealthRecord`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum RecordError {
-    /// Not [`HealthRecord::ENCODED_LEN`] bytes.
+    /// Not the length of its version's encoding ([`HealthRecord::ENCODED_LEN`] for the current one).
     Length,
-    /// The version byte is not [`RECORD_VERSION`] (the record of another firmware version).
+    /// The version byte is neither [`RECORD_VERSION`] nor 1 (the record of a newer firmware).
     Version(u8),
     /// Unknown status code.
     Status(u8),
@@ -136,6 +164,7 @@ impl ModeHistory {
 /// The persisted health state of one actuator (module documentation: contents and layout).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HealthRecord {
+    identity: RecordIdentity,
     flights: u32,
     flights_since_cold: u32,
     k: [f32; FAULT_COUNT],
@@ -190,12 +219,19 @@ pub const fn status_of_code(code: u8) -> Result<Option<Status>, RecordError> {
 
 impl HealthRecord {
     /// Bytes of the encoding ([`HealthRecord::encode`]).
-    pub const ENCODED_LEN: usize = OFF_HISTORY + MODES * HISTORY_LEN * ENTRY_LEN;
+    pub const ENCODED_LEN: usize = OFF_SERIAL + 4;
 
     /// The record before the first flight: no flight, the healthy vector
-    /// ([`FaultVector::HEALTHY`]), `sigma` unknown (NaN), no history, no evidence, no status.
+    /// ([`FaultVector::HEALTHY`]), `sigma` unknown (NaN), no history, no evidence, no status,
+    /// identity [`RecordIdentity::UNKNOWN`].
     pub const fn new() -> Self {
+        Self::for_unit(RecordIdentity::UNKNOWN)
+    }
+
+    /// A new record ([`HealthRecord::new`]) of the unit and parameters `identity`.
+    pub const fn for_unit(identity: RecordIdentity) -> Self {
         Self {
+            identity,
             flights: 0,
             flights_since_cold: 0,
             k: FaultVector::HEALTHY.0,
@@ -225,6 +261,11 @@ impl HealthRecord {
                 history.push(HistoryEntry { flight: self.flights, severity: mode.severity });
             }
         }
+    }
+
+    /// The unit and parameters the record belongs to.
+    pub fn identity(&self) -> RecordIdentity {
+        self.identity
     }
 
     /// Flights recorded ([`HealthRecord::new_flight`] calls).
@@ -311,16 +352,22 @@ impl HealthRecord {
                 put_f32(out, at + 4, e.severity);
             }
         }
+        put_u32(out, OFF_IDENTITY, self.identity.params);
+        put_u32(out, OFF_SERIAL, self.identity.unit_serial);
         Ok(Self::ENCODED_LEN)
     }
 
-    /// Reads an encoding of [`HealthRecord::encode`]; every check of the module documentation.
+    /// Reads an encoding of [`HealthRecord::encode`], or of version 1 (identity
+    /// [`RecordIdentity::UNKNOWN`]); every check of the module documentation.
     pub fn decode(bytes: &[u8]) -> Result<Self, RecordError> {
-        if bytes.len() != Self::ENCODED_LEN {
+        let version = *bytes.first().ok_or(RecordError::Length)?;
+        let expected_len = match version {
+            1 => ENCODED_LEN_V1,
+            RECORD_VERSION => Self::ENCODED_LEN,
+            other => return Err(RecordError::Version(other)),
+        };
+        if bytes.len() != expected_len {
             return Err(RecordError::Length);
-        }
-        if bytes[0] != RECORD_VERSION {
-            return Err(RecordError::Version(bytes[0]));
         }
         let status = status_of_code(bytes[OFF_STATUS])?;
         let mut record = Self::new();
@@ -347,6 +394,10 @@ impl HealthRecord {
                 let at = OFF_HISTORY + (m * HISTORY_LEN + j) * ENTRY_LEN;
                 *e = HistoryEntry { flight: get_u32(bytes, at), severity: get_f32(bytes, at + 4) };
             }
+        }
+        if version == RECORD_VERSION {
+            record.identity =
+                RecordIdentity { params: get_u32(bytes, OFF_IDENTITY), unit_serial: get_u32(bytes, OFF_SERIAL) };
         }
         Ok(record)
     }

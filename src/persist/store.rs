@@ -29,6 +29,10 @@ use super::record::{HealthRecord, RecordError};
 /// The map key of the health record.
 pub const RECORD_KEY: u8 = 0x48; // 'H'
 
+/// The map key of the archived record: the last record of another unit or other parameters,
+/// kept readable when a new history starts ([`HealthStore::archive`]).
+pub const ARCHIVE_KEY: u8 = 0x41; // 'A'
+
 /// Bytes of the store's work buffer: key (1 byte) + record, rounded up to the largest flash
 /// word `sequential-storage` supports (32 bytes).
 pub const BUFFER_LEN: usize = (1 + HealthRecord::ENCODED_LEN).div_ceil(32) * 32;
@@ -134,19 +138,40 @@ impl<F: NorFlash> HealthStore<F> {
     /// cannot repair, or the intact item does not decode ([`StoreError::Record`]). Anything but
     /// `Ok(Some(_))` means a cold start.
     pub fn load(&mut self) -> Result<Option<HealthRecord>, StoreError> {
-        let fetched =
-            block_on(self.map.fetch_item::<&[u8]>(&mut self.buf.0, &RECORD_KEY)).ok_or(StoreError::Stalled)?;
+        self.load_key(RECORD_KEY)
+    }
+
+    /// Appends `record` as the newest copy. On `Err` the previous record stays the one a load
+    /// returns (or, for a cut during the write, the new one if it was complete).
+    pub fn save(&mut self, record: &HealthRecord) -> Result<(), StoreError> {
+        self.save_key(RECORD_KEY, record)
+    }
+
+    /// Keeps `record` (the last record of another unit or other parameters) under its own key,
+    /// replacing the one archived before; [`HealthStore::load_archive`] reads it back. The
+    /// current record is not touched: a power cut after the archive and before the next save
+    /// leaves the old record both archived and current, and the next start archives it again.
+    pub fn archive(&mut self, record: &HealthRecord) -> Result<(), StoreError> {
+        self.save_key(ARCHIVE_KEY, record)
+    }
+
+    /// The archived record ([`HealthStore::archive`]), as [`HealthStore::load`] reads the current
+    /// one.
+    pub fn load_archive(&mut self) -> Result<Option<HealthRecord>, StoreError> {
+        self.load_key(ARCHIVE_KEY)
+    }
+
+    fn load_key(&mut self, key: u8) -> Result<Option<HealthRecord>, StoreError> {
+        let fetched = block_on(self.map.fetch_item::<&[u8]>(&mut self.buf.0, &key)).ok_or(StoreError::Stalled)?;
         match fetched.map_err(store_error)? {
             None => Ok(None),
             Some(bytes) => HealthRecord::decode(bytes).map(Some).map_err(StoreError::Record),
         }
     }
 
-    /// Appends `record` as the newest copy. On `Err` the previous record stays the one a load
-    /// returns (or, for a cut during the write, the new one if it was complete).
-    pub fn save(&mut self, record: &HealthRecord) -> Result<(), StoreError> {
+    fn save_key(&mut self, key: u8, record: &HealthRecord) -> Result<(), StoreError> {
         let stored =
-            block_on(self.map.store_item(&mut self.buf.0, &RECORD_KEY, &Encoded(record))).ok_or(StoreError::Stalled)?;
+            block_on(self.map.store_item(&mut self.buf.0, &key, &Encoded(record))).ok_or(StoreError::Stalled)?;
         stored.map_err(store_error)
     }
 

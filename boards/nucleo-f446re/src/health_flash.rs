@@ -7,7 +7,7 @@
 //! **Watchdog.** A sector erase stalls the core (the program runs from the same bank) for up to
 //! 4 s (RM0390 / datasheet, x8 parallelism, which the HAL programs with), far beyond
 //! the 500 ms watchdog; every operation that may erase (a save that opens a new page, about one
-//! in 169 saves, and the maintenance reset) runs with the watchdog at [`FLASH_WATCHDOG_MS`] and
+//! in 170 saves, and the maintenance reset) runs with the watchdog at [`FLASH_WATCHDOG_MS`] and
 //! puts it back after.
 
 use core::ops::Range;
@@ -63,6 +63,23 @@ pub fn start(flash: &mut LockedFlash, watchdog: &mut IndependentWatchdog, mainte
         Err(e) => {
             defmt::warn!("health record unreadable ({}), cold start", e);
             HealthRecord::new()
+        }
+    }
+}
+
+/// A record of other parameters or another unit (`HealthMonitor::adopt` handed it back): kept in
+/// the store's archive, readable, while a new record starts. `false` (logged) when the flash
+/// refuses: the caller then does not save the new record, so that the old one stays current in
+/// flash and is archived at the next start.
+pub fn archive(flash: &mut LockedFlash, watchdog: &mut IndependentWatchdog, old: &HealthRecord) -> bool {
+    match with_store(flash, watchdog, |s| s.archive(old)) {
+        Ok(()) => {
+            defmt::warn!("health record of another unit or other parameters archived ({=u32} flights)", old.flights());
+            true
+        }
+        Err(e) => {
+            defmt::error!("health record of another unit not archived ({}): this flight's record is not saved", e);
+            false
         }
     }
 }

@@ -9,7 +9,8 @@
 //!    trigger on PA10, and TIM2's interrupt reading one frame per [`FRAME_PERIOD_US`] into the
 //!    sampler (`tim2_sampling.rs`); thread mode acquires the manoeuvre's frames after the trigger
 //!    (at most [`TRIGGER_TIMEOUT_FRAMES`] ticks away), sleeping with `wfi` and feeding the watchdog;
-//! 3. the flight: planned from the record, identified one objective evaluation per step with the
+//! 3. the flight: planned from the record (a record of other parameters or another unit archived
+//!    and a new one started), identified one objective evaluation per step with the
 //!    watchdog fed and each step timed by the DWT cycle counter (`WatchdogHooks`), reported with
 //!    its uncertainty, recorded with its pooled evidence; the record saved; then idle, fed.
 //!
@@ -109,6 +110,10 @@ fn main() -> ! {
         Ok(m) => m,
         Err(e) => refused("monitor refused", e, watchdog),
     };
+    let record_kept = match monitor.adopt(&mut record) {
+        Some(old) => health_flash::archive(&mut flash, &mut watchdog, &old),
+        None => true,
+    };
     let frames = monitor.frames();
     let config = SamplerConfig { frames, trigger_timeout_frames: TRIGGER_TIMEOUT_FRAMES };
     let (producer, mut live) = sampler.split(reader, config, || {
@@ -158,7 +163,9 @@ fn main() -> ! {
 
     // 6. Report, record, then idle.
     report_log::log_flight(&flight);
-    health_flash::save(&mut flash, &mut watchdog, &record);
+    if record_kept {
+        health_flash::save(&mut flash, &mut watchdog, &record);
+    }
     defmt::info!("ema-monitor: OK");
     loop {
         wait_tick(&mut timer);
