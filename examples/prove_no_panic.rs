@@ -68,7 +68,9 @@ fn main() -> ! {
         let monitor = HealthMonitor::<'_, ONBOARD_WINDOW, ONBOARD_POPULATION>::new(params, command, config).ok()?;
         let mut measured = MeasuredTrace::<ONBOARD_WINDOW>::new();
         let acquired = monitor.acquire(&mut live, &mut measured, black_box(10_000.0)).ok()?;
-        let acquired = Acquired { temperature_c: black_box(f32::NAN), ..acquired };
+        let sensor = black_box(ema_monitor::acquisition::TemperatureSensor::TMP36_3V3);
+        let temperature = sensor.judge(sensor.celsius(black_box(620)), &params);
+        let acquired = Acquired { temperature_c: temperature.celsius_or_nan(), ..acquired };
         live.outcome().ok()?;
         let mut bytes = [0u8; HealthRecord::ENCODED_LEN];
         black_box(&mut bytes);

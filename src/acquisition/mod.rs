@@ -65,6 +65,7 @@ mod limit;
 mod replay;
 mod sampler;
 mod summary;
+mod temperature;
 
 use core::convert::Infallible;
 use core::fmt;
@@ -77,6 +78,7 @@ pub use limit::{manoeuvre_frames, FrameLimit};
 pub use replay::{ReplayAdc, ReplayError};
 pub use sampler::{Sample, Sampler, SamplerConfig, SamplerConsumer, SamplerProducer, SamplerState, SAMPLER_QUEUE};
 pub use summary::{AcquisitionSummary, MAX_REFUSED_RUN, MAX_REFUSED_SHARE};
+pub use temperature::{TemperatureReading, TemperatureSensor, PLAUSIBLE_MARGIN_C};
 
 use crate::trace::ADC_MAX;
 use detect::{StuckDetector, SumDetector};

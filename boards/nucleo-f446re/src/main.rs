@@ -5,7 +5,8 @@
 //! 1. the independent watchdog first ([`WATCHDOG_MS`], `safe_state.rs`), so that every later hang
 //!    resets; clocks at 180 MHz from the ST-LINK's 8 MHz; the health record from flash sectors
 //!    6–7 (`health_flash.rs`), erased first when the user button B1 (PC13) is held at start-up;
-//! 2. ADC1 on PA0, PA1, PA4 (phases A, B, C) behind the core's `PhaseCurrentReader`, the start
+//! 2. the actuator's temperature on PB0 (a TMP36-type sensor), read once; ADC1 on PA0, PA1, PA4
+//!    (phases A, B, C) behind the core's `PhaseCurrentReader`, the start
 //!    trigger on PA10, and TIM2's interrupt reading one frame per [`FRAME_PERIOD_US`] into the
 //!    sampler (`tim2_sampling.rs`); thread mode acquires the manoeuvre's frames after the trigger
 //!    (at most [`TRIGGER_TIMEOUT_FRAMES`] ticks away), sleeping with `wfi` and feeding the watchdog;
@@ -25,7 +26,7 @@ use panic_probe as _; // panic → defmt message → `udf` → HardFault → par
 use core::sync::atomic::Ordering;
 
 use cortex_m_rt::entry;
-use ema_monitor::acquisition::{Sampler, SamplerConfig, SAMPLER_QUEUE};
+use ema_monitor::acquisition::{Sampler, SamplerConfig, TemperatureSensor, SAMPLER_QUEUE};
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::flight::HealthMonitor;
 use ema_monitor::monitor::ONBOARD_WINDOW;
@@ -60,6 +61,17 @@ const FRAME_RATE_HZ: u32 = 1_000_000 / FRAME_PERIOD_US;
 /// Ticks the sampler waits for the start trigger before refusing the run (10 s).
 const TRIGGER_TIMEOUT_FRAMES: u32 = 100_000;
 
+/// The actuator's parameters.
+const PARAMS: EmaParams = EmaParams::NOMINAL;
+
+/// The actuator's temperature sensor on PB0: a TMP36 (0.5 V at 0 °C, 10 mV/°C) on the 3.3 V
+/// reference. An implausible or missing reading diagnoses the flight at the parameters' 20 °C.
+const TEMPERATURE_SENSOR: TemperatureSensor = TemperatureSensor::TMP36_3V3;
+
+/// Polls of the temperature conversion before it counts as unavailable (one conversion takes
+/// 3 µs; the HAL's blocking read returns it on the first).
+const TEMPERATURE_POLLS: u32 = 100;
+
 /// The core clock, for converting DWT cycles to seconds.
 const SYSCLK_HZ: u32 = 180_000_000;
 
@@ -88,10 +100,15 @@ fn main() -> ! {
     let mut flash = LockedFlash::new(dp.FLASH);
     let mut record = health_flash::start(&mut flash, &mut watchdog, maintenance);
 
-    // 3. ADC1 on PA0/PA1/PA4 behind the core's reader (`tim2_sampling::phase_reader`).
+    // 3. The actuator's temperature on PB0 (ADC1_IN8), read once; then ADC1 on PA0/PA1/PA4
+    //    behind the core's reader (`tim2_sampling::phase_reader`).
+    let mut adc = tim2_sampling::adc1(dp.ADC1, &mut rcc);
+    let mut temperature_pin = dp.GPIOB.split(&mut rcc).pb0.into_analog();
+    let temperature = TEMPERATURE_SENSOR.read(&mut adc, &mut temperature_pin, &PARAMS, TEMPERATURE_POLLS);
+    defmt::info!("actuator temperature: {}", temperature);
     let gpioa = dp.GPIOA.split(&mut rcc);
     let pins = (gpioa.pa0.into_analog(), gpioa.pa1.into_analog(), gpioa.pa4.into_analog());
-    let reader = match tim2_sampling::phase_reader(dp.ADC1, pins, &mut rcc) {
+    let reader = match tim2_sampling::phase_reader(adc, pins) {
         Ok(r) => r,
         Err(e) => refused("acquisition config refused", e, watchdog),
     };
@@ -106,7 +123,7 @@ fn main() -> ! {
     let Some(sampler) = cortex_m::singleton!(: Sampler<SAMPLER_QUEUE> = Sampler::new()) else {
         failsafe("sampler already taken")
     };
-    let monitor = match HealthMonitor::onboard(EmaParams::NOMINAL, Profile::STANDARD, ModelEffects::NONE) {
+    let monitor = match HealthMonitor::onboard(PARAMS, Profile::STANDARD, ModelEffects::NONE) {
         Ok(m) => m,
         Err(e) => refused("monitor refused", e, watchdog),
     };
@@ -141,6 +158,7 @@ fn main() -> ! {
     };
     // The frames came at the timer's rate unless a tick's handler overran its period.
     acquired.late_frames = LATE.load(Ordering::Relaxed);
+    acquired.temperature_c = temperature.celsius_or_nan();
     defmt::info!(
         "trigger after {=u32} frames; frames read: {=u32}, window samples: {=usize}",
         waited,

@@ -59,14 +59,15 @@ pub fn wait_tick(timer: &mut CounterUs<TIM2>) {
 /// 90/4 = 22.5 MHz (≤ 36 MHz); 56 + 12 cycles = 3 µs per conversion, 9 µs per frame, well inside
 /// the 100 µs period. Nominal sensors (±20 A over the 12-bit range, zero at mid-scale): a real
 /// front end gives its measured offsets and gains to `Calibration::new`.
-pub fn phase_reader(
-    adc1: ADC1,
-    pins: (PA0<Analog>, PA1<Analog>, PA4<Analog>),
-    rcc: &mut Rcc,
-) -> Result<Reader, ConfigError> {
-    let config = AdcConfig::default().clock(Clock::Pclk2_div_4).default_sample_time(SampleTime::Cycles_56);
-    let adc = Adc::new(adc1, true, config, rcc);
+pub fn phase_reader(adc: Adc<ADC1>, pins: (PA0<Analog>, PA1<Analog>, PA4<Analog>)) -> Result<Reader, ConfigError> {
     PhaseCurrentReader::new(adc, pins, Calibration::NOMINAL, AcquisitionConfig::DEFAULT)
+}
+
+/// ADC1, clocked at 90/4 = 22.5 MHz with 56-cycle samples: the phase reader's and, before it, the
+/// temperature input's.
+pub fn adc1(adc1: ADC1, rcc: &mut Rcc) -> Adc<ADC1> {
+    let config = AdcConfig::default().clock(Clock::Pclk2_div_4).default_sample_time(SampleTime::Cycles_56);
+    Adc::new(adc1, true, config, rcc)
 }
 
 /// Hands `isr` to TIM2's interrupt and starts it.
