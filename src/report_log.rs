@@ -19,9 +19,13 @@ pub fn log_start(number: u32, start: Start) {
     }
 }
 
-/// Logs a diagnosed flight: its report ([`log_report`]), what the warm stages did when it started
-/// warm, and each mode declared by the evidence pooled over flights.
+/// Logs a diagnosed flight: its temperature when one was read, its report ([`log_report`]), what
+/// the warm stages did when it started warm, and each mode declared by the evidence pooled over
+/// flights.
 pub fn log_flight(flight: &Flight) {
+    if flight.temperature_c.is_finite() {
+        defmt::info!("flight {=u32} diagnosed at {=f32} C", flight.number, flight.temperature_c);
+    }
     log_report(&flight.report);
     if let Some(warm) = &flight.warm {
         defmt::info!(
