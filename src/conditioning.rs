@@ -369,6 +369,29 @@ impl<const W: usize> MeasuredTrace<W> {
         Ok(())
     }
 
+    /// The closed window of the block means `samples` (as [`MeasuredTrace::current_a`] gives
+    /// them), its weights computed by [`MeasuredTrace::finish`]: the window a flight acquired,
+    /// rebuilt bit for bit from its samples alone (a commissioning flight's window kept in flash).
+    pub fn from_samples(samples: impl IntoIterator<Item = f32>) -> Result<Self, ConditioningError> {
+        let mut trace = Self::new();
+        trace.rebuild(samples)?;
+        Ok(trace)
+    }
+
+    /// [`MeasuredTrace::from_samples`] in place: whatever the window held is dropped first.
+    pub fn rebuild(&mut self, samples: impl IntoIterator<Item = f32>) -> Result<(), ConditioningError> {
+        self.current_a.clear();
+        self.weight.clear();
+        (self.block_sum_a, self.block_len) = (0.0, 0);
+        for y in samples {
+            if !y.is_finite() {
+                return Err(ConditioningError::NonFinite);
+            }
+            self.current_a.push(y).map_err(|_| ConditioningError::WindowFull)?;
+        }
+        self.finish()
+    }
+
     /// `true` once [`MeasuredTrace::finish`] succeeded.
     pub fn is_finished(&self) -> bool {
         !self.weight.is_empty()
@@ -399,6 +422,23 @@ impl<const W: usize> MeasuredTrace<W> {
 mod tests {
     use super::*;
     use core::f32::consts::PI;
+
+    #[test]
+    fn a_window_rebuilt_from_its_samples_is_the_same_bit_for_bit() {
+        let mut t = MeasuredTrace::<600>::new();
+        for j in 0..2000 {
+            let i = 2.0 * libm::sinf(j as f32 * 0.01) + 0.3 * libm::cosf(j as f32 * 0.37);
+            t.push(i, -i, 0.01 * (j % 7) as f32).unwrap();
+        }
+        t.finish().unwrap();
+        let back = MeasuredTrace::<600>::from_samples(t.current_a().iter().copied()).unwrap();
+        assert_eq!(back.current_a().len(), 500);
+        assert!(back.current_a().iter().zip(t.current_a()).all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert!(back.weight().iter().zip(t.weight()).all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert_eq!(MeasuredTrace::<600>::from_samples([1.0, f32::NAN]).err(), Some(ConditioningError::NonFinite));
+        assert_eq!(MeasuredTrace::<60>::from_samples([1.0; 61]).err(), Some(ConditioningError::WindowFull));
+        assert_eq!(MeasuredTrace::<600>::from_samples([1.0; 3]).err(), Some(ConditioningError::TooShort));
+    }
 
     #[test]
     fn equivalent_current_of_ideal_six_step_currents_is_the_pair_current() {

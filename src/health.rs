@@ -129,17 +129,21 @@ pub enum Abstain {
     /// faults found ([`crate::commissioning::fault_pays_over_unit`]): the unit differs from the
     /// parameters the monitor has for it. Commissioning the unit gives it its own.
     UnitMismatch,
+    /// A commissioning flight ([`crate::flight`]): its window is kept to fit the unit's
+    /// baseline, and no diagnosis is made until the baseline exists.
+    Commissioning,
 }
 
 impl Abstain {
     /// Lower-case reason, as logged: `poor fit`, `partial coverage`, `rate mismatch`,
-    /// `unit mismatch`.
+    /// `unit mismatch`, `commissioning`.
     pub const fn label(self) -> &'static str {
         match self {
             Abstain::PoorFit => "poor fit",
             Abstain::PartialCoverage => "partial coverage",
             Abstain::RateMismatch => "rate mismatch",
             Abstain::UnitMismatch => "unit mismatch",
+            Abstain::Commissioning => "commissioning",
         }
     }
 }

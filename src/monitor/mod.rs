@@ -74,6 +74,9 @@ pub enum MonitorError {
     /// The health record belongs to another unit or was made under other parameters
     /// ([`crate::flight::HealthMonitor::adopt`]).
     ForeignRecord,
+    /// Commissioning settings refused: 1 to
+    /// [`crate::flight::MAX_ONBOARD_COMMISSIONING_FLIGHTS`] flights and a valid tolerance table.
+    Commissioning,
 }
 
 impl core::fmt::Display for MonitorError {
@@ -88,6 +91,9 @@ impl core::fmt::Display for MonitorError {
             MonitorError::FastRegimeWeight => f.write_str("the fast-regime weight is not in (0, 1]"),
             MonitorError::Prior => f.write_str("the prior of a warm start is not a fault vector in [0, 1]"),
             MonitorError::Pool(e) => write!(f, "recordings refused: {e}"),
+            MonitorError::Commissioning => {
+                f.write_str("commissioning settings refused: 1 to 3 flights and a valid tolerance table")
+            }
             MonitorError::ForeignRecord => {
                 f.write_str("the health record is another unit's or was made under other parameters")
             }

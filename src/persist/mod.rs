@@ -20,7 +20,12 @@ pub mod record;
 pub mod store;
 #[cfg(test)]
 mod tests;
+pub mod window;
 
 pub use flash::{block_on, Blocking, RamFlash, RamFlashError};
-pub use record::{HealthRecord, HistoryEntry, ModeHistory, RecordError, RecordIdentity, HISTORY_LEN, RECORD_VERSION};
+pub use record::{
+    Commissioning, CommissioningRefusal, HealthRecord, HistoryEntry, ModeHistory, RecordError, RecordIdentity,
+    UnitBaseline, HISTORY_LEN, RECORD_VERSION,
+};
 pub use store::{FlashFault, HealthStore, StoreError};
+pub use window::{window_encoded_len, WindowError};

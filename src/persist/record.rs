@@ -28,8 +28,16 @@
 //! | 112 | 640 | history: per mode, [`HISTORY_LEN`] × (flight `u32`, severity `f32`) |
 //! | 752 | 4 | identity of the parameters ([`crate::EmaParams::identity`]) |
 //! | 756 | 4 | unit serial number (0: not given) |
+//! | 760 | 1 | commissioning flights planned (0: none) |
+//! | 761 | 1 | commissioning windows kept so far |
+//! | 762 | 1 | commissioning state: 0 off, 1 collecting, 2 commissioned, 3 refused (a parameter out of tolerance), 4 refused (not healthy against the baseline), 5 refused (the fit failed) |
+//! | 763 | 1 | the parameter out of tolerance (state 3), the status code (state 4), else 0 |
+//! | 764 | 2 | resolved unit parameters, one bit each ([`crate::unit::UNIT_PARAMS`] order) |
+//! | 766 | 2 | reserved, 0 |
+//! | 768 | 44 | the unit's deviations `z`, 11 × `f32` (tolerance σ, [`crate::unit`]) |
+//! | 812 | 44 | their posterior 1σ, 11 × `f32` |
 //!
-//! A record of version 1 (the same layout without the identity, 752 bytes) decodes with the
+//! A record of version 1 (the same layout without the identity and commissioning, 752 bytes) decodes with the
 //! identity [`RecordIdentity::UNKNOWN`]: its history stays readable, and the flight API keeps it
 //! aside and starts a new one ([`crate::flight::HealthMonitor::adopt`]), since nothing says which
 //! parameters it was made under. A record of any other version, of a length that is not its
@@ -39,6 +47,7 @@
 
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::health::{Abstain, FaultMode, HealthReport, Status};
+use crate::unit::UNIT_PARAM_COUNT;
 
 /// Format version of the encoding; a change of layout takes the next number.
 pub const RECORD_VERSION: u8 = 2;
@@ -66,6 +75,63 @@ const OFF_HISTORY: usize = 112;
 const ENTRY_LEN: usize = 8;
 const OFF_IDENTITY: usize = OFF_HISTORY + MODES * HISTORY_LEN * ENTRY_LEN;
 const OFF_SERIAL: usize = OFF_IDENTITY + 4;
+const OFF_PLANNED: usize = OFF_SERIAL + 4;
+const OFF_KEPT: usize = OFF_PLANNED + 1;
+const OFF_STATE: usize = OFF_KEPT + 1;
+const OFF_DETAIL: usize = OFF_STATE + 1;
+const OFF_RESOLVED: usize = OFF_DETAIL + 1;
+const OFF_Z: usize = OFF_RESOLVED + 4;
+const OFF_SIGMA_Z: usize = OFF_Z + 4 * UNIT_PARAM_COUNT;
+
+/// A unit's baseline as the record keeps it: its deviations from the drawing (tolerance σ,
+/// [`crate::unit::Tolerances::apply`]), their posterior 1σ and which ones commissioning resolved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct UnitBaseline {
+    /// The deviations (0 where not resolved).
+    pub z: [f32; UNIT_PARAM_COUNT],
+    /// Their posterior 1σ.
+    pub sigma_z: [f32; UNIT_PARAM_COUNT],
+    /// Which ones the commissioning flights resolved.
+    pub resolved: [bool; UNIT_PARAM_COUNT],
+}
+
+/// Why a commissioning gave no baseline.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CommissioningRefusal {
+    /// Unit parameter `param` ([`crate::unit::UNIT_PARAMS`] order) fitted `z` σ from nominal,
+    /// beyond [`crate::commissioning::OUT_OF_TOLERANCE_SIGMAS`]: a fault, or another actuator.
+    OutOfTolerance {
+        /// The parameter.
+        param: u8,
+        /// Its fitted deviation (tolerance σ).
+        z: f32,
+    },
+    /// The last commissioning flight, diagnosed against the fitted baseline, was not HEALTHY.
+    NotHealthy(Status),
+    /// The fit itself failed (a window missing from flash, a refused setting).
+    Failed,
+}
+
+/// Where the record's unit is in its commissioning.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Commissioning {
+    /// None asked: the unit is diagnosed against the parameters as given.
+    Off,
+    /// Collecting the windows of `planned` healthy flights, `kept` so far.
+    Collecting {
+        /// Commissioning flights asked for.
+        planned: u8,
+        /// Windows kept so far.
+        kept: u8,
+    },
+    /// Done: later flights are diagnosed against this baseline.
+    Commissioned(UnitBaseline),
+    /// Done without a baseline; later flights are diagnosed against the parameters as given.
+    Refused(CommissioningRefusal),
+}
 
 /// Which unit, under which parameters, a record belongs to: the diagnoses, history and evidence
 /// it holds mean something only for that unit and those parameters.
@@ -95,6 +161,8 @@ pub enum RecordError {
     Status(u8),
     /// A history length or ring head out of range.
     History,
+    /// An unknown commissioning state, or its fields out of range.
+    Commissioning,
     /// The output buffer is shorter than [`HealthRecord::ENCODED_LEN`].
     BufferTooSmall,
 }
@@ -165,6 +233,7 @@ impl ModeHistory {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HealthRecord {
     identity: RecordIdentity,
+    commissioning: Commissioning,
     flights: u32,
     flights_since_cold: u32,
     k: [f32; FAULT_COUNT],
@@ -183,7 +252,7 @@ impl Default for HealthRecord {
 
 /// The one-byte code of a [`Status`] in the record: 0 healthy, 1 degraded, 2 failing,
 /// 3 inconclusive (poor fit), 4 inconclusive (partial coverage), 5 inconclusive (rate mismatch),
-/// 6 sensor fault, 7 inconclusive (unit mismatch).
+/// 6 sensor fault, 7 inconclusive (unit mismatch), 8 inconclusive (commissioning).
 pub const fn status_code(status: Status) -> u8 {
     match status {
         Status::Healthy => 0,
@@ -193,6 +262,7 @@ pub const fn status_code(status: Status) -> u8 {
         Status::Inconclusive(Abstain::PartialCoverage) => 4,
         Status::Inconclusive(Abstain::RateMismatch) => 5,
         Status::Inconclusive(Abstain::UnitMismatch) => 7,
+        Status::Inconclusive(Abstain::Commissioning) => 8,
         Status::SensorFault => 6,
     }
 }
@@ -212,6 +282,7 @@ pub const fn status_of_code(code: u8) -> Result<Option<Status>, RecordError> {
         5 => Status::Inconclusive(Abstain::RateMismatch),
         6 => Status::SensorFault,
         7 => Status::Inconclusive(Abstain::UnitMismatch),
+        8 => Status::Inconclusive(Abstain::Commissioning),
         NO_STATUS => return Ok(None),
         _ => return Err(RecordError::Status(code)),
     }))
@@ -219,7 +290,7 @@ pub const fn status_of_code(code: u8) -> Result<Option<Status>, RecordError> {
 
 impl HealthRecord {
     /// Bytes of the encoding ([`HealthRecord::encode`]).
-    pub const ENCODED_LEN: usize = OFF_SERIAL + 4;
+    pub const ENCODED_LEN: usize = OFF_SIGMA_Z + 4 * UNIT_PARAM_COUNT;
 
     /// The record before the first flight: no flight, the healthy vector
     /// ([`FaultVector::HEALTHY`]), `sigma` unknown (NaN), no history, no evidence, no status,
@@ -232,6 +303,7 @@ impl HealthRecord {
     pub const fn for_unit(identity: RecordIdentity) -> Self {
         Self {
             identity,
+            commissioning: Commissioning::Off,
             flights: 0,
             flights_since_cold: 0,
             k: FaultVector::HEALTHY.0,
@@ -266,6 +338,24 @@ impl HealthRecord {
     /// The unit and parameters the record belongs to.
     pub fn identity(&self) -> RecordIdentity {
         self.identity
+    }
+
+    /// Where the unit is in its commissioning.
+    pub fn commissioning(&self) -> Commissioning {
+        self.commissioning
+    }
+
+    /// Sets where the unit is in its commissioning (the flight API's, [`crate::flight`]).
+    pub fn set_commissioning(&mut self, commissioning: Commissioning) {
+        self.commissioning = commissioning;
+    }
+
+    /// The unit's baseline, once commissioned.
+    pub fn baseline(&self) -> Option<&UnitBaseline> {
+        match &self.commissioning {
+            Commissioning::Commissioned(b) => Some(b),
+            _ => None,
+        }
     }
 
     /// Flights recorded ([`HealthRecord::new_flight`] calls).
@@ -354,6 +444,39 @@ impl HealthRecord {
         }
         put_u32(out, OFF_IDENTITY, self.identity.params);
         put_u32(out, OFF_SERIAL, self.identity.unit_serial);
+        let (planned, kept, state, detail, baseline) = match self.commissioning {
+            Commissioning::Off => (0, 0, 0, 0, None),
+            Commissioning::Collecting { planned, kept } => (planned, kept, 1, 0, None),
+            Commissioning::Commissioned(b) => (0, 0, 2, 0, Some(b)),
+            Commissioning::Refused(CommissioningRefusal::OutOfTolerance { param, z }) => {
+                let mut b = UnitBaseline {
+                    z: [0.0; UNIT_PARAM_COUNT],
+                    sigma_z: [0.0; UNIT_PARAM_COUNT],
+                    resolved: [false; UNIT_PARAM_COUNT],
+                };
+                if let Some(zi) = b.z.get_mut(usize::from(param)) {
+                    *zi = z;
+                }
+                (0, 0, 3, param, Some(b))
+            }
+            Commissioning::Refused(CommissioningRefusal::NotHealthy(status)) => (0, 0, 4, status_code(status), None),
+            Commissioning::Refused(CommissioningRefusal::Failed) => (0, 0, 5, 0, None),
+        };
+        for (at, v) in [(OFF_PLANNED, planned), (OFF_KEPT, kept), (OFF_STATE, state), (OFF_DETAIL, detail)] {
+            if let Some(b) = out.get_mut(at) {
+                *b = v;
+            }
+        }
+        if let Some(b) = baseline {
+            let mask = b.resolved.iter().enumerate().fold(0u16, |m, (i, r)| m | (u16::from(*r) << i));
+            if let Some(dst) = out.get_mut(OFF_RESOLVED..OFF_RESOLVED + 2) {
+                dst.copy_from_slice(&mask.to_le_bytes());
+            }
+            for i in 0..UNIT_PARAM_COUNT {
+                put_f32(out, OFF_Z + 4 * i, b.z[i]);
+                put_f32(out, OFF_SIGMA_Z + 4 * i, b.sigma_z[i]);
+            }
+        }
         Ok(Self::ENCODED_LEN)
     }
 
@@ -398,6 +521,7 @@ impl HealthRecord {
         if version == RECORD_VERSION {
             record.identity =
                 RecordIdentity { params: get_u32(bytes, OFF_IDENTITY), unit_serial: get_u32(bytes, OFF_SERIAL) };
+            record.commissioning = decode_commissioning(bytes)?;
         }
         Ok(record)
     }
@@ -409,6 +533,33 @@ impl HealthRecord {
         let mut b = [0u8; Self::ENCODED_LEN];
         self.encode(&mut a).is_ok() && other.encode(&mut b).is_ok() && a == b
     }
+}
+
+/// The commissioning fields of a version-2 encoding of [`HealthRecord::ENCODED_LEN`] bytes.
+fn decode_commissioning(bytes: &[u8]) -> Result<Commissioning, RecordError> {
+    let byte = |at: usize| bytes.get(at).copied().unwrap_or(0);
+    let (planned, kept, detail) = (byte(OFF_PLANNED), byte(OFF_KEPT), byte(OFF_DETAIL));
+    let mask = u16::from_le_bytes([byte(OFF_RESOLVED), byte(OFF_RESOLVED + 1)]);
+    let baseline = UnitBaseline {
+        z: core::array::from_fn(|i| get_f32(bytes, OFF_Z + 4 * i)),
+        sigma_z: core::array::from_fn(|i| get_f32(bytes, OFF_SIGMA_Z + 4 * i)),
+        resolved: core::array::from_fn(|i| mask & (1 << i) != 0),
+    };
+    Ok(match byte(OFF_STATE) {
+        0 => Commissioning::Off,
+        1 if kept < planned => Commissioning::Collecting { planned, kept },
+        2 => Commissioning::Commissioned(baseline),
+        3 if usize::from(detail) < UNIT_PARAM_COUNT => Commissioning::Refused(CommissioningRefusal::OutOfTolerance {
+            param: detail,
+            z: baseline.z[usize::from(detail)],
+        }),
+        4 => match status_of_code(detail)? {
+            Some(status) => Commissioning::Refused(CommissioningRefusal::NotHealthy(status)),
+            None => return Err(RecordError::Commissioning),
+        },
+        5 => Commissioning::Refused(CommissioningRefusal::Failed),
+        _ => return Err(RecordError::Commissioning),
+    })
 }
 
 fn put_u32(out: &mut [u8], at: usize, v: u32) {

@@ -25,6 +25,8 @@ use sequential_storage::Error as SsError;
 
 use super::flash::{block_on, Blocking};
 use super::record::{HealthRecord, RecordError};
+use super::window::{decode_window_into, encode_window, window_encoded_len, WindowError, WINDOW_HEADER_LEN};
+use crate::conditioning::MeasuredTrace;
 
 /// The map key of the health record.
 pub const RECORD_KEY: u8 = 0x48; // 'H'
@@ -32,6 +34,25 @@ pub const RECORD_KEY: u8 = 0x48; // 'H'
 /// The map key of the archived record: the last record of another unit or other parameters,
 /// kept readable when a new history starts ([`HealthStore::archive`]).
 pub const ARCHIVE_KEY: u8 = 0x41; // 'A'
+
+/// The map key of chunk `c` of commissioning window `slot` is this plus
+/// `slot·WINDOW_CHUNKS + c` ([`HealthStore::keep_window`]).
+pub const WINDOW_KEY_BASE: u8 = 0x60;
+
+/// Commissioning windows the store keeps at most (slots `0..WINDOW_SLOTS`).
+pub const WINDOW_SLOTS: u8 = 8;
+
+/// Bytes of one chunk of a kept window. Every map operation migrates the items of a page it
+/// recycles through its work buffer, so no item may be larger than the record's: a window
+/// (8.5 KB on board) is kept as chunks of this size, a multiple of 4 so that no sample straddles
+/// two chunks.
+pub const WINDOW_CHUNK_LEN: usize = 768;
+
+/// Chunks per window slot: a window of up to [`MAX_KEPT_SAMPLES`] samples.
+pub const WINDOW_CHUNKS: u8 = 12;
+
+/// Most block means a kept window holds (the on-board window's 2200 fit).
+pub const MAX_KEPT_SAMPLES: usize = (WINDOW_CHUNKS as usize * WINDOW_CHUNK_LEN - WINDOW_HEADER_LEN) / 4;
 
 /// Bytes of the store's work buffer: key (1 byte) + record, rounded up to the largest flash
 /// word `sequential-storage` supports (32 bytes).
@@ -53,6 +74,9 @@ pub enum StoreError {
     /// The intact stored item is not a record of this format (another version, an unknown
     /// status code): [`RecordError`].
     Record(RecordError),
+    /// A commissioning window was refused or does not decode ([`WindowError`]), its slot is not
+    /// below [`WINDOW_SLOTS`], or it holds more than [`MAX_KEPT_SAMPLES`].
+    Window(WindowError),
     /// The item does not fit in a page, or the storage is full (one key cannot fill it).
     Full,
     /// The flash future did not complete ([`super::block_on`] gave up).
@@ -159,6 +183,71 @@ impl<F: NorFlash> HealthStore<F> {
     /// one.
     pub fn load_archive(&mut self) -> Result<Option<HealthRecord>, StoreError> {
         self.load_key(ARCHIVE_KEY)
+    }
+
+    /// Keeps commissioning window `slot` (the closed `window` of a flight flown at
+    /// `temperature_c`), replacing what the slot held, as [`WINDOW_CHUNKS`] items of at most
+    /// [`WINDOW_CHUNK_LEN`] bytes. `buffer` holds the whole encoding
+    /// ([`super::window_encoded_len`] of the window's samples) for this call: it lives in the
+    /// caller's frame, not in the store, since a window is kept only while commissioning. A cut
+    /// in the middle leaves a slot whose chunks disagree: its load fails, never misreads
+    /// ([`super::window`]'s header and length checks).
+    pub fn keep_window<const W: usize>(
+        &mut self,
+        slot: u8,
+        window: &MeasuredTrace<W>,
+        temperature_c: f32,
+        buffer: &mut [u8],
+    ) -> Result<(), StoreError> {
+        if slot >= WINDOW_SLOTS || window.len() > MAX_KEPT_SAMPLES {
+            return Err(StoreError::Window(WindowError::NotKeepable));
+        }
+        let len = encode_window(window, temperature_c, buffer).map_err(StoreError::Window)?;
+        let encoded = buffer.get(..len).ok_or(StoreError::Window(WindowError::BufferTooSmall))?;
+        for (c, chunk) in (0..WINDOW_CHUNKS).zip(encoded.chunks(WINDOW_CHUNK_LEN)) {
+            let key = WINDOW_KEY_BASE + slot * WINDOW_CHUNKS + c;
+            let stored = block_on(self.map.store_item(&mut self.buf.0, &key, &chunk)).ok_or(StoreError::Stalled)?;
+            stored.map_err(store_error)?;
+        }
+        Ok(())
+    }
+
+    /// Commissioning window `slot` rebuilt into `out` ([`HealthStore::keep_window`]; `buffer` as
+    /// there): `Ok(Some(temperature))` when the slot holds one, `Ok(None)` when it does not.
+    pub fn load_window<const W: usize>(
+        &mut self,
+        slot: u8,
+        out: &mut MeasuredTrace<W>,
+        buffer: &mut [u8],
+    ) -> Result<Option<f32>, StoreError> {
+        if slot >= WINDOW_SLOTS {
+            return Err(StoreError::Window(WindowError::NotKeepable));
+        }
+        let mut len = usize::MAX;
+        let mut filled = 0;
+        for c in 0..WINDOW_CHUNKS {
+            if filled >= len {
+                break;
+            }
+            let key = WINDOW_KEY_BASE + slot * WINDOW_CHUNKS + c;
+            let fetched = block_on(self.map.fetch_item::<&[u8]>(&mut self.buf.0, &key)).ok_or(StoreError::Stalled)?;
+            let Some(chunk) = fetched.map_err(store_error)? else {
+                return if c == 0 { Ok(None) } else { Err(StoreError::Window(WindowError::Length)) };
+            };
+            let dst =
+                buffer.get_mut(filled..filled + chunk.len()).ok_or(StoreError::Window(WindowError::BufferTooSmall))?;
+            dst.copy_from_slice(chunk);
+            filled += chunk.len();
+            if c == 0 {
+                let n = match buffer.get(2..4) {
+                    Some(&[a, b]) if filled >= WINDOW_HEADER_LEN => usize::from(u16::from_le_bytes([a, b])),
+                    _ => return Err(StoreError::Window(WindowError::Length)),
+                };
+                len = window_encoded_len(n);
+            }
+        }
+        let encoded = buffer.get(..len).ok_or(StoreError::Window(WindowError::Length))?;
+        decode_window_into(encoded, out).map(Some).map_err(StoreError::Window)
     }
 
     fn load_key(&mut self, key: u8) -> Result<Option<HealthRecord>, StoreError> {

@@ -1,6 +1,7 @@
 //! Host tests of the health record and store: encoding, history, save/load/reset, a power cut at
 //! every byte of a save (at every position in the page cycle), every single corrupted byte, wear.
 
+use super::store::WINDOW_SLOTS;
 use super::*;
 use crate::faults::FaultVector;
 use crate::health::{Abstain, FaultMode, HealthReport, Status};
@@ -56,7 +57,7 @@ fn record_round_trips_bit_exactly() {
     let back = HealthRecord::decode(&buf).unwrap();
     assert!(back.same_bits(&r));
     assert!(back.sigma().iter().all(|s| s.is_nan()), "sigma unknown until set");
-    assert_eq!(HealthRecord::ENCODED_LEN, 760);
+    assert_eq!(HealthRecord::ENCODED_LEN, 856);
     assert_eq!(buf[0], RECORD_VERSION);
 }
 
@@ -70,20 +71,59 @@ fn a_version_1_record_reads_with_its_history_and_no_identity() {
     let mut buf = [0u8; HealthRecord::ENCODED_LEN];
     r.encode(&mut buf).unwrap();
     assert_eq!(HealthRecord::decode(&buf).unwrap().identity(), identity);
-    // version 1 is the same layout without the identity's 8 bytes at the end
-    let mut v1 = [0u8; HealthRecord::ENCODED_LEN - 8];
-    v1.copy_from_slice(&buf[..HealthRecord::ENCODED_LEN - 8]);
+    // version 1 is the same layout without the identity and commissioning at the end (752 bytes)
+    let mut v1 = [0u8; 752];
+    v1.copy_from_slice(&buf[..752]);
     v1[0] = 1;
     let old = HealthRecord::decode(&v1).unwrap();
     assert_eq!(old.identity(), RecordIdentity::UNKNOWN);
     assert_eq!((old.flights(), old.faults(), old.status()), (r.flights(), r.faults(), r.status()));
     assert!(FaultMode::ALL.iter().all(|&m| old.history(m) == r.history(m)));
     // each version has its own length
-    assert_eq!(HealthRecord::decode(&buf[..HealthRecord::ENCODED_LEN - 8]), Err(RecordError::Length));
+    assert_eq!(HealthRecord::decode(&buf[..752]), Err(RecordError::Length));
     let mut long_v1 = buf;
     long_v1[0] = 1;
     assert_eq!(HealthRecord::decode(&long_v1), Err(RecordError::Length));
     assert_eq!(HealthRecord::decode(&[]), Err(RecordError::Length));
+}
+
+#[test]
+fn every_commissioning_state_round_trips_and_a_bad_one_is_refused() {
+    let baseline = UnitBaseline {
+        z: core::array::from_fn(|i| 0.25 * i as f32 - 1.0),
+        sigma_z: core::array::from_fn(|i| 0.5 + 0.01 * i as f32),
+        resolved: core::array::from_fn(|i| i % 3 != 1),
+    };
+    let states = [
+        Commissioning::Off,
+        Commissioning::Collecting { planned: 3, kept: 2 },
+        Commissioning::Commissioned(baseline),
+        Commissioning::Refused(CommissioningRefusal::OutOfTolerance { param: 7, z: 5.5 }),
+        Commissioning::Refused(CommissioningRefusal::NotHealthy(Status::Degraded)),
+        Commissioning::Refused(CommissioningRefusal::Failed),
+    ];
+    for state in states {
+        let mut r = record_after(4);
+        r.set_commissioning(state);
+        let mut buf = [0u8; HealthRecord::ENCODED_LEN];
+        r.encode(&mut buf).unwrap();
+        let back = HealthRecord::decode(&buf).unwrap();
+        assert_eq!(back.commissioning(), state);
+        assert!(back.same_bits(&r));
+        assert_eq!(back.baseline().is_some(), matches!(state, Commissioning::Commissioned(_)));
+    }
+    let mut r = record_after(1);
+    r.set_commissioning(Commissioning::Collecting { planned: 2, kept: 1 });
+    let mut buf = [0u8; HealthRecord::ENCODED_LEN];
+    r.encode(&mut buf).unwrap();
+    for (at, value) in [(762, 9u8), (761, 2), (762, 3)] {
+        let mut bad = buf;
+        bad[at] = value;
+        if at == 762 && value == 3 {
+            bad[763] = 11; // no twelfth unit parameter
+        }
+        assert_eq!(HealthRecord::decode(&bad), Err(RecordError::Commissioning), "byte {at} = {value}");
+    }
 }
 
 #[test]
@@ -123,8 +163,8 @@ fn record_refuses_other_versions_and_bad_fields() {
     bad[0] = RECORD_VERSION + 1;
     assert_eq!(HealthRecord::decode(&bad), Err(RecordError::Version(RECORD_VERSION + 1)));
     let mut bad = buf;
-    bad[1] = 8;
-    assert_eq!(HealthRecord::decode(&bad), Err(RecordError::Status(8)));
+    bad[1] = 9;
+    assert_eq!(HealthRecord::decode(&bad), Err(RecordError::Status(9)));
     let mut bad = buf;
     bad[100] = HISTORY_LEN as u8 + 1;
     assert_eq!(HealthRecord::decode(&bad), Err(RecordError::History));
@@ -161,6 +201,7 @@ fn every_status_has_its_own_code_and_reads_back() {
         Status::Inconclusive(Abstain::PartialCoverage),
         Status::Inconclusive(Abstain::RateMismatch),
         Status::Inconclusive(Abstain::UnitMismatch),
+        Status::Inconclusive(Abstain::Commissioning),
         Status::SensorFault,
     ];
     for (i, &s) in all.iter().enumerate() {
@@ -366,7 +407,7 @@ fn block_on_gives_up_on_a_future_that_never_completes() {
 }
 
 /// On 128 KiB pages (the STM32F446's sectors, here with 4-byte words) a page holds
-/// `(131 072 − 2 page-state words) / 772 bytes per copy` = 169 copies before the store moves on
+/// `(131 072 − 2 page-state words) / 868 bytes per copy` = 150 copies before the store moves on
 /// and erases: the formula of `docs/persistence.md`, "Wear".
 #[test]
 fn a_large_page_holds_the_computed_number_of_copies() {
@@ -377,5 +418,38 @@ fn a_large_page_holds_the_computed_number_of_copies() {
         HealthStore::new(&mut *flash, 0..262_144).unwrap().save(&r).unwrap();
         saves += 1;
     }
-    assert_eq!(saves - 1, (131_072 - 2 * 4) / (8 + 764), "copies on the first page");
+    assert_eq!(saves - 1, (131_072 - 2 * 4) / (8 + 860), "copies on the first page");
+}
+
+#[test]
+fn commissioning_windows_are_kept_beside_the_record() {
+    use crate::conditioning::MeasuredTrace;
+    let mut flash = Box::new(RamFlash::<8, 4096>::new());
+    let mut s = HealthStore::new(&mut *flash, 0..RamFlash::<8, 4096>::CAPACITY as u32).unwrap();
+    let window = |phase: f32| {
+        MeasuredTrace::<2200>::from_samples((0..2125).map(|j| 4.0 * libm::sinf(0.01 * j as f32 + phase))).unwrap()
+    };
+    let mut buffer = [0u8; window::window_encoded_len(2200) + 32];
+    let record = record_after(3);
+    s.save(&record).unwrap();
+    s.keep_window(0, &window(0.0), -20.0, &mut buffer).unwrap();
+    s.keep_window(1, &window(1.0), 35.0, &mut buffer).unwrap();
+    for _ in 0..30 {
+        s.save(&record).unwrap();
+    }
+    let mut out = MeasuredTrace::<2200>::new();
+    assert_eq!(s.load_window(1, &mut out, &mut buffer), Ok(Some(35.0)));
+    assert!(out.current_a().iter().zip(window(1.0).current_a()).all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert_eq!(s.load_window(0, &mut out, &mut buffer), Ok(Some(-20.0)));
+    assert_eq!(s.load_window(2, &mut out, &mut buffer), Ok(None));
+    assert!(s.load_window(WINDOW_SLOTS, &mut out, &mut buffer).is_err());
+    assert!(is(&s.load(), Some(&record)));
+    // a buffer too small for the window is an error value
+    assert!(s.keep_window(2, &window(2.0), 0.0, &mut [0u8; 1024]).is_err());
+    assert!(s.load_window(1, &mut out, &mut [0u8; 1024]).is_err());
+    // a slot kept again replaces the old window; a window kept after a cut mid-way cannot be
+    // read as another
+    s.keep_window(1, &window(3.0), 5.0, &mut buffer).unwrap();
+    assert_eq!(s.load_window(1, &mut out, &mut buffer), Ok(Some(5.0)));
+    assert!(out.current_a().iter().zip(window(3.0).current_a()).all(|(a, b)| a.to_bits() == b.to_bits()));
 }

@@ -21,10 +21,10 @@ use ema_monitor::monitor::{configured_fit, group_present, IdentifyConfig, FAULT_
 use ema_monitor::unit::{Tolerances, UNIT_PARAM_COUNT};
 use ema_monitor::{Command, EmaParams, FaultVector};
 
-/// Particles of the unit's swarm (here and in `ema commission`).
-pub const UNIT_SWARM: usize = 24;
+/// Particles of the unit's swarm (here and in `ema commission`): the core's commissioning swarm.
+pub const UNIT_SWARM: usize = ema_monitor::commissioning::SWARM_PARTICLES;
 /// Its iterations.
-pub const UNIT_SWARM_ITERATIONS: u32 = 40;
+pub const UNIT_SWARM_ITERATIONS: u32 = ema_monitor::commissioning::SWARM_ITERATIONS;
 
 /// The best healthy unit for a recording, against the diagnosis.
 #[derive(Clone, Copy, Debug, PartialEq)]

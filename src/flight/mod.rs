@@ -45,8 +45,13 @@ use crate::monitor::{
     WarmReport, ONBOARD_POPULATION, ONBOARD_WINDOW,
 };
 use crate::optimizer::SearchStatus;
-use crate::persist::{HealthRecord, RecordIdentity};
+use crate::persist::{Commissioning, HealthRecord, RecordIdentity};
+use crate::unit::Tolerances;
 use crate::{Command, EmaParams, ModelEffects};
+
+mod commissioning;
+
+pub use commissioning::MAX_ONBOARD_COMMISSIONING_FLIGHTS;
 
 /// What the firmware does around the identification. Every method does nothing by default.
 pub trait FlightHooks {
@@ -61,6 +66,24 @@ pub trait FlightHooks {
     fn after_step(&mut self) {}
     /// After the identification's report, before its uncertainty and the record.
     fn identification_end(&mut self) {}
+    /// Before the baseline fit of the last commissioning flight ([`commissioning`]).
+    fn commissioning_start(&mut self) {}
+    /// After it.
+    fn commissioning_end(&mut self) {}
+    /// Keeps commissioning window `slot` (the closed `window` of a flight flown at
+    /// `temperature_c`) in flash for the last commissioning flight
+    /// ([`crate::persist::HealthStore::keep_window`]); `false` when it cannot, which ends the
+    /// commissioning without a baseline. Without flash (the default) nothing is kept.
+    fn keep_window<const W: usize>(&mut self, slot: u8, window: &MeasuredTrace<W>, temperature_c: f32) -> bool {
+        let _ = (slot, window, temperature_c);
+        false
+    }
+    /// Reads commissioning window `slot` back into `out` and gives its flight's temperature;
+    /// `None` when it cannot ([`crate::persist::HealthStore::load_window`]).
+    fn load_window<const W: usize>(&mut self, slot: u8, out: &mut MeasuredTrace<W>) -> Option<f32> {
+        let _ = (slot, out);
+        None
+    }
 }
 
 /// Hooks that do nothing: an identification run straight to its end.
@@ -115,6 +138,9 @@ pub struct Flight {
     /// The flight through the evidence pooled over flights (`None` when the report is no
     /// diagnosis: nothing to pool).
     pub pooled: Option<PooledFlight>,
+    /// Where the unit's commissioning stands after a commissioning flight (`None` for any
+    /// other flight).
+    pub commissioning: Option<Commissioning>,
 }
 
 impl Flight {
@@ -134,6 +160,8 @@ pub struct HealthMonitor<'c, const W: usize = ONBOARD_WINDOW, const P: usize = O
     command: Command<'c>,
     config: IdentifyConfig,
     unit_serial: u32,
+    commissioning_flights: u8,
+    tolerances: Tolerances,
 }
 
 impl<'c> HealthMonitor<'c> {
@@ -161,7 +189,25 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         if params.check().is_err() {
             return Err(MonitorError::Params);
         }
-        Ok(Self { params, command: command.into(), config: IdentifyConfig { prior: None, ..config }, unit_serial: 0 })
+        Ok(Self {
+            params,
+            command: command.into(),
+            config: IdentifyConfig { prior: None, ..config },
+            unit_serial: 0,
+            commissioning_flights: 0,
+            tolerances: Tolerances::TYPICAL,
+        })
+    }
+
+    /// The same monitor commissioning each new record (the first after a maintenance reset)
+    /// over its first `flights` flights, within `tolerances` ([`commissioning`]). Refuses 0 or
+    /// more than [`MAX_ONBOARD_COMMISSIONING_FLIGHTS`] flights, or a table that
+    /// [`Tolerances::check`] refuses.
+    pub fn with_commissioning(self, flights: u8, tolerances: Tolerances) -> Result<Self, MonitorError> {
+        if !(1..=MAX_ONBOARD_COMMISSIONING_FLIGHTS).contains(&flights) || tolerances.check().is_err() {
+            return Err(MonitorError::Commissioning);
+        }
+        Ok(Self { commissioning_flights: flights, tolerances, ..self })
     }
 
     /// The same monitor for the unit of serial number `serial` (0: none given), as the integrator
@@ -250,7 +296,27 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
             }
             *record = HealthRecord::for_unit(self.identity());
         }
-        let params = self.params.at_temperature(acquired.temperature_c);
+        if record.flights() == 0 && self.commissioning_flights > 0 && record.commissioning() == Commissioning::Off {
+            record.set_commissioning(Commissioning::Collecting { planned: self.commissioning_flights, kept: 0 });
+        }
+        if let Commissioning::Collecting { planned, kept } = record.commissioning() {
+            return self.commissioning_flight(trace, acquired, record, hooks, planned, kept);
+        }
+        let base = self.unit_params(record);
+        self.fly(trace, acquired, record, hooks, &base)
+    }
+
+    /// The flight policy on parameters `base` (at 20 °C): plan, identify, report with the
+    /// uncertainty, record with the pooled evidence.
+    fn fly(
+        &self,
+        trace: &MeasuredTrace<W>,
+        acquired: &Acquired,
+        record: &mut HealthRecord,
+        hooks: &mut impl FlightHooks,
+        base: &EmaParams,
+    ) -> Result<Flight, MonitorError> {
+        let params = base.at_temperature(acquired.temperature_c);
         let start = self.plan(record);
         let prior = match start {
             Start::Warm => Some(record.faults().0),
@@ -269,7 +335,16 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         };
         let cold = prior.is_none() || warm.is_some_and(|w| w.cold_fallback);
         let pooled = self.record(record, trace, &params, &report, cold);
-        Ok(Flight { number, temperature_c: acquired.temperature_c, start, cold, report, warm, pooled })
+        Ok(Flight {
+            number,
+            temperature_c: acquired.temperature_c,
+            start,
+            cold,
+            report,
+            warm,
+            pooled,
+            commissioning: None,
+        })
     }
 
     /// The identification, cold without a prior and warm from it, one evaluation per step with
@@ -326,207 +401,4 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::conditioning::DECIMATION;
-    use crate::faults::FaultVector;
-    use crate::fitness::simulate_window;
-    use crate::monitor::ColdReason;
-    use crate::optimizer::rng::Rng;
-    use crate::Profile;
-
-    /// Units off the drawing: winding resistance, EMF constant and dynamic friction a few
-    /// percent off nominal, as production tolerances spread them.
-    fn units() -> [EmaParams; 2] {
-        let n = EmaParams::NOMINAL;
-        [
-            EmaParams {
-                phase_resistance_ohm: 1.04 * n.phase_resistance_ohm,
-                phase_emf_constant_v_s_per_rad: 0.97 * n.phase_emf_constant_v_s_per_rad,
-                ..n
-            },
-            EmaParams {
-                phase_emf_constant_v_s_per_rad: 1.02 * n.phase_emf_constant_v_s_per_rad,
-                dynamic_friction_n_m: 1.1 * n.dynamic_friction_n_m,
-                ..n
-            },
-        ]
-    }
-
-    /// Frames of `unit` with faults `truth`, from the monitor model itself, with the nominal
-    /// actuator's noise (0.29 A of controller jitter on the pair current, 0.02 A per sensor).
-    struct Frames {
-        frames: [[f32; 3]; 8500],
-        next: usize,
-    }
-
-    impl Frames {
-        fn of(unit: &EmaParams, truth: &FaultVector, seed: u64) -> Self {
-            let mut frames = [[0.0f32; 3]; 8500];
-            let mut rng = Rng::new(seed);
-            let samples = frames.len() / DECIMATION;
-            simulate_window(unit, &Profile::STANDARD, truth, samples, |j, i, _| {
-                for f in frames.iter_mut().skip(j * DECIMATION).take(DECIMATION) {
-                    let pair = i + 0.29 * rng.normal();
-                    *f = [pair + 0.02 * rng.normal(), -pair + 0.02 * rng.normal(), 0.02 * rng.normal()];
-                }
-                true
-            });
-            Self { frames, next: 0 }
-        }
-    }
-
-    impl PhaseCurrents for Frames {
-        fn read_frame(&mut self) -> Result<crate::acquisition::PhaseFrame, crate::acquisition::AcquisitionError> {
-            let [ia_a, ib_a, ic_a] =
-                *self.frames.get(self.next).ok_or(crate::acquisition::AcquisitionError::EndOfData)?;
-            self.next += 1;
-            Ok(crate::acquisition::PhaseFrame { ia_a, ib_a, ic_a, codes: [0; 3] })
-        }
-    }
-
-    #[test]
-    fn flights_start_cold_then_warm_and_pool_their_evidence_on_units_off_nominal() {
-        let truth = FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
-        for (u, unit) in units().iter().enumerate() {
-            // the unit's own parameters: what commissioning gives the monitor
-            let monitor = HealthMonitor::onboard(*unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
-            let mut record = HealthRecord::new();
-            for flight in 1..=3u32 {
-                let mut trace = MeasuredTrace::new();
-                let mut source = Frames::of(unit, &truth, 100 * u as u64 + u64::from(flight));
-                let acquired = monitor.acquire(&mut source, &mut trace, 10_000.0).unwrap();
-                assert_eq!(acquired.summary.frames, 8500);
-                let f = monitor.diagnose(&trace, &acquired, &mut record, &mut NoHooks).unwrap();
-                let expected = if flight == 1 { Start::Cold(ColdReason::NoPrior) } else { Start::Warm };
-                assert_eq!((f.number, f.start), (flight, expected), "unit {u}");
-                assert_eq!(f.cold, flight == 1);
-                assert!(f.report.status.is_diagnosis(), "unit {u} flight {flight}: {:?}", f.report.status);
-                assert!(f.report.uncertainty.is_some());
-                let friction = f.report.faults.0[0];
-                assert!((friction - 0.3).abs() < 0.03, "unit {u} flight {flight}: friction {friction}");
-                assert_eq!(f.pooled.map(|p| p.evidence.flights), Some(flight));
-                assert_eq!((record.flights(), record.flights_since_cold()), (flight, flight - 1));
-                assert_eq!(record.faults(), f.recorded_report().faults);
-            }
-        }
-    }
-
-    #[test]
-    fn the_flight_api_reports_what_the_identification_reports() {
-        let unit = units()[0];
-        let truth = FaultVector([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
-        let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
-        let mut trace = MeasuredTrace::new();
-        let acquired = monitor.acquire(&mut Frames::of(&unit, &truth, 7), &mut trace, 10_000.0).unwrap();
-        let mut record = HealthRecord::new();
-        let flight = monitor.diagnose(&trace, &acquired, &mut record, &mut NoHooks).unwrap();
-        let config = IdentifyConfig::onboard();
-        let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
-            Identification::new(&trace, unit, Profile::STANDARD, &config).unwrap();
-        id.run(u32::MAX);
-        let direct = id.with_uncertainty(id.report());
-        assert_eq!(flight.report.faults.0.map(f32::to_bits), direct.faults.0.map(f32::to_bits));
-        assert_eq!(flight.report.fitness.to_bits(), direct.fitness.to_bits());
-        assert_eq!(flight.report.evaluations, direct.evaluations);
-        assert_eq!(flight.report.uncertainty, direct.uncertainty);
-    }
-
-    #[test]
-    fn a_refused_flight_leaves_the_record_as_it_was_and_a_bad_rate_abstains() {
-        let unit = units()[1];
-        let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
-        let mut trace = MeasuredTrace::new();
-        let healthy = FaultVector::HEALTHY;
-        let acquired = monitor.acquire(&mut Frames::of(&unit, &healthy, 3), &mut trace, 8_000.0).unwrap();
-        let mut record = HealthRecord::new();
-        let f = monitor.diagnose(&trace, &acquired, &mut record, &mut NoHooks).unwrap();
-        assert_eq!(f.report.status, Status::Inconclusive(Abstain::RateMismatch));
-        assert_eq!(record.flights(), 1);
-        assert!(!record.has_prior(), "an abstention is no prior for a warm start");
-        // a window the acquisition did not close is refused, and nothing is recorded
-        let before = record;
-        let open = MeasuredTrace::new();
-        let e = monitor.diagnose(&open, &acquired, &mut record, &mut NoHooks).unwrap_err();
-        assert!(matches!(e, MonitorError::Conditioning(_)), "{e:?}");
-        assert!(record.same_bits(&before));
-        let bad = EmaParams { phase_resistance_ohm: -1.0, ..unit };
-        assert_eq!(
-            HealthMonitor::onboard(bad, Profile::STANDARD, ModelEffects::NONE).unwrap_err(),
-            MonitorError::Params
-        );
-    }
-
-    #[test]
-    fn a_record_of_other_parameters_or_another_unit_is_archived_and_a_new_history_starts() {
-        let [a, b] = units();
-        let monitor = HealthMonitor::onboard(a, Profile::STANDARD, ModelEffects::NONE).unwrap();
-        let report = crate::health::HealthReport::new(FaultVector::HEALTHY, &a, 0.01, 100, 10, None);
-        // a new record takes the monitor's identity, and stays
-        let mut record = HealthRecord::new();
-        assert!(monitor.adopt(&mut record).is_none());
-        assert_eq!(record.identity(), monitor.identity());
-        record.new_flight(&report, true);
-        record.new_flight(&report, false);
-        let own = record;
-        assert!(monitor.adopt(&mut record).is_none());
-        assert!(record.same_bits(&own));
-        // other parameters, another unit's serial, a record that does not say: archived
-        let others =
-            [HealthMonitor::onboard(b, Profile::STANDARD, ModelEffects::NONE).unwrap(), monitor.with_unit_serial(7)];
-        for other in others {
-            assert_ne!(other.identity(), monitor.identity());
-            let mut loaded = own;
-            let mut trace = MeasuredTrace::new();
-            let acquired = other.acquire(&mut Frames::of(&b, &FaultVector::HEALTHY, 5), &mut trace, 10_000.0).unwrap();
-            assert_eq!(
-                other.diagnose(&trace, &acquired, &mut loaded, &mut NoHooks).unwrap_err(),
-                MonitorError::ForeignRecord
-            );
-            assert!(loaded.same_bits(&own), "a refused flight leaves the record as it was");
-            let archived = other.adopt(&mut loaded).expect("the old history is handed back");
-            assert!(archived.same_bits(&own));
-            assert_eq!((loaded.flights(), loaded.identity()), (0, other.identity()));
-            let f = other.diagnose(&trace, &acquired, &mut loaded, &mut NoHooks).unwrap();
-            assert_eq!((f.number, f.start), (1, Start::Cold(ColdReason::NoPrior)));
-        }
-        let mut encoded = [0u8; HealthRecord::ENCODED_LEN];
-        own.encode(&mut encoded).unwrap();
-        encoded[0] = 1;
-        let mut version_1 = HealthRecord::decode(&encoded[..HealthRecord::ENCODED_LEN - 8]).unwrap();
-        assert_eq!(monitor.adopt(&mut version_1).map(|r| r.flights()), Some(2));
-        assert_eq!(version_1.identity(), monitor.identity());
-    }
-
-    #[test]
-    fn a_flight_with_a_temperature_is_diagnosed_at_that_temperature() {
-        let truth = FaultVector([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
-        for (u, unit) in units().iter().enumerate() {
-            let monitor = HealthMonitor::onboard(*unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
-            for temperature_c in [-35.0f32, 65.0] {
-                let hot_or_cold = unit.at_temperature(temperature_c);
-                let mut trace = MeasuredTrace::new();
-                let seed = 40 + u as u64;
-                let acquired =
-                    monitor.acquire(&mut Frames::of(&hot_or_cold, &truth, seed), &mut trace, 10_000.0).unwrap();
-                let read = Acquired { temperature_c, ..acquired };
-                let with = monitor.diagnose(&trace, &read, &mut HealthRecord::new(), &mut NoHooks).unwrap();
-                let without = monitor.diagnose(&trace, &acquired, &mut HealthRecord::new(), &mut NoHooks).unwrap();
-                assert_eq!(with.temperature_c.to_bits(), temperature_c.to_bits());
-                assert!(without.temperature_c.is_nan());
-                // the largest error over the eight parameters: a phantom short counts
-                let error = |f: &Flight| {
-                    f.report.faults.0.iter().zip(&truth.0).map(|(k, t)| (k - t).abs()).fold(0.0f32, f32::max)
-                };
-                assert!(with.report.status.is_diagnosis(), "unit {u} at {temperature_c}: {:?}", with.report.status);
-                assert!(error(&with) < 0.03, "unit {u} at {temperature_c}: {:?}", with.report.faults.0);
-                assert!(
-                    !without.report.status.is_diagnosis() || error(&without) > 2.0 * error(&with),
-                    "unit {u} at {temperature_c}: the temperature changes nothing ({:?} without, {:?} with)",
-                    without.report.faults.0,
-                    with.report.faults.0
-                );
-            }
-        }
-    }
-}
+mod tests;

@@ -1,0 +1,355 @@
+//! The flight API over several flights, on units off nominal.
+
+use super::*;
+use crate::conditioning::DECIMATION;
+use crate::faults::FaultVector;
+use crate::fitness::simulate_window;
+use crate::monitor::ColdReason;
+use crate::optimizer::rng::Rng;
+use crate::Profile;
+
+/// Units off the drawing: winding resistance, EMF constant and dynamic friction a few
+/// percent off nominal, as production tolerances spread them.
+fn units() -> [EmaParams; 2] {
+    let n = EmaParams::NOMINAL;
+    [
+        EmaParams {
+            phase_resistance_ohm: 1.04 * n.phase_resistance_ohm,
+            phase_emf_constant_v_s_per_rad: 0.97 * n.phase_emf_constant_v_s_per_rad,
+            ..n
+        },
+        EmaParams {
+            phase_emf_constant_v_s_per_rad: 1.02 * n.phase_emf_constant_v_s_per_rad,
+            dynamic_friction_n_m: 1.1 * n.dynamic_friction_n_m,
+            ..n
+        },
+    ]
+}
+
+/// Frames of `unit` with faults `truth`, from the monitor model itself, with the nominal
+/// actuator's noise (0.29 A of controller jitter on the pair current, 0.02 A per sensor).
+struct Frames {
+    frames: [[f32; 3]; 8500],
+    next: usize,
+}
+
+impl Frames {
+    fn of(unit: &EmaParams, truth: &FaultVector, seed: u64) -> Self {
+        let mut frames = [[0.0f32; 3]; 8500];
+        let mut rng = Rng::new(seed);
+        let samples = frames.len() / DECIMATION;
+        simulate_window(unit, &Profile::STANDARD, truth, samples, |j, i, _| {
+            for f in frames.iter_mut().skip(j * DECIMATION).take(DECIMATION) {
+                let pair = i + 0.29 * rng.normal();
+                *f = [pair + 0.02 * rng.normal(), -pair + 0.02 * rng.normal(), 0.02 * rng.normal()];
+            }
+            true
+        });
+        Self { frames, next: 0 }
+    }
+}
+
+impl PhaseCurrents for Frames {
+    fn read_frame(&mut self) -> Result<crate::acquisition::PhaseFrame, crate::acquisition::AcquisitionError> {
+        let [ia_a, ib_a, ic_a] = *self.frames.get(self.next).ok_or(crate::acquisition::AcquisitionError::EndOfData)?;
+        self.next += 1;
+        Ok(crate::acquisition::PhaseFrame { ia_a, ib_a, ic_a, codes: [0; 3] })
+    }
+}
+
+#[test]
+fn flights_start_cold_then_warm_and_pool_their_evidence_on_units_off_nominal() {
+    let truth = FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+    for (u, unit) in units().iter().enumerate() {
+        // the unit's own parameters: what commissioning gives the monitor
+        let monitor = HealthMonitor::onboard(*unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+        let mut record = HealthRecord::new();
+        for flight in 1..=3u32 {
+            let mut trace = MeasuredTrace::new();
+            let mut source = Frames::of(unit, &truth, 100 * u as u64 + u64::from(flight));
+            let acquired = monitor.acquire(&mut source, &mut trace, 10_000.0).unwrap();
+            assert_eq!(acquired.summary.frames, 8500);
+            let f = monitor.diagnose(&trace, &acquired, &mut record, &mut NoHooks).unwrap();
+            let expected = if flight == 1 { Start::Cold(ColdReason::NoPrior) } else { Start::Warm };
+            assert_eq!((f.number, f.start), (flight, expected), "unit {u}");
+            assert_eq!(f.cold, flight == 1);
+            assert!(f.report.status.is_diagnosis(), "unit {u} flight {flight}: {:?}", f.report.status);
+            assert!(f.report.uncertainty.is_some());
+            let friction = f.report.faults.0[0];
+            assert!((friction - 0.3).abs() < 0.03, "unit {u} flight {flight}: friction {friction}");
+            assert_eq!(f.pooled.map(|p| p.evidence.flights), Some(flight));
+            assert_eq!((record.flights(), record.flights_since_cold()), (flight, flight - 1));
+            assert_eq!(record.faults(), f.recorded_report().faults);
+        }
+    }
+}
+
+#[test]
+fn the_flight_api_reports_what_the_identification_reports() {
+    let unit = units()[0];
+    let truth = FaultVector([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+    let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+    let mut trace = MeasuredTrace::new();
+    let acquired = monitor.acquire(&mut Frames::of(&unit, &truth, 7), &mut trace, 10_000.0).unwrap();
+    let mut record = HealthRecord::new();
+    let flight = monitor.diagnose(&trace, &acquired, &mut record, &mut NoHooks).unwrap();
+    let config = IdentifyConfig::onboard();
+    let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
+        Identification::new(&trace, unit, Profile::STANDARD, &config).unwrap();
+    id.run(u32::MAX);
+    let direct = id.with_uncertainty(id.report());
+    assert_eq!(flight.report.faults.0.map(f32::to_bits), direct.faults.0.map(f32::to_bits));
+    assert_eq!(flight.report.fitness.to_bits(), direct.fitness.to_bits());
+    assert_eq!(flight.report.evaluations, direct.evaluations);
+    assert_eq!(flight.report.uncertainty, direct.uncertainty);
+}
+
+#[test]
+fn a_refused_flight_leaves_the_record_as_it_was_and_a_bad_rate_abstains() {
+    let unit = units()[1];
+    let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+    let mut trace = MeasuredTrace::new();
+    let healthy = FaultVector::HEALTHY;
+    let acquired = monitor.acquire(&mut Frames::of(&unit, &healthy, 3), &mut trace, 8_000.0).unwrap();
+    let mut record = HealthRecord::new();
+    let f = monitor.diagnose(&trace, &acquired, &mut record, &mut NoHooks).unwrap();
+    assert_eq!(f.report.status, Status::Inconclusive(Abstain::RateMismatch));
+    assert_eq!(record.flights(), 1);
+    assert!(!record.has_prior(), "an abstention is no prior for a warm start");
+    // a window the acquisition did not close is refused, and nothing is recorded
+    let before = record;
+    let open = MeasuredTrace::new();
+    let e = monitor.diagnose(&open, &acquired, &mut record, &mut NoHooks).unwrap_err();
+    assert!(matches!(e, MonitorError::Conditioning(_)), "{e:?}");
+    assert!(record.same_bits(&before));
+    let bad = EmaParams { phase_resistance_ohm: -1.0, ..unit };
+    assert_eq!(HealthMonitor::onboard(bad, Profile::STANDARD, ModelEffects::NONE).unwrap_err(), MonitorError::Params);
+}
+
+#[test]
+fn a_record_of_other_parameters_or_another_unit_is_archived_and_a_new_history_starts() {
+    let [a, b] = units();
+    let monitor = HealthMonitor::onboard(a, Profile::STANDARD, ModelEffects::NONE).unwrap();
+    let report = crate::health::HealthReport::new(FaultVector::HEALTHY, &a, 0.01, 100, 10, None);
+    // a new record takes the monitor's identity, and stays
+    let mut record = HealthRecord::new();
+    assert!(monitor.adopt(&mut record).is_none());
+    assert_eq!(record.identity(), monitor.identity());
+    record.new_flight(&report, true);
+    record.new_flight(&report, false);
+    let own = record;
+    assert!(monitor.adopt(&mut record).is_none());
+    assert!(record.same_bits(&own));
+    // other parameters, another unit's serial, a record that does not say: archived
+    let others =
+        [HealthMonitor::onboard(b, Profile::STANDARD, ModelEffects::NONE).unwrap(), monitor.with_unit_serial(7)];
+    for other in others {
+        assert_ne!(other.identity(), monitor.identity());
+        let mut loaded = own;
+        let mut trace = MeasuredTrace::new();
+        let acquired = other.acquire(&mut Frames::of(&b, &FaultVector::HEALTHY, 5), &mut trace, 10_000.0).unwrap();
+        assert_eq!(
+            other.diagnose(&trace, &acquired, &mut loaded, &mut NoHooks).unwrap_err(),
+            MonitorError::ForeignRecord
+        );
+        assert!(loaded.same_bits(&own), "a refused flight leaves the record as it was");
+        let archived = other.adopt(&mut loaded).expect("the old history is handed back");
+        assert!(archived.same_bits(&own));
+        assert_eq!((loaded.flights(), loaded.identity()), (0, other.identity()));
+        let f = other.diagnose(&trace, &acquired, &mut loaded, &mut NoHooks).unwrap();
+        assert_eq!((f.number, f.start), (1, Start::Cold(ColdReason::NoPrior)));
+    }
+    let mut encoded = [0u8; HealthRecord::ENCODED_LEN];
+    own.encode(&mut encoded).unwrap();
+    encoded[0] = 1;
+    let mut version_1 = HealthRecord::decode(&encoded[..752]).unwrap(); // version 1: 752 bytes
+    assert_eq!(monitor.adopt(&mut version_1).map(|r| r.flights()), Some(2));
+    assert_eq!(version_1.identity(), monitor.identity());
+}
+
+#[test]
+fn a_flight_with_a_temperature_is_diagnosed_at_that_temperature() {
+    let truth = FaultVector([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+    for (u, unit) in units().iter().enumerate() {
+        let monitor = HealthMonitor::onboard(*unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+        for temperature_c in [-35.0f32, 65.0] {
+            let hot_or_cold = unit.at_temperature(temperature_c);
+            let mut trace = MeasuredTrace::new();
+            let seed = 40 + u as u64;
+            let acquired = monitor.acquire(&mut Frames::of(&hot_or_cold, &truth, seed), &mut trace, 10_000.0).unwrap();
+            let read = Acquired { temperature_c, ..acquired };
+            let with = monitor.diagnose(&trace, &read, &mut HealthRecord::new(), &mut NoHooks).unwrap();
+            let without = monitor.diagnose(&trace, &acquired, &mut HealthRecord::new(), &mut NoHooks).unwrap();
+            assert_eq!(with.temperature_c.to_bits(), temperature_c.to_bits());
+            assert!(without.temperature_c.is_nan());
+            // the largest error over the eight parameters: a phantom short counts
+            let error =
+                |f: &Flight| f.report.faults.0.iter().zip(&truth.0).map(|(k, t)| (k - t).abs()).fold(0.0f32, f32::max);
+            assert!(with.report.status.is_diagnosis(), "unit {u} at {temperature_c}: {:?}", with.report.status);
+            assert!(error(&with) < 0.03, "unit {u} at {temperature_c}: {:?}", with.report.faults.0);
+            assert!(
+                !without.report.status.is_diagnosis() || error(&without) > 2.0 * error(&with),
+                "unit {u} at {temperature_c}: the temperature changes nothing ({:?} without, {:?} with)",
+                without.report.faults.0,
+                with.report.faults.0
+            );
+        }
+    }
+}
+
+/// Hooks that keep the commissioning windows in a RAM flash, as a firmware does in its own.
+struct FlashHooks {
+    flash: Box<crate::persist::RamFlash<8, 4096>>,
+    buffer: Vec<u8>,
+}
+
+impl FlashHooks {
+    fn new() -> Self {
+        Self {
+            flash: Box::new(crate::persist::RamFlash::new()),
+            buffer: vec![0; crate::persist::window_encoded_len(2304)],
+        }
+    }
+
+    fn store(&mut self) -> crate::persist::HealthStore<&mut crate::persist::RamFlash<8, 4096>> {
+        let range = 0..crate::persist::RamFlash::<8, 4096>::CAPACITY as u32;
+        crate::persist::HealthStore::new(&mut *self.flash, range).unwrap()
+    }
+}
+
+impl FlightHooks for FlashHooks {
+    fn keep_window<const W: usize>(&mut self, slot: u8, window: &MeasuredTrace<W>, temperature_c: f32) -> bool {
+        let mut buffer = core::mem::take(&mut self.buffer);
+        let kept = self.store().keep_window(slot, window, temperature_c, &mut buffer).is_ok();
+        self.buffer = buffer;
+        kept
+    }
+
+    fn load_window<const W: usize>(&mut self, slot: u8, out: &mut MeasuredTrace<W>) -> Option<f32> {
+        let mut buffer = core::mem::take(&mut self.buffer);
+        let loaded = self.store().load_window(slot, out, &mut buffer).ok().flatten();
+        self.buffer = buffer;
+        loaded
+    }
+}
+
+/// A flight of `unit` with faults `truth` at `temperature_c`, read as a firmware reads it.
+fn fly_at(
+    monitor: &HealthMonitor<'_>,
+    unit: &EmaParams,
+    truth: &FaultVector,
+    temperature_c: f32,
+    seed: u64,
+    record: &mut HealthRecord,
+    hooks: &mut impl FlightHooks,
+) -> Flight {
+    let mut trace = MeasuredTrace::new();
+    let frames = &mut Frames::of(&unit.at_temperature(temperature_c), truth, seed);
+    let acquired = monitor.acquire(frames, &mut trace, 10_000.0).unwrap();
+    let flight = monitor.diagnose(&trace, &Acquired { temperature_c, ..acquired }, record, hooks).unwrap();
+    // a power cycle between flights: the record goes through its encoding
+    let mut bytes = [0u8; HealthRecord::ENCODED_LEN];
+    record.encode(&mut bytes).unwrap();
+    *record = HealthRecord::decode(&bytes).unwrap();
+    flight
+}
+
+#[test]
+fn a_unit_commissioned_over_its_first_flights_is_diagnosed_against_its_own_baseline() {
+    use crate::persist::Commissioning;
+    use crate::unit::Tolerances;
+    let t = Tolerances::TYPICAL;
+    let units = [
+        t.apply(&EmaParams::NOMINAL, &[1.5, -1.0, 2.0, 1.0, -1.0, 1.0, -1.5, 2.0, -1.0, 0.5, 1.0]),
+        t.apply(&EmaParams::NOMINAL, &[-2.0, 1.0, -1.5, -1.5, 0.5, -1.0, 1.0, -1.0, 1.0, -0.5, -1.5]),
+    ];
+    let healthy = FaultVector::HEALTHY;
+    for (u, unit) in units.iter().enumerate() {
+        let monitor = HealthMonitor::onboard(EmaParams::NOMINAL, Profile::STANDARD, ModelEffects::NONE)
+            .unwrap()
+            .with_commissioning(3, t)
+            .unwrap();
+        let (mut record, mut hooks) = (HealthRecord::new(), FlashHooks::new());
+        let seed = 200 + 10 * u as u64;
+        for (flight, temperature_c) in [(1u32, 20.0f32), (2, -10.0)] {
+            let f = fly_at(&monitor, unit, &healthy, temperature_c, seed + u64::from(flight), &mut record, &mut hooks);
+            assert_eq!(f.report.status, Status::Inconclusive(Abstain::Commissioning), "unit {u} flight {flight}");
+            let kept = Commissioning::Collecting { planned: 3, kept: flight as u8 };
+            assert_eq!((f.commissioning, record.commissioning()), (Some(kept), kept));
+            assert!(record.history(crate::health::FaultMode::Friction).is_empty());
+        }
+        let third = fly_at(&monitor, unit, &healthy, 45.0, seed + 3, &mut record, &mut hooks);
+        let Some(Commissioning::Commissioned(baseline)) = third.commissioning else {
+            panic!("unit {u}: {:?}, report {:?} {:?}", third.commissioning, third.report.status, third.report.faults.0)
+        };
+        assert_eq!(third.report.status, Status::Healthy, "unit {u}");
+        assert_eq!(record.baseline(), Some(&baseline));
+        assert!(baseline.resolved[2], "the EMF constant shows in every flight: {:?}", baseline.resolved);
+        // later flights, hot and cold, are diagnosed against the baseline: healthy, and a
+        // fault is found near its size (within 0.05: where the manoeuvre does not resolve the
+        // static friction, the dynamic friction of the baseline carries its share, and a
+        // friction fault reads smaller by that share)
+        for (flight, temperature_c, truth) in
+            [(4u64, 60.0f32, healthy), (5, -30.0, FaultVector([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]))]
+        {
+            let f = fly_at(&monitor, unit, &truth, temperature_c, seed + flight, &mut record, &mut hooks);
+            assert_eq!(f.commissioning, None);
+            let expected = if truth == healthy { Status::Healthy } else { Status::Degraded };
+            assert_eq!(f.report.status, expected, "unit {u} flight {flight}: {:?}", f.report.faults.0);
+            let error = f.report.faults.0.iter().zip(&truth.0).map(|(k, t)| (k - t).abs()).fold(0.0f32, f32::max);
+            assert!(error < 0.05, "unit {u} flight {flight}: {:?}", f.report.faults.0);
+        }
+        assert_eq!(record.flights(), 5);
+    }
+}
+
+#[test]
+fn a_fault_present_at_commissioning_is_not_baked_into_the_baseline() {
+    use crate::persist::{Commissioning, CommissioningRefusal};
+    let unit = units()[0];
+    let friction = FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+    let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE)
+        .unwrap()
+        .with_commissioning(2, crate::unit::Tolerances::TYPICAL)
+        .unwrap();
+    let (mut record, mut hooks) = (HealthRecord::new(), FlashHooks::new());
+    fly_at(&monitor, &unit, &friction, 20.0, 301, &mut record, &mut hooks);
+    let second = fly_at(&monitor, &unit, &friction, 20.0, 302, &mut record, &mut hooks);
+    let Some(Commissioning::Refused(CommissioningRefusal::OutOfTolerance { param, z })) = second.commissioning else {
+        panic!("{:?}", second.commissioning)
+    };
+    assert!((5..=7).contains(&param) && z > crate::commissioning::OUT_OF_TOLERANCE_SIGMAS, "{param} {z}");
+    // diagnosed against the parameters as given, from the refusing flight on
+    assert_eq!(second.report.status, Status::Degraded);
+    assert!((second.report.faults.0[0] - 0.3).abs() < 0.03, "{:?}", second.report.faults.0);
+    let third = fly_at(&monitor, &unit, &friction, 20.0, 303, &mut record, &mut hooks);
+    assert_eq!((third.commissioning, third.report.status), (None, Status::Degraded));
+    assert_eq!(record.baseline(), None);
+}
+
+#[test]
+fn commissioning_without_flash_or_on_an_unusable_flight_keeps_nothing() {
+    use crate::persist::{Commissioning, CommissioningRefusal};
+    let unit = units()[1];
+    let t = crate::unit::Tolerances::TYPICAL;
+    let base = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+    assert_eq!(base.with_commissioning(0, t).unwrap_err(), MonitorError::Commissioning);
+    assert_eq!(base.with_commissioning(4, t).unwrap_err(), MonitorError::Commissioning);
+    let mut wild = t;
+    wild.relative_sigma[0] = 2.0;
+    assert_eq!(base.with_commissioning(2, wild).unwrap_err(), MonitorError::Commissioning);
+    let monitor = base.with_commissioning(2, t).unwrap();
+    let mut trace = MeasuredTrace::new();
+    let acquired = monitor.acquire(&mut Frames::of(&unit, &FaultVector::HEALTHY, 9), &mut trace, 10_000.0).unwrap();
+    // a flight at the wrong rate does not count
+    let mut record = HealthRecord::new();
+    let slow = Acquired { sample_rate_hz: 8_000.0, ..acquired };
+    let f = monitor.diagnose(&trace, &slow, &mut record, &mut FlashHooks::new()).unwrap();
+    assert_eq!(f.report.status, Status::Inconclusive(Abstain::RateMismatch));
+    assert_eq!(record.commissioning(), Commissioning::Collecting { planned: 2, kept: 0 });
+    // no flash to keep the window in: the commissioning ends without a baseline
+    let f = monitor.diagnose(&trace, &acquired, &mut record, &mut NoHooks).unwrap();
+    assert_eq!(f.commissioning, Some(Commissioning::Refused(CommissioningRefusal::Failed)));
+    let f = monitor.diagnose(&trace, &acquired, &mut record, &mut NoHooks).unwrap();
+    assert!(f.report.status.is_diagnosis() && f.commissioning.is_none(), "{:?}", f.report.status);
+}
