@@ -79,6 +79,12 @@ fn main() -> ! {
         let mut record = bytes.get(..len).and_then(|b| HealthRecord::decode(b).ok()).unwrap_or_default();
         black_box(monitor.with_unit_serial(black_box(3)).adopt(&mut record));
         let flight = monitor.diagnose(&measured, &acquired, &mut record, &mut NoHooks).ok()?;
+        // a commissioning window written and read back as the flash keeps it
+        let mut window_bytes = [0u8; ema_monitor::persist::window_encoded_len(ONBOARD_WINDOW)];
+        let n = ema_monitor::persist::window::encode_window(&measured, black_box(20.0), &mut window_bytes).unwrap_or(0);
+        black_box(&mut window_bytes);
+        let len = black_box(n);
+        let _ = window_bytes.get(..len).map(|b| ema_monitor::persist::window::decode_window_into(b, &mut measured));
         black_box(&record);
         // the identification's public calls in any order: a report before the first
         // evaluation, the search, then a step after the end

@@ -184,6 +184,19 @@ impl<const W: usize> Objective<D> for BaselineFit<'_, '_, W> {
     }
 }
 
+/// `J` with a call of `tick` before each evaluation ([`commission`]).
+struct Ticked<'o, 'f, 'a, const W: usize, F: FnMut()> {
+    fit: &'o mut BaselineFit<'f, 'a, W>,
+    tick: &'o mut F,
+}
+
+impl<const W: usize, F: FnMut()> Objective<D> for Ticked<'_, '_, '_, W, F> {
+    fn cost(&mut self, x: &[f32; D], abandon_above: f32) -> f32 {
+        (self.tick)();
+        self.fit.value(x, abandon_above)
+    }
+}
+
 /// A unit's commissioned baseline.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Baseline {
@@ -206,11 +219,23 @@ impl Baseline {
     /// when its estimate lies beyond it by more than [`OUT_OF_TOLERANCE_CONFIDENCE`] posterior
     /// 1σ: not a unit to keep as a baseline. The margin matters where correlated parameters
     /// trade: a parameter the recordings do not resolve is put back to nominal, and a correlated
-    /// one takes up its share (a unit whose static friction is 1.5σ low read its dynamic friction
-    /// at +3.1σ ± 0.24 for a true +2σ, decision 0029).
+    /// one takes up its share of the fit (decision 0029).
     pub fn out_of_tolerance(&self) -> Option<(usize, f32)> {
-        let excess =
-            |i: usize| libm::fabsf(self.z[i]) - OUT_OF_TOLERANCE_SIGMAS - OUT_OF_TOLERANCE_CONFIDENCE * self.sigma_z[i];
+        self.furthest(OUT_OF_TOLERANCE_CONFIDENCE)
+    }
+
+    /// The resolved parameter whose estimate itself lies furthest beyond
+    /// [`OUT_OF_TOLERANCE_SIGMAS`], without the confidence margin of
+    /// [`Baseline::out_of_tolerance`]: the unit check's rule, where a unit fitted to one
+    /// recording to explain a diagnosis away must not need a parameter beyond its tolerance.
+    pub fn beyond_tolerance(&self) -> Option<(usize, f32)> {
+        self.furthest(0.0)
+    }
+
+    /// The resolved parameter furthest beyond [`OUT_OF_TOLERANCE_SIGMAS`] plus `margin`
+    /// posterior 1σ, when one is.
+    fn furthest(&self, margin: f32) -> Option<(usize, f32)> {
+        let excess = |i: usize| libm::fabsf(self.z[i]) - OUT_OF_TOLERANCE_SIGMAS - margin * self.sigma_z[i];
         (0..D)
             .filter(|&i| self.resolved[i])
             .max_by(|&a, &b| excess(a).total_cmp(&excess(b)))
@@ -222,27 +247,31 @@ impl Baseline {
 /// Commissions the unit of `fit` (module doc): the swarm of `P` particles for `max_iterations`
 /// iterations from the generator `seed`, the damped Gauss–Newton descent from its best point,
 /// the posterior, and the second descent without the parameters the recordings do not resolve.
+/// `tick` is called before each evaluation of `J` and each recording's lockstep run of the
+/// sensitivities (a board feeds its watchdog there).
 pub fn commission<const W: usize, const P: usize>(
     fit: &mut BaselineFit<'_, '_, W>,
     max_iterations: u32,
     seed: u64,
+    tick: &mut impl FnMut(),
 ) -> Result<Baseline, CommissioningError> {
     let bounds = Bounds { lower: [-SEARCH_SIGMAS; D], upper: [SEARCH_SIGMAS; D], periodic: [false; D] };
     let config = PsoConfig { max_iterations, ..PsoConfig::default() };
     let mut swarm = ParticleSwarm::<P, D>::new(bounds, config, seed)
         .map_err(CommissioningError::Optimizer)?
         .with_initial_guesses(&[[0.0; D]]);
-    run(&mut swarm, fit, u32::MAX);
+    run(&mut swarm, &mut Ticked { fit: &mut *fit, tick: &mut *tick }, u32::MAX);
     let (start, start_cost) = (*swarm.best().0, swarm.best().1);
-    let (z, cost, hessian) = descend(fit, start, start_cost, [true; D]);
+    let (z, cost, hessian) = descend(fit, start, start_cost, [true; D], tick);
     let sigma_z = posterior_sigma(fit.noise_ratio, hessian);
     let resolved: [bool; D] = core::array::from_fn(|i| sigma_z[i] < RESOLVED_BELOW);
     let (z, cost) = if resolved.iter().all(|r| *r) {
         (z, cost)
     } else {
         let kept: [f32; D] = core::array::from_fn(|i| if resolved[i] { z[i] } else { 0.0 });
+        tick();
         let kept_cost = fit.value(&kept, f32::INFINITY);
-        let (z, cost, _) = descend(fit, kept, kept_cost, resolved);
+        let (z, cost, _) = descend(fit, kept, kept_cost, resolved, tick);
         (z, cost)
     };
     let params = fit.unit(&z);
@@ -308,9 +337,10 @@ fn descend<const W: usize>(
     start: [f32; D],
     start_cost: f32,
     free: [bool; D],
+    tick: &mut impl FnMut(),
 ) -> ([f32; D], f32, [[f32; D]; D]) {
     let (mut z, mut cost) = (start, start_cost);
-    let (mut gradient, mut hessian) = fit.normal_equations(&z, &free);
+    let (mut gradient, mut hessian) = fit.normal_equations(&z, &free, tick);
     let mut damping = 1e-3f32;
     for _ in 0..MAX_TRIALS {
         let mut damped = hessian;
@@ -323,12 +353,13 @@ fn descend<const W: usize>(
                 (z[i] - step).clamp(-SEARCH_SIGMAS, SEARCH_SIGMAS)
             })
         });
+        tick();
         let trial_cost = trial.map_or(f32::INFINITY, |t: [f32; D]| fit.value(&t, cost));
         match trial {
             Some(t) if trial_cost < cost => {
                 let gain = cost - trial_cost;
                 (z, cost) = (t, trial_cost);
-                (gradient, hessian) = fit.normal_equations(&z, &free);
+                (gradient, hessian) = fit.normal_equations(&z, &free, tick);
                 if gain < STEP_TOLERANCE && damping <= 1e-2 {
                     break;
                 }
@@ -385,12 +416,19 @@ impl<const W: usize> BaselineFit<'_, '_, W> {
     /// [`SENSITIVITY_STEP`]), `v_i` the fitness's weight. One lockstep run of 12 models per
     /// recording; nothing is stored per sample. A parameter held has gradient 0 and an identity
     /// row.
-    pub fn normal_equations(&mut self, z: &[f32; D], free: &[bool; D]) -> ([f32; D], [[f32; D]; D]) {
+    /// `tick` is called before each recording's run.
+    pub fn normal_equations(
+        &mut self,
+        z: &[f32; D],
+        free: &[bool; D],
+        tick: &mut impl FnMut(),
+    ) -> ([f32; D], [[f32; D]; D]) {
         self.evaluations = self.evaluations.saturating_add(MODELS as u32);
         let mut gradient: [f32; D] = *z;
         let mut hessian: [[f32; D]; D] =
             core::array::from_fn(|i| core::array::from_fn(|j| if i == j { 1.0 } else { 0.0 }));
         for (flight, &scale) in self.flights.iter().zip(&self.data_scale) {
+            tick();
             let params: [EmaParams; MODELS] = core::array::from_fn(|m| {
                 let mut x = *z;
                 if let Some(j) = m.checked_sub(1) {
@@ -408,10 +446,11 @@ impl<const W: usize> BaselineFit<'_, '_, W> {
             crate::lockstep::lockstep(&models, &params[0], fit, |y, v, means| sums.add(y, v, means));
             // J's data term is scale·E = scale·(1/n)·Σ v r²: its gradient −2·scale/n·Σ v r d
             let c = 2.0 * scale / fit.samples().max(1) as f32;
-            for i in (0..D).filter(|&i| free[i]) {
-                gradient[i] -= c * sums.g[i];
-                for j in (i..D).filter(|&j| free[j]) {
-                    hessian[i][j] += c * sums.a[i][j];
+            let rows = gradient.iter_mut().zip(hessian.iter_mut()).zip(sums.g.iter().zip(&sums.a)).zip(free);
+            for (i, (((g, row), (sg, srow)), _)) in rows.enumerate().filter(|(_, (_, f))| **f) {
+                *g -= c * sg;
+                for ((h, a), _) in row.iter_mut().zip(srow).zip(free).skip(i).filter(|(_, f)| **f) {
+                    *h += c * a;
                 }
             }
         }
@@ -463,6 +502,9 @@ fn invert(mut m: [[f32; D]; D]) -> Option<[[f32; D]; D]> {
     let mut inv: [[f32; D]; D] = core::array::from_fn(|i| core::array::from_fn(|j| if i == j { 1.0 } else { 0.0 }));
     for col in 0..D {
         let pivot_row = (col..D).max_by(|&a, &b| libm::fabsf(m[a][col]).total_cmp(&libm::fabsf(m[b][col])))?;
+        if pivot_row >= D {
+            return None;
+        }
         m.swap(col, pivot_row);
         inv.swap(col, pivot_row);
         let pivot = m[col][col];

@@ -1,17 +1,25 @@
-//! The instruction-counted identification regions: `scripts/qemu-run` counts the instructions
-//! executed between the marker functions [`ema_identification_start`] and
-//! [`ema_identification_end`] (their addresses read with `nm`), the first region as flight 1's
-//! cold identification, the second as flight 2's warm one.
+//! The instruction-counted regions: `scripts/qemu-run` counts the instructions executed between
+//! the marker functions [`ema_identification_start`] and [`ema_identification_end`] (their
+//! addresses read with `nm`): in the default run, the first region is flight 1's cold
+//! identification and the second flight 2's warm one; in a commissioning run (`--commission`),
+//! the first is the baseline fit of the last commissioning flight and the second that flight's
+//! identification against the baseline.
 
+use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::flight::FlightHooks;
 use ema_monitor::monitor::Start;
 use ema_monitor::report_log;
 
-/// The QEMU firmware's hooks: the flight's start logged, and the identification between the
-/// instruction-count markers.
-pub struct CountedRegion;
+use crate::record_flash::{self, RecordFlash};
 
-impl FlightHooks for CountedRegion {
+/// The QEMU firmware's hooks: the flight's start logged, the identification and the baseline fit
+/// between the instruction-count markers, the commissioning windows kept in the record's flash.
+pub struct CountedRegion<'f> {
+    /// The record's flash, where the commissioning windows are kept.
+    pub flash: &'f mut RecordFlash,
+}
+
+impl FlightHooks for CountedRegion<'_> {
     fn identification_start(&mut self, flight: u32, start: Start) {
         report_log::log_start(flight, start);
         ema_identification_start();
@@ -19,6 +27,23 @@ impl FlightHooks for CountedRegion {
 
     fn identification_end(&mut self) {
         ema_identification_end();
+    }
+
+    fn commissioning_start(&mut self) {
+        defmt::info!("commissioning: fitting the unit's baseline");
+        ema_identification_start();
+    }
+
+    fn commissioning_end(&mut self) {
+        ema_identification_end();
+    }
+
+    fn keep_window<const W: usize>(&mut self, slot: u8, window: &MeasuredTrace<W>, temperature_c: f32) -> bool {
+        record_flash::keep_window(self.flash, slot, window, temperature_c)
+    }
+
+    fn load_window<const W: usize>(&mut self, slot: u8, out: &mut MeasuredTrace<W>) -> Option<f32> {
+        record_flash::load_window(self.flash, slot, out)
     }
 }
 

@@ -1,23 +1,18 @@
 //! ema-monitor firmware (Cortex-M4F, `thumbv7em-none-eabihf`; QEMU `mps2-an386` via `cargo run --release`).
 //!
-//! Wiring only: the flight policy is the core's [`HealthMonitor`] (`src/flight.rs`). Steps:
-//! 1. paint the stack (for the peak-stack figure at the end); with the command-line word
-//!    `--maintenance` (`cargo run --release -- --maintenance`, read through semihosting) erase the
-//!    health record first (`maintenance: health record reset`);
-//! 2. replay the built-in phase-current trace (`traces/standard.ematrace`, or `EMA_TRACE` and
-//!    `EMA_PROFILE` at build time, `build.rs`) through the replay ADC behind the embedded-hal
-//!    `OneShot` reader, one frame per TIMER0 interrupt (`qemu_live.rs`), into the monitor's
-//!    acquisition: the manoeuvre's 8500 frames, a refused frame held at the last good one;
-//! 3. flight 1, then flight 2 on the same recording, each through [`HealthMonitor::diagnose`]:
-//!    planned from the health record (cold first, then warm from its diagnosis; a record of
-//!    other parameters is archived and a new one started), identified
-//!    between the instruction-count markers `ema_identification_start` and
-//!    `ema_identification_end` (`scripts/qemu-run` prints `identification (cold|warm): N
-//!    instructions`), reported with its uncertainty, recorded with its evidence, saved to the
-//!    record's flash (RAM in QEMU) and read back as the next power-up does;
-//! 4. log static RAM and peak stack, then exit through semihosting: 0 with a report (a diagnosis,
-//!    or an honest `INCONCLUSIVE` / `SENSOR_FAULT`), 1 when the trace is refused (`summary:
-//!    REFUSED <stage> <error>` first, for `scripts/parity`) or on a panic or fault ([`HardFault`]).
+//! Wiring only: the flight policy is the core's [`HealthMonitor`] (`src/flight/`). Steps:
+//! 1. take the record's flash (`record_flash.rs`) and paint the stack; `--maintenance` on the
+//!    semihosting command line erases the health record first, `--commission` erases it and
+//!    commissions the unit over the two flights ([`HealthMonitor::with_commissioning`]);
+//! 2. replay the built-in trace (`traces/standard.ematrace`, or `EMA_TRACE` and `EMA_PROFILE`,
+//!    `build.rs`) through the replay ADC, one frame per TIMER0 interrupt (`qemu_live.rs`), into
+//!    the monitor's acquisition;
+//! 3. flight 1, then flight 2 on the same recording, each through [`HealthMonitor::diagnose`]
+//!    with the instruction-count markers around its identification (`insn_markers.rs`), saved to
+//!    the record's flash and read back as the next power-up does;
+//! 4. log static RAM and peak stack, then exit through semihosting: 0 with a report, 1 when the
+//!    trace is refused (`summary: REFUSED <stage> <error>`, for `scripts/parity`) or on a panic
+//!    or fault ([`HardFault`]).
 #![no_std]
 #![no_main]
 
@@ -31,6 +26,7 @@ use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::flight::{Acquired, HealthMonitor};
 use ema_monitor::monitor::ONBOARD_WINDOW;
 use ema_monitor::trace::PackedTrace;
+use ema_monitor::unit::Tolerances;
 use ema_monitor::{report_log, EmaParams, ModelEffects, Profile};
 
 // `MODEL_EFFECTS`, `MODEL_CONFIG_SOURCE`, `PARAMS`, `PARAMS_SOURCE`, `PROFILE`, `PROFILE_NAME`,
@@ -51,8 +47,12 @@ mod record_flash;
 mod semihosting_host;
 
 use insn_markers::CountedRegion;
-use record_flash::{archive_record, load_record, maintenance_reset, save_record, RecordFlash};
+use record_flash::{adopt_record, load_record, maintenance_reset, save_record, RecordFlash};
 use semihosting_host::exit;
+
+/// Flights of the commissioning that `--commission` starts: both flights of the run, the first
+/// keeping its window, the second fitting the baseline to both and diagnosing against it.
+const COMMISSIONING_FLIGHTS: u8 = 2;
 
 /// Ticks the sampler waits for its trigger (100 ms); the replay triggers on the first tick.
 const TRIGGER_TIMEOUT_FRAMES: u32 = 1000;
@@ -60,17 +60,19 @@ const TRIGGER_TIMEOUT_FRAMES: u32 = 1000;
 #[entry]
 fn main() -> ! {
     // 1. Stack paint; the health record's flash, erased first when maintenance is commanded.
+    let Some(flash) = record_flash::take() else { exit(false) };
     memory_figures::paint_stack();
     defmt::info!("ema-monitor firmware: {=usize} bytes of built-in trace", TRACE.len());
     log_model_effects();
-    let Some(flash) = cortex_m::singleton!(: RecordFlash = RecordFlash::new()) else { exit(false) };
-    if semihosting_host::maintenance_requested() && !maintenance_reset(flash) {
+    let commission = semihosting_host::word_given(semihosting_host::COMMISSION_WORD);
+    if (commission || semihosting_host::word_given(semihosting_host::MAINTENANCE_WORD)) && !maintenance_reset(flash) {
         exit(false)
     }
-    let monitor = match HealthMonitor::onboard(PARAMS, PROFILE, MODEL_EFFECTS) {
-        Ok(m) => m,
-        Err(e) => refuse("identification", e),
-    };
+    let monitor = HealthMonitor::onboard(PARAMS, PROFILE, MODEL_EFFECTS).and_then(|m| match commission {
+        true => m.with_commissioning(COMMISSIONING_FLIGHTS, Tolerances::TYPICAL),
+        false => Ok(m),
+    });
+    let monitor = monitor.unwrap_or_else(|e| refuse("identification", e));
 
     // 2. Trace → replay ADC → sampler (TIMER0 interrupt) → acquisition (thread mode).
     let trace = match PackedTrace::parse(TRACE) {
@@ -135,29 +137,14 @@ fn fly(
     flash: &mut RecordFlash,
 ) -> bool {
     let Some(mut record) = load_record(flash) else { return false };
-    if !adopt(monitor, &mut record, flash) {
+    if !adopt_record(monitor, &mut record, flash) {
         return false;
     }
-    match monitor.diagnose(window, acquired, &mut record, &mut CountedRegion) {
+    match monitor.diagnose(window, acquired, &mut record, &mut CountedRegion { flash: &mut *flash }) {
         Ok(flight) => report_log::log_flight(&flight),
         Err(e) => refuse("identification", e),
     }
     save_record(flash, &record)
-}
-
-/// [`HealthMonitor::adopt`]: a record of other parameters is archived in `flash` and a new one
-/// started; `false` (logged) when the flash refuses. Not inlined: the old record stays out of
-/// the identification's stack.
-#[inline(never)]
-fn adopt(
-    monitor: &HealthMonitor<'_>,
-    record: &mut ema_monitor::persist::HealthRecord,
-    flash: &mut RecordFlash,
-) -> bool {
-    match monitor.adopt(record) {
-        Some(old) => archive_record(flash, &old),
-        None => true,
-    }
 }
 
 /// Logs where the trace, the parameters and the model effects come from when they are not the

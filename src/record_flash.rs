@@ -1,11 +1,84 @@
-//! The health record's flash in QEMU: four 2 KiB pages of RAM (`mps2-an386` has no writable
+//! The health record's flash in QEMU: eight 4 KiB pages of RAM (`mps2-an386` has no writable
 //! flash model), alive for the run, so that both flights go through the record's save and load
-//! path as on a board (`docs/persistence.md`).
+//! path as on a board (`docs/persistence.md`), and a commissioning's windows are kept there. It
+//! lives in RAM beyond the firmware's 128 KiB (`memory.x`, `EMULATED_FLASH`): it stands in for
+//! flash, and counts in neither the static RAM nor the stack.
 
-use ema_monitor::persist::{HealthRecord, HealthStore, RamFlash, StoreError};
+use core::mem::MaybeUninit;
+use core::sync::atomic::{AtomicBool, Ordering};
 
-/// The record's flash.
-pub type RecordFlash = RamFlash<4, 2048>;
+use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::flight::HealthMonitor;
+use ema_monitor::persist::{window_encoded_len, HealthRecord, HealthStore, RamFlash, StoreError};
+
+/// The record's flash: room for the record, an archived one and a commissioning window's twelve
+/// chunks, with pages free for the store's recycling.
+pub type RecordFlash = RamFlash<8, 4096>;
+
+/// The emulated flash, in its own linker section (`memory.x`); written by [`take`].
+#[link_section = ".emulated_flash"]
+static mut EMULATED: MaybeUninit<RecordFlash> = MaybeUninit::uninit();
+
+/// Whether [`take`] has given the emulated flash out.
+static TAKEN: AtomicBool = AtomicBool::new(false);
+
+/// The emulated flash, erased; `None` after the first call. Called before the stack is painted:
+/// the erased value may be built on the stack before it is moved into place.
+pub fn take() -> Option<&'static mut RecordFlash> {
+    if TAKEN.swap(true, Ordering::AcqRel) {
+        return None;
+    }
+    let slot: *mut RecordFlash = (&raw mut EMULATED).cast();
+    // SAFETY: `TAKEN` lets this point pass once, so the reference made here is the only one to
+    // `EMULATED`; `MaybeUninit<T>` has `T`'s layout, and the write initializes it first.
+    unsafe {
+        slot.write(RecordFlash::new());
+        Some(&mut *slot)
+    }
+}
+
+/// Bytes of the buffer a window is encoded in: the largest window a slot keeps.
+const WINDOW_BUFFER_LEN: usize = window_encoded_len(ema_monitor::persist::store::MAX_KEPT_SAMPLES);
+
+/// Keeps commissioning window `slot` in `flash` ([`HealthStore::keep_window`]); `false` (logged)
+/// when the flash refuses. Not inlined: its buffer lives only for the call.
+#[inline(never)]
+pub fn keep_window<const W: usize>(
+    flash: &mut RecordFlash,
+    slot: u8,
+    window: &MeasuredTrace<W>,
+    temperature_c: f32,
+) -> bool {
+    let mut buffer = [0u8; WINDOW_BUFFER_LEN];
+    match open(flash).and_then(|mut store| store.keep_window(slot, window, temperature_c, &mut buffer)) {
+        Ok(()) => {
+            defmt::info!("commissioning: window {=u8} kept ({=usize} samples)", slot, window.len());
+            true
+        }
+        Err(e) => {
+            defmt::error!("commissioning: window {=u8} not kept: {}", slot, e);
+            false
+        }
+    }
+}
+
+/// Reads commissioning window `slot` back from `flash` into `out` ([`HealthStore::load_window`]);
+/// `None` (logged) when it cannot. Not inlined, as [`keep_window`].
+#[inline(never)]
+pub fn load_window<const W: usize>(flash: &mut RecordFlash, slot: u8, out: &mut MeasuredTrace<W>) -> Option<f32> {
+    let mut buffer = [0u8; WINDOW_BUFFER_LEN];
+    match open(flash).and_then(|mut store| store.load_window(slot, out, &mut buffer)) {
+        Ok(Some(t)) => Some(t),
+        Ok(None) => {
+            defmt::error!("commissioning: window {=u8} not found", slot);
+            None
+        }
+        Err(e) => {
+            defmt::error!("commissioning: window {=u8} unreadable: {}", slot, e);
+            None
+        }
+    }
+}
 
 /// The health record's store over the whole of `flash`.
 fn open(flash: &mut RecordFlash) -> Result<HealthStore<&mut RecordFlash>, StoreError> {
@@ -46,10 +119,21 @@ pub fn load_record(flash: &mut RecordFlash) -> Option<HealthRecord> {
     }
 }
 
+/// [`HealthMonitor::adopt`]: a record of other parameters is archived in `flash` and a new one
+/// started; `false` (logged) when the flash refuses. Not inlined: the old record stays out of
+/// the identification's stack.
+#[inline(never)]
+pub fn adopt_record(monitor: &HealthMonitor<'_>, record: &mut HealthRecord, flash: &mut RecordFlash) -> bool {
+    match monitor.adopt(record) {
+        Some(old) => archive_record(flash, &old),
+        None => true,
+    }
+}
+
 /// Keeps `old`, the record of other parameters or another unit, in the store's archive
 /// ([`HealthStore::archive`]) and logs it; `false` (logged) when the flash refuses.
 #[inline(never)]
-pub fn archive_record(flash: &mut RecordFlash, old: &HealthRecord) -> bool {
+fn archive_record(flash: &mut RecordFlash, old: &HealthRecord) -> bool {
     match open(flash).and_then(|mut store| store.archive(old)) {
         Ok(()) => {
             defmt::warn!(

@@ -8,6 +8,8 @@ use crate::flight::Flight;
 use crate::health::{FaultMode, HealthReport};
 use crate::monitor::evidence::{mode_name, PooledFlight};
 use crate::monitor::{ColdReason, Start};
+use crate::persist::{Commissioning, CommissioningRefusal};
+use crate::unit::unit_name;
 
 /// Logs how flight `number` starts: `flight 2: warm start from the health record's diagnosis`,
 /// or `flight 1: cold identification` with the reason when it is not the missing prior.
@@ -39,6 +41,34 @@ pub fn log_flight(flight: &Flight) {
     }
     if let Some(pooled) = flight.pooled.as_ref().filter(|p| p.any_declared()) {
         log_declared(pooled);
+    }
+    if let Some(state) = flight.commissioning {
+        log_commissioning(state);
+    }
+}
+
+/// Logs where a commissioning stands after one of its flights.
+fn log_commissioning(state: Commissioning) {
+    match state {
+        Commissioning::Off => {}
+        Commissioning::Collecting { planned, kept } => {
+            defmt::info!("commissioning: {=u8} of {=u8} flights kept", kept, planned)
+        }
+        Commissioning::Commissioned(b) => {
+            defmt::info!("commissioning: baseline kept, deviations (tolerance sigma) {=[?]}", b.z[..]);
+            defmt::info!("commissioning: their 1-sigma {=[?]}, resolved {=[?]}", b.sigma_z[..], b.resolved[..]);
+        }
+        Commissioning::Refused(CommissioningRefusal::OutOfTolerance { param, z }) => defmt::warn!(
+            "commissioning refused: {=str} fits {=f32} sigma from nominal, beyond its tolerance (a fault, or another actuator)",
+            unit_name(usize::from(param)),
+            z
+        ),
+        Commissioning::Refused(CommissioningRefusal::NotHealthy(status)) => {
+            defmt::warn!("commissioning refused: the last flight is {} against the fitted baseline", status)
+        }
+        Commissioning::Refused(CommissioningRefusal::Failed) => {
+            defmt::warn!("commissioning refused: the baseline fit failed (a window not kept or not read back)")
+        }
     }
 }
 

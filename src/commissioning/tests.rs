@@ -42,7 +42,7 @@ fn commission_unit(unit: &EmaParams, temperatures: [f32; 3], seed: u64) -> Basel
         core::array::from_fn(|r| CommissioningFlight { fit: &fits[r], temperature_c: temperatures[r] });
     let independent = IdentifyConfig::onboard().independent_frames_per_block;
     let mut objective = BaselineFit::new(&flights, EmaParams::NOMINAL, Tolerances::TYPICAL, independent).unwrap();
-    commission::<ONBOARD_WINDOW, 16>(&mut objective, 30, seed).unwrap()
+    commission::<ONBOARD_WINDOW, 16>(&mut objective, 30, seed, &mut || {}).unwrap()
 }
 
 #[test]

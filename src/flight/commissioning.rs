@@ -38,7 +38,9 @@ pub const MAX_ONBOARD_COMMISSIONING_FLIGHTS: u8 = 3;
 const KEPT: usize = MAX_ONBOARD_COMMISSIONING_FLIGHTS as usize - 1;
 
 impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
-    /// One flight of a commissioning that has kept `kept` of `planned` windows (module doc).
+    /// One flight of a commissioning that has kept `kept` of `planned` windows (module doc). Not
+    /// inlined: its frame stays off an ordinary flight's stack.
+    #[inline(never)]
     pub(super) fn commissioning_flight(
         &self,
         trace: &MeasuredTrace<W>,
@@ -146,7 +148,10 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         let flights = flights.get(..=n)?;
         let mut objective =
             BaselineFit::new(flights, self.params, self.tolerances, self.config.independent_frames_per_block).ok()?;
-        commission::<W, SWARM_PARTICLES>(&mut objective, SWARM_ITERATIONS, self.config.seed).ok()
+        commission::<W, SWARM_PARTICLES>(&mut objective, SWARM_ITERATIONS, self.config.seed, &mut || {
+            hooks.commissioning_tick()
+        })
+        .ok()
     }
 
     /// The parameters a flight is diagnosed against (at 20 °C): the record's baseline once the

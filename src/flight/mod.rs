@@ -49,7 +49,7 @@ use crate::persist::{Commissioning, HealthRecord, RecordIdentity};
 use crate::unit::Tolerances;
 use crate::{Command, EmaParams, ModelEffects};
 
-mod commissioning;
+pub mod commissioning;
 
 pub use commissioning::MAX_ONBOARD_COMMISSIONING_FLIGHTS;
 
@@ -68,7 +68,11 @@ pub trait FlightHooks {
     fn identification_end(&mut self) {}
     /// Before the baseline fit of the last commissioning flight ([`commissioning`]).
     fn commissioning_start(&mut self) {}
-    /// After it.
+    /// Before each evaluation of the baseline fit and each flight's run of its sensitivities
+    /// (at most 12 model runs: the board feeds its watchdog here, with a timeout raised for the
+    /// fit at [`FlightHooks::commissioning_start`]).
+    fn commissioning_tick(&mut self) {}
+    /// After the baseline fit.
     fn commissioning_end(&mut self) {}
     /// Keeps commissioning window `slot` (the closed `window` of a flight flown at
     /// `temperature_c`) in flash for the last commissioning flight
@@ -307,7 +311,10 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     }
 
     /// The flight policy on parameters `base` (at 20 °C): plan, identify, report with the
-    /// uncertainty, record with the pooled evidence.
+    /// uncertainty, record with the pooled evidence. Inlined into each caller: a frame of its
+    /// own beside the caller's would hold a second copy of the flight's report on the
+    /// identification's stack.
+    #[inline(always)]
     fn fly(
         &self,
         trace: &MeasuredTrace<W>,

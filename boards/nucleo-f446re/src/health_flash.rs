@@ -12,7 +12,9 @@
 
 use core::ops::Range;
 
-use ema_monitor::persist::{HealthRecord, HealthStore, StoreError};
+use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::persist::store::MAX_KEPT_SAMPLES;
+use ema_monitor::persist::{window_encoded_len, HealthRecord, HealthStore, StoreError};
 use stm32f4xx_hal::flash::{FlashExt, LockedFlash};
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
@@ -90,5 +92,50 @@ pub fn save(flash: &mut LockedFlash, watchdog: &mut IndependentWatchdog, record:
     match with_store(flash, watchdog, |s| s.save(record)) {
         Ok(()) => defmt::info!("health record saved: flight {=u32}", record.flights()),
         Err(e) => defmt::error!("health record not saved: {}", e),
+    }
+}
+
+/// Keeps commissioning window `slot` (logged); `false` when the flash refuses. The encoding's
+/// buffer lives only for the call.
+#[inline(never)]
+pub fn keep_window<const W: usize>(
+    flash: &mut LockedFlash,
+    watchdog: &mut IndependentWatchdog,
+    slot: u8,
+    window: &MeasuredTrace<W>,
+    temperature_c: f32,
+) -> bool {
+    let mut buffer = [0u8; window_encoded_len(MAX_KEPT_SAMPLES)];
+    match with_store(flash, watchdog, |s| s.keep_window(slot, window, temperature_c, &mut buffer)) {
+        Ok(()) => {
+            defmt::info!("commissioning: window {=u8} kept", slot);
+            true
+        }
+        Err(e) => {
+            defmt::error!("commissioning: window {=u8} not kept: {}", slot, e);
+            false
+        }
+    }
+}
+
+/// Reads commissioning window `slot` back into `out` (logged when it cannot).
+#[inline(never)]
+pub fn load_window<const W: usize>(
+    flash: &mut LockedFlash,
+    watchdog: &mut IndependentWatchdog,
+    slot: u8,
+    out: &mut MeasuredTrace<W>,
+) -> Option<f32> {
+    let mut buffer = [0u8; window_encoded_len(MAX_KEPT_SAMPLES)];
+    match with_store(flash, watchdog, |s| s.load_window(slot, out, &mut buffer)) {
+        Ok(Some(t)) => Some(t),
+        Ok(None) => {
+            defmt::error!("commissioning: window {=u8} not found", slot);
+            None
+        }
+        Err(e) => {
+            defmt::error!("commissioning: window {=u8} unreadable: {}", slot, e);
+            None
+        }
     }
 }

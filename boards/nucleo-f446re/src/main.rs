@@ -5,6 +5,8 @@
 //! 1. the independent watchdog first ([`WATCHDOG_MS`], `safe_state.rs`), so that every later hang
 //!    resets; clocks at 180 MHz from the ST-LINK's 8 MHz; the health record from flash sectors
 //!    6–7 (`health_flash.rs`), erased first when the user button B1 (PC13) is held at start-up;
+//!    a new record (the first start, or after that maintenance reset) commissions the unit over
+//!    its first [`COMMISSIONING_FLIGHTS`] flights, their windows kept in the same sectors;
 //! 2. the actuator's temperature on PB0 (a TMP36-type sensor), read once; ADC1 on PA0, PA1, PA4
 //!    (phases A, B, C) behind the core's `PhaseCurrentReader`, the start
 //!    trigger on PA10, and TIM2's interrupt reading one frame per [`FRAME_PERIOD_US`] into the
@@ -30,7 +32,7 @@ use ema_monitor::acquisition::{Sampler, SamplerConfig, TemperatureSensor, SAMPLE
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::flight::HealthMonitor;
 use ema_monitor::monitor::ONBOARD_WINDOW;
-use ema_monitor::{report_log, EmaParams, ModelEffects, Profile};
+use ema_monitor::{report_log, EmaParams, ModelEffects, Profile, Tolerances};
 use stm32f4xx_hal::flash::LockedFlash;
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
@@ -63,6 +65,9 @@ const TRIGGER_TIMEOUT_FRAMES: u32 = 100_000;
 
 /// The actuator's parameters.
 const PARAMS: EmaParams = EmaParams::NOMINAL;
+
+/// Flights of the commissioning a new record starts with (`docs/commissioning.md`).
+const COMMISSIONING_FLIGHTS: u8 = 3;
 
 /// The actuator's temperature sensor on PB0: a TMP36 (0.5 V at 0 °C, 10 mV/°C) on the 3.3 V
 /// reference. An implausible or missing reading diagnoses the flight at the parameters' 20 °C.
@@ -123,7 +128,9 @@ fn main() -> ! {
     let Some(sampler) = cortex_m::singleton!(: Sampler<SAMPLER_QUEUE> = Sampler::new()) else {
         failsafe("sampler already taken")
     };
-    let monitor = match HealthMonitor::onboard(PARAMS, Profile::STANDARD, ModelEffects::NONE) {
+    let monitor = match HealthMonitor::onboard(PARAMS, Profile::STANDARD, ModelEffects::NONE)
+        .and_then(|m| m.with_commissioning(COMMISSIONING_FLIGHTS, Tolerances::TYPICAL))
+    {
         Ok(m) => m,
         Err(e) => refused("monitor refused", e, watchdog),
     };
@@ -173,7 +180,7 @@ fn main() -> ! {
     );
 
     // 5. The flight, the watchdog fed between evaluations.
-    let mut hooks = WatchdogHooks::new(&mut watchdog);
+    let mut hooks = WatchdogHooks::new(&mut watchdog, &mut flash);
     let flight = match monitor.diagnose(&trace, &acquired, &mut record, &mut hooks) {
         Ok(f) => f,
         Err(e) => refused("identification refused", e, watchdog),

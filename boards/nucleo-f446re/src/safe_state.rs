@@ -4,9 +4,11 @@
 
 use cortex_m::peripheral::DWT;
 use cortex_m_rt::{exception, ExceptionFrame};
+use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::flight::FlightHooks;
 use ema_monitor::monitor::Start;
 use ema_monitor::report_log;
+use stm32f4xx_hal::flash::LockedFlash;
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
 
 use stm32f4xx_hal::pac::{DBGMCU, IWDG, RCC};
@@ -85,6 +87,8 @@ fn defmt_panic() -> ! {
 pub struct WatchdogHooks<'a> {
     /// The watchdog, fed before each evaluation.
     watchdog: &'a mut IndependentWatchdog,
+    /// The flash the commissioning windows are kept in (`health_flash`).
+    flash: &'a mut LockedFlash,
     /// DWT count at the current step's start.
     step_start: u32,
     /// Cycles of the identification so far.
@@ -94,9 +98,10 @@ pub struct WatchdogHooks<'a> {
 }
 
 impl<'a> WatchdogHooks<'a> {
-    /// Hooks that feed `watchdog`, with no cycles counted yet.
-    pub fn new(watchdog: &'a mut IndependentWatchdog) -> Self {
-        Self { watchdog, step_start: 0, total_cycles: 0, longest_step_cycles: 0 }
+    /// Hooks that feed `watchdog` and keep commissioning windows in `flash`, with no cycles
+    /// counted yet.
+    pub fn new(watchdog: &'a mut IndependentWatchdog, flash: &'a mut LockedFlash) -> Self {
+        Self { watchdog, flash, step_start: 0, total_cycles: 0, longest_step_cycles: 0 }
     }
 }
 
@@ -126,4 +131,31 @@ impl FlightHooks for WatchdogHooks<'_> {
             WATCHDOG_MS
         );
     }
+
+    fn commissioning_start(&mut self) {
+        defmt::info!("commissioning: fitting the unit's baseline (watchdog {=u32} ms)", COMMISSIONING_WATCHDOG_MS);
+        self.watchdog.start(COMMISSIONING_WATCHDOG_MS.millis());
+    }
+
+    fn commissioning_tick(&mut self) {
+        self.watchdog.feed();
+    }
+
+    fn commissioning_end(&mut self) {
+        self.watchdog.start(WATCHDOG_MS.millis());
+    }
+
+    fn keep_window<const W: usize>(&mut self, slot: u8, window: &MeasuredTrace<W>, temperature_c: f32) -> bool {
+        crate::health_flash::keep_window(self.flash, self.watchdog, slot, window, temperature_c)
+    }
+
+    fn load_window<const W: usize>(&mut self, slot: u8, out: &mut MeasuredTrace<W>) -> Option<f32> {
+        crate::health_flash::load_window(self.flash, self.watchdog, slot, out)
+    }
 }
+
+/// Watchdog timeout during the commissioning's baseline fit: the longest stretch between two
+/// feeds is one flight's lockstep run of 12 models, about 1.4e8 instructions at `opt-level =
+/// "s"`, 1.3 s at 1.6 cycles per instruction; 8 s leaves a margin above 6, and above 4 at the
+/// LSI's fastest.
+const COMMISSIONING_WATCHDOG_MS: u32 = 8_000;

@@ -242,8 +242,9 @@ pub fn commission_recordings(
         .collect();
     let mut objective = BaselineFit::new(&flights, *base, *tolerances, config.independent_frames_per_block)
         .map_err(|e| CliError::flag("FILE", e.to_string()))?;
-    let baseline = commission::<HOST_WINDOW, UNIT_SWARM>(&mut objective, UNIT_SWARM_ITERATIONS, config.seed)
-        .map_err(|e| CliError::input(first, e.to_string()))?;
+    let baseline =
+        commission::<HOST_WINDOW, UNIT_SWARM>(&mut objective, UNIT_SWARM_ITERATIONS, config.seed, &mut || {})
+            .map_err(|e| CliError::input(first, e.to_string()))?;
     if let Some((i, z)) = baseline.out_of_tolerance() {
         return Err(CliError::input(
             first,

@@ -3,7 +3,7 @@
 //! commissioning on one flight, [`ema_monitor::commissioning`]), and the fault stands only when
 //! it pays for its parameters against that unit
 //! ([`ema_monitor::commissioning::fault_pays_over_unit`]), or when that unit needs a parameter
-//! beyond its tolerance ([`ema_monitor::commissioning::Baseline::out_of_tolerance`]: an
+//! beyond its tolerance ([`ema_monitor::commissioning::Baseline::beyond_tolerance`]: an
 //! unmodelled effect, not an ordinary unit); and never when every phase reads shorted
 //! ([`ema_monitor::commissioning::every_phase_shorted`]). Otherwise the report abstains with
 //! [`Abstain::UnitMismatch`]: the recording shows a unit that differs from its parameters, not a
@@ -62,7 +62,7 @@ pub fn check_unit<const W: usize>(
     let fit = configured_fit(trace, *params, command, config).ok()?;
     let flights = [CommissioningFlight { fit: &fit, temperature_c: f32::NAN }];
     let mut objective = BaselineFit::new(&flights, *params, *tolerances, config.independent_frames_per_block).ok()?;
-    let unit = commission::<W, UNIT_SWARM>(&mut objective, UNIT_SWARM_ITERATIONS, config.seed).ok()?;
+    let unit = commission::<W, UNIT_SWARM>(&mut objective, UNIT_SWARM_ITERATIONS, config.seed, &mut || {}).ok()?;
     let error_unit = fit.error_of_unit(&unit.params, &FaultVector::HEALTHY, f32::INFINITY);
     let k = &report.faults;
     let error_fault = fit.error(k);
@@ -70,7 +70,7 @@ pub fn check_unit<const W: usize>(
         FAULT_GROUPS.iter().filter(|&&g| group_present(&k.0, g)).map(|&(first, last)| last - first + 1).sum();
     let z_sq: f32 = unit.z.iter().map(|z| z * z).sum();
     // a unit that needs a parameter beyond its tolerance is not an ordinary one
-    let pays = unit.out_of_tolerance().is_some()
+    let pays = unit.beyond_tolerance().is_some()
         || fault_pays_over_unit(error_fault, error_unit, z_sq, parameters, fit.effective_samples(k));
     let pattern = every_phase_shorted(k);
     Some(UnitCheck { z: unit.z, error_unit, error_fault, every_phase_shorted: pattern, fault_pays: pays && !pattern })
