@@ -10,6 +10,7 @@ use core::sync::atomic::{AtomicBool, Ordering};
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::flight::HealthMonitor;
 use ema_monitor::persist::{window_encoded_len, HealthRecord, HealthStore, RamFlash, StoreError};
+use ema_monitor::report_log;
 
 /// The record's flash: room for the record, an archived one and a commissioning window's twelve
 /// chunks, with pages free for the store's recycling.
@@ -50,16 +51,10 @@ pub fn keep_window<const W: usize>(
     temperature_c: f32,
 ) -> bool {
     let mut buffer = [0u8; WINDOW_BUFFER_LEN];
-    match open(flash).and_then(|mut store| store.keep_window(slot, window, temperature_c, &mut buffer)) {
-        Ok(()) => {
-            defmt::info!("commissioning: window {=u8} kept ({=usize} samples)", slot, window.len());
-            true
-        }
-        Err(e) => {
-            defmt::error!("commissioning: window {=u8} not kept: {}", slot, e);
-            false
-        }
-    }
+    report_log::log_window_kept(
+        slot,
+        open(flash).and_then(|mut store| store.keep_window(slot, window, temperature_c, &mut buffer)),
+    )
 }
 
 /// Reads commissioning window `slot` back from `flash` into `out` ([`HealthStore::load_window`]);
@@ -67,17 +62,7 @@ pub fn keep_window<const W: usize>(
 #[inline(never)]
 pub fn load_window<const W: usize>(flash: &mut RecordFlash, slot: u8, out: &mut MeasuredTrace<W>) -> Option<f32> {
     let mut buffer = [0u8; WINDOW_BUFFER_LEN];
-    match open(flash).and_then(|mut store| store.load_window(slot, out, &mut buffer)) {
-        Ok(Some(t)) => Some(t),
-        Ok(None) => {
-            defmt::error!("commissioning: window {=u8} not found", slot);
-            None
-        }
-        Err(e) => {
-            defmt::error!("commissioning: window {=u8} unreadable: {}", slot, e);
-            None
-        }
-    }
+    report_log::log_window_loaded(slot, open(flash).and_then(|mut store| store.load_window(slot, out, &mut buffer)))
 }
 
 /// The health record's store over the whole of `flash`.

@@ -8,7 +8,7 @@ use crate::flight::Flight;
 use crate::health::{FaultMode, HealthReport};
 use crate::monitor::evidence::{mode_name, PooledFlight};
 use crate::monitor::{ColdReason, Start};
-use crate::persist::{Commissioning, CommissioningRefusal};
+use crate::persist::{Commissioning, CommissioningRefusal, StoreError};
 use crate::unit::unit_name;
 
 /// Logs how flight `number` starts: `flight 2: warm start from the health record's diagnosis`,
@@ -44,6 +44,36 @@ pub fn log_flight(flight: &Flight) {
     }
     if let Some(state) = flight.commissioning {
         log_commissioning(state);
+    }
+}
+
+/// Logs how keeping commissioning window `slot` went; `true` when it was kept.
+pub fn log_window_kept(slot: u8, kept: Result<(), StoreError>) -> bool {
+    match kept {
+        Ok(()) => {
+            defmt::info!("commissioning: window {=u8} kept", slot);
+            true
+        }
+        Err(e) => {
+            defmt::error!("commissioning: window {=u8} not kept: {}", slot, e);
+            false
+        }
+    }
+}
+
+/// Logs a commissioning window `slot` that could not be read back; gives the flight's
+/// temperature when it was.
+pub fn log_window_loaded(slot: u8, loaded: Result<Option<f32>, StoreError>) -> Option<f32> {
+    match loaded {
+        Ok(Some(t)) => Some(t),
+        Ok(None) => {
+            defmt::error!("commissioning: window {=u8} not found", slot);
+            None
+        }
+        Err(e) => {
+            defmt::error!("commissioning: window {=u8} unreadable: {}", slot, e);
+            None
+        }
     }
 }
 

@@ -15,6 +15,7 @@ use core::ops::Range;
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::persist::store::MAX_KEPT_SAMPLES;
 use ema_monitor::persist::{window_encoded_len, HealthRecord, HealthStore, StoreError};
+use ema_monitor::report_log;
 use stm32f4xx_hal::flash::{FlashExt, LockedFlash};
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
@@ -106,16 +107,10 @@ pub fn keep_window<const W: usize>(
     temperature_c: f32,
 ) -> bool {
     let mut buffer = [0u8; window_encoded_len(MAX_KEPT_SAMPLES)];
-    match with_store(flash, watchdog, |s| s.keep_window(slot, window, temperature_c, &mut buffer)) {
-        Ok(()) => {
-            defmt::info!("commissioning: window {=u8} kept", slot);
-            true
-        }
-        Err(e) => {
-            defmt::error!("commissioning: window {=u8} not kept: {}", slot, e);
-            false
-        }
-    }
+    report_log::log_window_kept(
+        slot,
+        with_store(flash, watchdog, |s| s.keep_window(slot, window, temperature_c, &mut buffer)),
+    )
 }
 
 /// Reads commissioning window `slot` back into `out` (logged when it cannot).
@@ -127,15 +122,5 @@ pub fn load_window<const W: usize>(
     out: &mut MeasuredTrace<W>,
 ) -> Option<f32> {
     let mut buffer = [0u8; window_encoded_len(MAX_KEPT_SAMPLES)];
-    match with_store(flash, watchdog, |s| s.load_window(slot, out, &mut buffer)) {
-        Ok(Some(t)) => Some(t),
-        Ok(None) => {
-            defmt::error!("commissioning: window {=u8} not found", slot);
-            None
-        }
-        Err(e) => {
-            defmt::error!("commissioning: window {=u8} unreadable: {}", slot, e);
-            None
-        }
-    }
+    report_log::log_window_loaded(slot, with_store(flash, watchdog, |s| s.load_window(slot, out, &mut buffer)))
 }
