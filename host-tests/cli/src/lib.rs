@@ -25,6 +25,7 @@ pub mod detectability;
 pub mod discover;
 pub mod error;
 pub mod firmware_trace;
+pub mod fleet;
 pub mod flights;
 pub mod history;
 pub mod identify;

@@ -1,6 +1,7 @@
 //! `ema`: host tools of ema-monitor. Subcommands: `simulate` (reference model → recording CSV),
 //! `identify` (core → health report), `firmware-trace`, `compare`, `campaign`, `discover` (missing
-//! effects), `params` (the actuator parameter and tolerance templates), `commission` (a unit's own parameters), `history` (trend and remaining useful life), `detectability` (what a manoeuvre can tell).
+//! effects), `params` (the actuator parameter and tolerance templates), `commission` (a unit's own parameters), `fleet` (units
+//! drawn, commissioned and flown), `history` (trend and remaining useful life), `detectability` (what a manoeuvre can tell).
 
 use std::io::{ErrorKind as IoErrorKind, Write};
 use std::process::ExitCode;
@@ -14,6 +15,7 @@ use ema_cli::detectability::{self, DetectabilityArgs};
 use ema_cli::discover::{self, DiscoverArgs};
 use ema_cli::error::{CliError, EXIT_FAILURE};
 use ema_cli::firmware_trace::{self, FirmwareTraceArgs};
+use ema_cli::fleet::{self, FleetArgs};
 use ema_cli::history::{self, HistoryArgs};
 use ema_cli::identify::{self, IdentifyArgs};
 use ema_cli::params::{self, ParamsCommandArgs};
@@ -45,6 +47,8 @@ enum Command {
     Params(ParamsCommandArgs),
     /// A unit's own parameters from a few recordings of it, healthy: a parameter file for --params.
     Commission(CommissionArgs),
+    /// Units drawn from the tolerance table, commissioned, then flown healthy and faulty from -40 to +70 °C.
+    Fleet(FleetArgs),
     /// Identify successive flights of one actuator; the trend and remaining useful life per fault mode.
     History(HistoryArgs),
     /// What a manoeuvre can tell: the 1σ (Cramér–Rao) and minimum detectable severity per fault mode.
@@ -65,6 +69,7 @@ fn main() -> ExitCode {
         Command::Discover(args) => discover::run(args),
         Command::Params(args) => params::run(args),
         Command::Commission(args) => commission::run(args),
+        Command::Fleet(args) => fleet::run(args),
         Command::History(args) => history::run(args),
         Command::Detectability(args) => detectability::run(args),
     };
@@ -93,7 +98,7 @@ fn clap_error(e: &clap::Error) -> ExitCode {
         }
         ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
             eprintln!(
-                "error: a subcommand is required (simulate, identify, firmware-trace, compare, campaign, discover, params, commission, history, detectability); try 'ema --help'"
+                "error: a subcommand is required (simulate, identify, firmware-trace, compare, campaign, discover, params, commission, fleet, history, detectability); try 'ema --help'"
             );
             ExitCode::from(EXIT_FAILURE)
         }
