@@ -43,6 +43,7 @@ use ema_cli::discover::series;
 use ema_cli::identify::condition_recording;
 use ema_cli::identify::identify_trace;
 use ema_cli::recording::Recording;
+use ema_investigations::bounds;
 use ema_monitor::fitness::{FAST_REGIME_SPEED_RAD_S, FAST_REGIME_WEIGHT};
 use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::profile::Segment;
@@ -71,47 +72,6 @@ struct Assessment {
     criterion: f64,
     bias: f64,
     within_limits: bool,
-}
-
-fn invert(m: [[f64; 8]; 8]) -> Option<[[f64; 8]; 8]> {
-    let mut a = m;
-    let mut inv = [[0.0; 8]; 8];
-    for (i, row) in inv.iter_mut().enumerate() {
-        row[i] = 1.0;
-    }
-    for c in 0..8 {
-        let p = (c..8).max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs()))?;
-        if a[p][c].abs() < 1e-300 {
-            return None;
-        }
-        a.swap(c, p);
-        inv.swap(c, p);
-        let d = a[c][c];
-        for j in 0..8 {
-            a[c][j] /= d;
-            inv[c][j] /= d;
-        }
-        for r in 0..8 {
-            if r != c {
-                let f = a[r][c];
-                for j in 0..8 {
-                    a[r][j] -= f * a[c][j];
-                    inv[r][j] -= f * inv[c][j];
-                }
-            }
-        }
-    }
-    Some(inv)
-}
-
-fn mul(a: &[[f64; 8]; 8], b: &[[f64; 8]; 8]) -> [[f64; 8]; 8] {
-    let mut out = [[0.0; 8]; 8];
-    for i in 0..8 {
-        for j in 0..8 {
-            out[i][j] = (0..8).map(|k| a[i][k] * b[k][j]).sum();
-        }
-    }
-    out
 }
 
 fn assess(profile: &Profile) -> Result<Assessment, Box<dyn std::error::Error>> {
@@ -154,29 +114,8 @@ fn assess(profile: &Profile) -> Result<Assessment, Box<dyn std::error::Error>> {
         })
         .collect();
     let model = |k: [f32; 8]| series(&clean_trace, &params, profile, &FaultVector(k), &ModelEffects::NONE).model_a;
-    let mut sens: Vec<Vec<f64>> = Vec::new();
-    for j in 0..8 {
-        let (mut up, mut down) = (DESIGN_POINT, DESIGN_POINT);
-        up[j] = (up[j] + H).min(1.0);
-        down[j] = (down[j] - H).max(0.0);
-        let span = f64::from(up[j] - down[j]);
-        let (a, b) = (model(up), model(down));
-        sens.push(a.iter().zip(&b).map(|(x, y)| (x - y) / span).collect());
-    }
-    let mut info = [[0.0; 8]; 8];
-    let mut middle = [[0.0; 8]; 8];
-    for i in 0..n {
-        for a in 0..8 {
-            for b in 0..8 {
-                let p = sens[a][i] * sens[b][i];
-                info[a][b] += weight[i] * p;
-                middle[a][b] += weight[i] * weight[i] * p;
-            }
-        }
-    }
-    let inv = invert(info).ok_or("singular information matrix")?;
-    let cov = mul(&mul(&inv, &middle), &inv);
-    let crb: [f64; 8] = std::array::from_fn(|j| sigma_a * cov[j][j].max(0.0).sqrt());
+    let sens = bounds::fault_sensitivities(DESIGN_POINT, H, model);
+    let crb: [f64; 8] = bounds::sandwich_bounds(&sens, &weight, sigma_a).ok_or("singular information matrix")?;
     let criterion =
         [crb[2], crb[3], crb[4], crb[5], f64::from(DESIGN_POINT[5]) * crb[6], crb[7]].into_iter().fold(0.0, f64::max);
     let config = IdentifyConfig { max_iterations: 30, model_selection: false, ..IdentifyConfig::default() };

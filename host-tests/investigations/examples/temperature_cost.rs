@@ -27,6 +27,7 @@ use std::path::Path;
 use ema_cli::discover::series;
 use ema_cli::identify::condition_recording;
 use ema_cli::recording::Recording;
+use ema_investigations::bounds;
 use ema_monitor::fitness::{FAST_REGIME_SPEED_RAD_S, FAST_REGIME_WEIGHT};
 use ema_monitor::{EmaParams, FaultVector, ModelEffects, Profile};
 use ema_reference::{simulate, SimConfig};
@@ -55,59 +56,6 @@ const NAMES: [&str; 8] = [
     "k7 ecc. phase",
     "k8 gain",
 ];
-
-/// The inverse of a symmetric positive-definite `n × n` matrix (Gauss–Jordan); `None` when it is
-/// singular.
-fn invert(mut m: Vec<Vec<f64>>) -> Option<Vec<Vec<f64>>> {
-    let n = m.len();
-    let mut inv: Vec<Vec<f64>> = (0..n).map(|i| (0..n).map(|j| f64::from(u8::from(i == j))).collect()).collect();
-    for col in 0..n {
-        let pivot_row = (col..n).max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))?;
-        m.swap(col, pivot_row);
-        inv.swap(col, pivot_row);
-        let pivot = m[col][col];
-        if pivot.abs() < 1e-300 {
-            return None;
-        }
-        for j in 0..n {
-            m[col][j] /= pivot;
-            inv[col][j] /= pivot;
-        }
-        for r in (0..n).filter(|&r| r != col) {
-            let f = m[r][col];
-            for j in 0..n {
-                m[r][j] -= f * m[col][j];
-                inv[r][j] -= f * inv[col][j];
-            }
-        }
-    }
-    Some(inv)
-}
-
-fn mul(a: &[Vec<f64>], b: &[Vec<f64>]) -> Vec<Vec<f64>> {
-    let n = a.len();
-    (0..n).map(|i| (0..n).map(|j| (0..n).map(|k| a[i][k] * b[k][j]).sum()).collect()).collect()
-}
-
-/// The bounds of the eight fault parameters with the sensitivities `sens` (the first `count`
-/// of them: 8 with the temperature known, 9 with it a parameter), weights `v`, noise `sigma_a`.
-fn bounds(sens: &[Vec<f64>], v: &[f64], sigma_a: f64, count: usize) -> Option<[f64; 8]> {
-    let n = v.len();
-    let mut info = vec![vec![0.0; count]; count];
-    let mut middle = vec![vec![0.0; count]; count];
-    for i in 0..n {
-        for a in 0..count {
-            for b in 0..count {
-                let p = sens[a][i] * sens[b][i];
-                info[a][b] += v[i] * p;
-                middle[a][b] += v[i] * v[i] * p;
-            }
-        }
-    }
-    let inv = invert(info)?;
-    let cov = mul(&mul(&inv, &middle), &inv);
-    Some(std::array::from_fn(|j| sigma_a * cov[j][j].max(0.0).sqrt()))
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let base = EmaParams::NOMINAL;
@@ -140,20 +88,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     rho * f64::from(*w)
                 })
                 .collect();
-            let mut sens: Vec<Vec<f64>> = Vec::new();
-            for j in 0..8 {
-                let (mut up, mut down) = (DESIGN_POINT, DESIGN_POINT);
-                up[j] = (up[j] + H).min(1.0);
-                down[j] = (down[j] - H).max(0.0);
-                let span = f64::from(up[j] - down[j]);
-                let (a, b) = (at(&params, up).model_a, at(&params, down).model_a);
-                sens.push(a.iter().zip(&b).map(|(x, y)| (x - y) / span).collect());
-            }
+            let mut sens = bounds::fault_sensitivities(DESIGN_POINT, H, |k| at(&params, k).model_a);
             let (hot, cold) = (base.at_temperature(t0 + H_T), base.at_temperature(t0 - H_T));
             let (a, b) = (at(&hot, DESIGN_POINT).model_a, at(&cold, DESIGN_POINT).model_a);
             sens.push(a.iter().zip(&b).map(|(x, y)| (x - y) / f64::from(2.0 * H_T)).collect());
-            let known = bounds(&sens, &v, sigma_a, 8).ok_or("singular information, temperature known")?;
-            let unknown = bounds(&sens, &v, sigma_a, 9).ok_or("singular information, temperature unknown")?;
+            let known: [f64; 8] =
+                bounds::sandwich_bounds(&sens, &v, sigma_a).ok_or("singular information, temperature known")?;
+            let unknown: [f64; 9] =
+                bounds::sandwich_bounds(&sens, &v, sigma_a).ok_or("singular information, temperature unknown")?;
             for j in 0..8 {
                 println!(
                     "| {name} | {t0:+.0} °C | {} | {:.4} | {:.4} | {:.2} |",

@@ -26,3 +26,5 @@
 //! | `pbit_design` | the Cramér–Rao bounds of the fault parameters and the healthy bias of the monitor model for the standard manoeuvre, the pbit manoeuvre and the design's candidates, with their peaks against the limits | `docs/pbit.md` |
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
+
+pub mod bounds;
