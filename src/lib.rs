@@ -58,6 +58,8 @@ pub mod prognosis;
 #[cfg(feature = "defmt")]
 pub mod report_log;
 mod six_step;
+#[cfg(test)]
+mod test_traces;
 pub mod trace;
 pub mod trig;
 pub mod unit;

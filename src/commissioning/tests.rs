@@ -1,28 +1,13 @@
 use super::*;
-use crate::conditioning::{MeasuredTrace, DECIMATION};
-use crate::fitness::simulate_window;
+use crate::conditioning::MeasuredTrace;
 use crate::health::Status;
 use crate::monitor::{Identification, IdentifyConfig, ONBOARD_WINDOW};
-use crate::optimizer::rng::Rng;
 use crate::profile::Profile;
 
 /// The monitor model's own trace of the healthy `unit` at `temperature_c`, with the nominal
-/// actuator's noise on every frame, from the generator `seed`.
+/// actuator's noise ([`crate::test_traces`]).
 fn noisy_trace(unit: &EmaParams, temperature_c: f32, seed: u64) -> MeasuredTrace<ONBOARD_WINDOW> {
-    let mut t = MeasuredTrace::<ONBOARD_WINDOW>::new();
-    let n = (Profile::STANDARD.duration_s() / unit.control_period_s) as usize / DECIMATION;
-    let mut rng = Rng::new(seed);
-    let hot = unit.at_temperature(temperature_c);
-    simulate_window(&hot, &Profile::STANDARD, &FaultVector::HEALTHY, n, |_, i, _| {
-        for _ in 0..DECIMATION {
-            let pair = i + 0.29 * rng.normal();
-            let [na, nb, nc] = [0.02 * rng.normal(), 0.02 * rng.normal(), 0.02 * rng.normal()];
-            t.push(pair + na, -pair + nb, nc).unwrap();
-        }
-        true
-    });
-    t.finish().unwrap();
-    t
+    crate::test_traces::noisy_trace(&unit.at_temperature(temperature_c), &FaultVector::HEALTHY, seed)
 }
 
 fn fit_of<'a>(trace: &'a MeasuredTrace<ONBOARD_WINDOW>) -> CurrentFit<'a, ONBOARD_WINDOW> {

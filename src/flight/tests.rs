@@ -1,11 +1,8 @@
 //! The flight API over several flights, on units off nominal.
 
 use super::*;
-use crate::conditioning::DECIMATION;
 use crate::faults::FaultVector;
-use crate::fitness::simulate_window;
 use crate::monitor::ColdReason;
-use crate::optimizer::rng::Rng;
 use crate::Profile;
 
 /// Units off the drawing: winding resistance, EMF constant and dynamic friction a few
@@ -36,14 +33,12 @@ struct Frames {
 impl Frames {
     fn of(unit: &EmaParams, truth: &FaultVector, seed: u64) -> Self {
         let mut frames = [[0.0f32; 3]; 8500];
-        let mut rng = Rng::new(seed);
-        let samples = frames.len() / DECIMATION;
-        simulate_window(unit, &Profile::STANDARD, truth, samples, |j, i, _| {
-            for f in frames.iter_mut().skip(j * DECIMATION).take(DECIMATION) {
-                let pair = i + 0.29 * rng.normal();
-                *f = [pair + 0.02 * rng.normal(), -pair + 0.02 * rng.normal(), 0.02 * rng.normal()];
+        let mut next = 0;
+        crate::test_traces::noisy_frames(unit, truth, seed, |f| {
+            if let Some(slot) = frames.get_mut(next) {
+                *slot = f;
             }
-            true
+            next += 1;
         });
         Self { frames, next: 0 }
     }

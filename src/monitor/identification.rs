@@ -518,23 +518,10 @@ pub(super) mod tests {
         t
     }
 
-    /// The model's own trace of `truth` with the nominal actuator's noise on every frame
-    /// (conditioning::MeasuredEnvelope: 0.29 A of controller jitter on the pair current, 0.02 A on
-    /// each sensor), from the seeded generator `seed`.
+    /// The model's own trace of `truth` on the nominal actuator, with its noise
+    /// ([`crate::test_traces`]).
     pub(in crate::monitor) fn noisy_self_trace(truth: &FaultVector, seed: u64) -> MeasuredTrace<ONBOARD_WINDOW> {
-        let mut t = MeasuredTrace::<ONBOARD_WINDOW>::new();
-        let n = (Profile::STANDARD.duration_s() / EmaParams::NOMINAL.control_period_s) as usize / DECIMATION;
-        let mut rng = crate::optimizer::rng::Rng::new(seed);
-        simulate_window(&EmaParams::NOMINAL, &Profile::STANDARD, truth, n, |_, i, _| {
-            for _ in 0..DECIMATION {
-                let pair = i + 0.29 * rng.normal();
-                let [na, nb, nc] = [0.02 * rng.normal(), 0.02 * rng.normal(), 0.02 * rng.normal()];
-                t.push(pair + na, -pair + nb, nc).unwrap();
-            }
-            true
-        });
-        t.finish().unwrap();
-        t
+        crate::test_traces::noisy_trace(&EmaParams::NOMINAL, truth, seed)
     }
 
     #[test]
