@@ -24,7 +24,10 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use ema_monitor::commissioning::{commission, Baseline, BaselineFit, CommissioningFlight, MAX_COMMISSIONING_FLIGHTS};
+use ema_monitor::commissioning::{
+    commission, Baseline, BaselineFit, CommissioningFlight, MAX_COMMISSIONING_FLIGHTS, SWARM_ITERATIONS,
+    SWARM_PARTICLES,
+};
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::health::Status;
 use ema_monitor::monitor::{configured_fit, IdentifyConfig};
@@ -42,7 +45,6 @@ use crate::runtime::command::{command_for, resolve_command, CommandArg, ModelCom
 use crate::runtime::identification::identify_trace;
 use crate::runtime::recording::condition_recording_checked_for;
 use crate::runtime::source::HOST_WINDOW;
-use crate::runtime::unit_check::{UNIT_SWARM, UNIT_SWARM_ITERATIONS};
 use crate::schema::Document;
 use crate::tolerances_file::{read_tolerances, template as tolerances_template};
 
@@ -243,7 +245,7 @@ pub fn commission_recordings(
     let mut objective = BaselineFit::new(&flights, *base, *tolerances, config.independent_frames_per_block)
         .map_err(|e| CliError::flag("FILE", e.to_string()))?;
     let baseline =
-        commission::<HOST_WINDOW, UNIT_SWARM>(&mut objective, UNIT_SWARM_ITERATIONS, config.seed, &mut || {})
+        commission::<HOST_WINDOW, SWARM_PARTICLES>(&mut objective, SWARM_ITERATIONS, config.seed, &mut || {})
             .map_err(|e| CliError::input(first, e.to_string()))?;
     if let Some((i, z)) = baseline.out_of_tolerance() {
         return Err(CliError::input(

@@ -13,18 +13,14 @@
 //! against the 1σ its commissioning left.
 
 use ema_monitor::commissioning::{
-    commission, every_phase_shorted, fault_pays_over_unit, BaselineFit, CommissioningFlight,
+    commission, every_phase_shorted, fault_pays_over_unit, BaselineFit, CommissioningFlight, SWARM_ITERATIONS,
+    SWARM_PARTICLES,
 };
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::health::{Abstain, HealthReport, Status};
 use ema_monitor::monitor::{configured_fit, group_present, IdentifyConfig, FAULT_GROUPS};
 use ema_monitor::unit::{Tolerances, UNIT_PARAM_COUNT};
 use ema_monitor::{Command, EmaParams, FaultVector};
-
-/// Particles of the unit's swarm (here and in `ema commission`): the core's commissioning swarm.
-pub const UNIT_SWARM: usize = ema_monitor::commissioning::SWARM_PARTICLES;
-/// Its iterations.
-pub const UNIT_SWARM_ITERATIONS: u32 = ema_monitor::commissioning::SWARM_ITERATIONS;
 
 /// The best healthy unit for a recording, against the diagnosis.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -62,7 +58,7 @@ pub fn check_unit<const W: usize>(
     let fit = configured_fit(trace, *params, command, config).ok()?;
     let flights = [CommissioningFlight { fit: &fit, temperature_c: f32::NAN }];
     let mut objective = BaselineFit::new(&flights, *params, *tolerances, config.independent_frames_per_block).ok()?;
-    let unit = commission::<W, UNIT_SWARM>(&mut objective, UNIT_SWARM_ITERATIONS, config.seed, &mut || {}).ok()?;
+    let unit = commission::<W, SWARM_PARTICLES>(&mut objective, SWARM_ITERATIONS, config.seed, &mut || {}).ok()?;
     let error_unit = fit.error_of_unit(&unit.params, &FaultVector::HEALTHY, f32::INFINITY);
     let k = &report.faults;
     let error_fault = fit.error(k);
