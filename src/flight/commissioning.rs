@@ -61,12 +61,11 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         } else {
             Commissioning::Refused(CommissioningRefusal::Failed)
         };
-        let mut report = HealthReport::new(FaultVector::HEALTHY, &self.params, f32::NAN, 0, 0, None)
+        // a sensor fault outranks either abstention, as in an ordinary flight
+        let reason = if acquired.rate_ok(&self.params) { Abstain::Commissioning } else { Abstain::RateMismatch };
+        let report = HealthReport::new(FaultVector::HEALTHY, &self.params, f32::NAN, 0, 0, None)
             .with_acquisition(&acquired.summary)
-            .abstaining(Status::Inconclusive(Abstain::Commissioning));
-        if !acquired.rate_ok(&self.params) {
-            report.status = Status::Inconclusive(Abstain::RateMismatch);
-        }
+            .abstaining(Status::Inconclusive(reason));
         let number = record.flights().saturating_add(1);
         record.new_flight(&report, true);
         record.set_commissioning(next);
@@ -132,18 +131,22 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
             return None;
         }
         let mut windows: [MeasuredTrace<W>; KEPT] = core::array::from_fn(|_| MeasuredTrace::new());
-        let mut temperatures = [f32::NAN; KEPT];
-        for (slot, (window, t)) in windows.iter_mut().zip(temperatures.iter_mut()).enumerate().take(n) {
+        // the current flight first, then the windows read back
+        let mut temperatures = [temperature_c; KEPT + 1];
+        for (slot, (window, t)) in windows.iter_mut().zip(temperatures.iter_mut().skip(1)).enumerate().take(n) {
             *t = hooks.load_window(slot as u8, window)?;
         }
+        let fit = |t| configured_fit(t, self.params, self.command, &self.config).ok();
         let [w0, w1] = &windows;
-        let current = configured_fit(trace, self.params, self.command, &self.config).ok()?;
-        let first = configured_fit(if n > 0 { w0 } else { trace }, self.params, self.command, &self.config).ok()?;
-        let second = configured_fit(if n > 1 { w1 } else { trace }, self.params, self.command, &self.config).ok()?;
+        let current = fit(trace)?;
+        // a window not read back has no fit; its place in the array below is filled by the
+        // current flight's and sliced off
+        let first = if n > 0 { Some(fit(w0)?) } else { None };
+        let second = if n > 1 { Some(fit(w1)?) } else { None };
         let flights = [
-            CommissioningFlight { fit: &current, temperature_c },
-            CommissioningFlight { fit: &first, temperature_c: temperatures[0] },
-            CommissioningFlight { fit: &second, temperature_c: temperatures[1] },
+            CommissioningFlight { fit: &current, temperature_c: temperatures[0] },
+            CommissioningFlight { fit: first.as_ref().unwrap_or(&current), temperature_c: temperatures[1] },
+            CommissioningFlight { fit: second.as_ref().unwrap_or(&current), temperature_c: temperatures[2] },
         ];
         let flights = flights.get(..=n)?;
         let mut objective =

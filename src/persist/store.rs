@@ -25,7 +25,7 @@ use sequential_storage::Error as SsError;
 
 use super::flash::{block_on, Blocking};
 use super::record::{HealthRecord, RecordError};
-use super::window::{decode_window_into, encode_window, window_encoded_len, WindowError, WINDOW_HEADER_LEN};
+use super::window::{decode_window_into, encode_window, encoded_len_of, WindowError, WINDOW_HEADER_LEN};
 use crate::conditioning::MeasuredTrace;
 
 /// The map key of the health record.
@@ -239,11 +239,8 @@ impl<F: NorFlash> HealthStore<F> {
             dst.copy_from_slice(chunk);
             filled += chunk.len();
             if c == 0 {
-                let n = match buffer.get(2..4) {
-                    Some(&[a, b]) if filled >= WINDOW_HEADER_LEN => usize::from(u16::from_le_bytes([a, b])),
-                    _ => return Err(StoreError::Window(WindowError::Length)),
-                };
-                len = window_encoded_len(n);
+                let first = buffer.get(..filled).ok_or(StoreError::Window(WindowError::Length))?;
+                len = encoded_len_of(first).map_err(StoreError::Window)?;
             }
         }
         let encoded = buffer.get(..len).ok_or(StoreError::Window(WindowError::Length))?;

@@ -68,19 +68,29 @@ pub fn encode_window<const W: usize>(
     Ok(len)
 }
 
+/// Bytes of the whole encoding that starts with `bytes` (its header at least), from the sample
+/// count the header gives: what a reader of the encoding in pieces needs to know after the
+/// first one.
+pub fn encoded_len_of(bytes: &[u8]) -> Result<usize, WindowError> {
+    match bytes.get(..WINDOW_HEADER_LEN) {
+        Some(&[version, _, n0, n1, ..]) if version == WINDOW_VERSION => {
+            Ok(window_encoded_len(usize::from(u16::from_le_bytes([n0, n1]))))
+        }
+        Some(&[version, ..]) => Err(WindowError::Version(version)),
+        _ => Err(WindowError::Length),
+    }
+}
+
 /// Rebuilds the window of `bytes` into `out` ([`MeasuredTrace::rebuild`]); returns the flight's
 /// temperature.
 pub fn decode_window_into<const W: usize>(bytes: &[u8], out: &mut MeasuredTrace<W>) -> Result<f32, WindowError> {
+    if bytes.len() != encoded_len_of(bytes)? {
+        return Err(WindowError::Length);
+    }
     let (header, body) = bytes.split_at_checked(WINDOW_HEADER_LEN).ok_or(WindowError::Length)?;
-    let Ok(&[version, _, n0, n1, t0, t1, t2, t3]) = <&[u8; WINDOW_HEADER_LEN]>::try_from(header) else {
+    let Ok(&[_, _, _, _, t0, t1, t2, t3]) = <&[u8; WINDOW_HEADER_LEN]>::try_from(header) else {
         return Err(WindowError::Length);
     };
-    if version != WINDOW_VERSION {
-        return Err(WindowError::Version(version));
-    }
-    if body.len() != 4 * usize::from(u16::from_le_bytes([n0, n1])) {
-        return Err(WindowError::Length);
-    }
     let temperature_c = f32::from_bits(u32::from_le_bytes([t0, t1, t2, t3]));
     let samples = body.chunks_exact(4).map(|b| {
         let word: [u8; 4] = b.try_into().unwrap_or([0xFF; 4]);
