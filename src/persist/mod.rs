@@ -15,6 +15,7 @@
 //! `docs/persistence.md`; the choice of `sequential-storage`:
 //! `docs/decisions/0019-health-record-storage.md`.
 
+pub mod erase_guard;
 pub mod flash;
 pub mod record;
 pub mod store;
@@ -22,6 +23,7 @@ pub mod store;
 mod tests;
 pub mod window;
 
+pub use erase_guard::{EraseGuard, EraseGuarded};
 pub use flash::{block_on, Blocking, RamFlash, RamFlashError};
 pub use record::{
     Commissioning, CommissioningRefusal, HealthRecord, HistoryEntry, ModeHistory, RecordError, RecordIdentity,
