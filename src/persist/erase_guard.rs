@@ -70,7 +70,7 @@ impl<F: NorFlash, G: EraseGuard> NorFlash for EraseGuarded<F, G> {
     /// whole, which refuses it with its own error.
     fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
         let page = u32::try_from(F::ERASE_SIZE).unwrap_or(u32::MAX).max(1);
-        if from % page != 0 || to % page != 0 || to <= from {
+        if !from.is_multiple_of(page) || !to.is_multiple_of(page) || to <= from {
             return self.flash.erase(from, to);
         }
         let mut start = from;
