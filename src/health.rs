@@ -650,10 +650,10 @@ mod tests {
         assert_eq!(fault.status.label(), "SENSOR_FAULT");
         assert_eq!(fault.abstaining(Status::Inconclusive(Abstain::RateMismatch)).status, Status::SensorFault);
         assert_eq!(poor.abstaining(Status::Healthy).status, poor.status);
-        let summary = AcquisitionSummary { frames: 8500, refused: 200, longest_refused_run: 200 };
+        let summary = AcquisitionSummary { frames: 8500, refused: 200, longest_refused_run: 200, ..Default::default() };
         let r2 = r.with_acquisition(&summary);
         assert_eq!((r2.status, r2.refused_frames), (Status::SensorFault, 200));
-        let one = AcquisitionSummary { frames: 8500, refused: 1, longest_refused_run: 1 };
+        let one = AcquisitionSummary { frames: 8500, refused: 1, longest_refused_run: 1, ..Default::default() };
         assert_eq!(r.with_acquisition(&one).status, Status::Degraded);
     }
 

@@ -64,6 +64,7 @@ mod detect;
 mod limit;
 mod replay;
 mod sampler;
+mod self_calibration;
 mod summary;
 mod temperature;
 
@@ -77,6 +78,10 @@ pub use calibration::{AmpsFixed, Calibration, GainAmpsPerCount, OffsetCounts, Ph
 pub use limit::{manoeuvre_frames, FrameLimit};
 pub use replay::{ReplayAdc, ReplayError};
 pub use sampler::{Sample, Sampler, SamplerConfig, SamplerConsumer, SamplerProducer, SamplerState, SAMPLER_QUEUE};
+pub use self_calibration::{
+    GainCheck, RestEstimator, SelfCalibrationConfig, SensorCheck, SensorFault, ZeroSource, MAX_GAIN_MISMATCH,
+    MIN_GAIN_CONDITION, REST_BLOCK_FRAMES,
+};
 pub use summary::{AcquisitionSummary, MAX_REFUSED_RUN, MAX_REFUSED_SHARE};
 pub use temperature::{TemperatureReading, TemperatureSensor, PLAUSIBLE_MARGIN_C};
 
@@ -311,6 +316,8 @@ pub enum ConfigError {
     StuckRule,
     /// `sum_tolerance_a` is not finite and positive, or `sum_frames` is 0.
     SumRule,
+    /// A self-calibration limit is zero, negative or not finite.
+    SelfCalibration,
 }
 
 impl fmt::Display for ConfigError {
@@ -321,6 +328,7 @@ impl fmt::Display for ConfigError {
             ConfigError::MaxPolls => "max_polls must be at least 1",
             ConfigError::StuckRule => "stuck rule needs stuck_min_frames >= 2 and stuck_activity_counts >= 1",
             ConfigError::SumRule => "sum rule needs a finite positive tolerance and sum_frames >= 1",
+            ConfigError::SelfCalibration => "self-calibration limits must be positive and finite",
         })
     }
 }
@@ -344,6 +352,9 @@ pub struct AcquisitionConfig {
     pub sum_tolerance_a: f32,
     /// Consecutive inconsistent frames before reporting (default 5).
     pub sum_frames: u32,
+    /// The zero points measured on the frames before the trigger (`self_calibration`), or the
+    /// declared calibration's kept (`None`, the default: a replay without rest frames).
+    pub self_calibration: Option<SelfCalibrationConfig>,
 }
 
 impl AcquisitionConfig {
@@ -355,7 +366,12 @@ impl AcquisitionConfig {
         stuck_zero_band_counts: 12,
         sum_tolerance_a: 0.3,
         sum_frames: 5,
+        self_calibration: None,
     };
+
+    /// The defaults with the zero points measured before the trigger
+    /// ([`SelfCalibrationConfig::DEFAULT`]): what a live board uses.
+    pub const SELF_CALIBRATED: Self = Self { self_calibration: Some(SelfCalibrationConfig::DEFAULT), ..Self::DEFAULT };
 
     /// Checks the settings (see [`ConfigError`]).
     pub fn validate(&self) -> Result<(), ConfigError> {
@@ -367,6 +383,9 @@ impl AcquisitionConfig {
         }
         if !self.sum_tolerance_a.is_finite() || self.sum_tolerance_a <= 0.0 || self.sum_frames == 0 {
             return Err(ConfigError::SumRule);
+        }
+        if self.self_calibration.is_some_and(|c| !c.is_valid()) {
+            return Err(ConfigError::SelfCalibration);
         }
         Ok(())
     }
@@ -400,9 +419,27 @@ impl PhaseFrame {
 }
 
 /// A source of checked phase-current frames: what the conditioning stage consumes.
+///
+/// A live source is also read before the trigger, with the actuator at rest
+/// ([`PhaseCurrents::read_rest_frame`]), and told when the manoeuvre starts
+/// ([`PhaseCurrents::start_recording`]), so that it can measure its sensors' zero points
+/// ([`self_calibration`](SelfCalibrationConfig)); [`PhaseCurrents::sensor_check`] says what it found.
 pub trait PhaseCurrents {
     /// The next frame, or why there is none (the source stays usable after an error).
     fn read_frame(&mut self) -> Result<PhaseFrame, AcquisitionError>;
+
+    /// One frame before the trigger (the actuator at rest). By default, read and dropped.
+    fn read_rest_frame(&mut self) -> Result<(), AcquisitionError> {
+        self.read_frame().map(|_| ())
+    }
+
+    /// The trigger came: the frames from here on are the manoeuvre's. By default, nothing.
+    fn start_recording(&mut self) {}
+
+    /// What the sensors' self-calibration found; by default the declared calibration.
+    fn sensor_check(&self) -> SensorCheck {
+        SensorCheck::DECLARED
+    }
 }
 
 /// Reads the three phase currents through any embedded-hal 0.2 `OneShot` driver `A`.
@@ -443,12 +480,25 @@ where
 
     /// Converts the three channels of the next frame and checks it (see the module doc).
     pub fn read_frame(&mut self) -> Result<PhaseFrame, AcquisitionError> {
+        let codes = self.convert()?;
+        self.check.codes(codes)
+    }
+
+    /// Converts the three channels of one frame before the trigger, for the zero points.
+    pub fn read_rest_frame(&mut self) -> Result<(), AcquisitionError> {
+        let codes = self.convert()?;
+        self.check.rest(codes);
+        Ok(())
+    }
+
+    /// The three conversions of one frame.
+    fn convert(&mut self) -> Result<[u16; 3], AcquisitionError> {
         let polls = self.check.config.max_polls;
         let a = poll(&mut self.adc, &mut self.pins.0, Phase::A, polls)?;
         let b = poll(&mut self.adc, &mut self.pins.1, Phase::B, polls)?;
         let c = poll(&mut self.adc, &mut self.pins.2, Phase::C, polls)?;
         self.frames = self.frames.saturating_add(1);
-        self.check.codes([a, b, c])
+        Ok([a, b, c])
     }
 }
 
@@ -497,6 +547,18 @@ where
     fn read_frame(&mut self) -> Result<PhaseFrame, AcquisitionError> {
         PhaseCurrentReader::read_frame(self)
     }
+
+    fn read_rest_frame(&mut self) -> Result<(), AcquisitionError> {
+        PhaseCurrentReader::read_rest_frame(self)
+    }
+
+    fn start_recording(&mut self) {
+        self.check.start_recording();
+    }
+
+    fn sensor_check(&self) -> SensorCheck {
+        self.check.sensor_check()
+    }
 }
 
 /// The checks of one frame (range and saturation, stuck channel, sum; module doc), with their
@@ -509,6 +571,10 @@ pub struct FrameCheck {
     zero_codes: [u16; 3],
     stuck: StuckDetector,
     sum: SumDetector,
+    /// The calibration declared for the sensors (the zero points' reference).
+    declared: Calibration,
+    rest: RestEstimator,
+    sensors: SensorCheck,
 }
 
 impl FrameCheck {
@@ -516,7 +582,49 @@ impl FrameCheck {
     pub fn new(calibration: Calibration, config: AcquisitionConfig) -> Result<Self, ConfigError> {
         config.validate()?;
         let zero_codes = Phase::ALL.map(|p| calibration.phase(p).zero_code());
-        Ok(Self { calibration, config, zero_codes, stuck: StuckDetector::new(), sum: SumDetector::new() })
+        Ok(Self {
+            calibration,
+            config,
+            zero_codes,
+            stuck: StuckDetector::new(),
+            sum: SumDetector::new(),
+            declared: calibration,
+            rest: RestEstimator::new(),
+            sensors: SensorCheck::DECLARED,
+        })
+    }
+
+    /// Adds the codes of one frame before the trigger to the zero points' estimate.
+    pub fn rest(&mut self, codes: [u16; 3]) {
+        self.rest.add(codes);
+    }
+
+    /// As [`FrameCheck::rest`] for a frame given in amperes through the declared calibration
+    /// (a recording's rows before its manoeuvre): each current mapped to the code the declared
+    /// sensor would give, as [`FrameCheck::amps`] does; a non-finite current leaves the frame out.
+    pub fn rest_amps(&mut self, currents_a: [f32; 3]) {
+        if let Some(codes) = declared_codes(&self.declared, currents_a) {
+            self.rest.add(codes);
+        }
+    }
+
+    /// The manoeuvre starts: with self-calibration configured, the zero points are measured on
+    /// the rest frames seen so far (or refused, the declared ones kept); the stuck and sum
+    /// history starts afresh. Without it, nothing changes.
+    pub fn start_recording(&mut self) {
+        if let Some(config) = self.config.self_calibration {
+            let (calibration, sensors) = self.rest.zero_points(&self.declared, &config);
+            self.calibration = calibration;
+            self.zero_codes = Phase::ALL.map(|p| calibration.phase(p).zero_code());
+            self.sensors = sensors;
+            self.reset();
+        }
+    }
+
+    /// What the sensors' self-calibration found ([`SensorCheck::DECLARED`] before
+    /// [`FrameCheck::start_recording`] or without self-calibration).
+    pub const fn sensor_check(&self) -> SensorCheck {
+        self.sensors
     }
 
     /// Forgets the stuck and sum history.
@@ -563,22 +671,45 @@ impl FrameCheck {
     /// calibrated sensor would give (`code = round(i/gain + offset)`, clipped to `[0, ADC_MAX]`, so
     /// a current beyond the sensor's range reads as saturated, a NaN as out of range), then
     /// checked as [`FrameCheck::codes`] does. The returned frame keeps the given currents.
+    ///
+    /// The currents are taken as converted through the declared calibration; with measured zero
+    /// points, each phase's returned current is the given one less its zero shift
+    /// (`shift_counts·gain`, exactly the given current when the zero points are the declared ones).
     pub fn amps(&mut self, currents_a: [f32; 3]) -> Result<PhaseFrame, AcquisitionError> {
-        let mut codes = [0u16; 3];
         for phase in Phase::ALL {
-            let cal = self.calibration.phase(phase);
-            let gain = cal.gain_a_per_count().to_num::<f32>();
-            let offset = cal.offset_counts().to_num::<f32>();
-            let i = currents_a[phase.index()];
-            if !i.is_finite() {
+            if !currents_a[phase.index()].is_finite() {
                 return Err(AcquisitionError::OutOfRange { phase, code: u16::MAX });
             }
-            let code = libm::roundf(i / gain + offset);
-            codes[phase.index()] = code.clamp(0.0, f32::from(ADC_MAX)) as u16;
         }
+        let codes = declared_codes(&self.declared, currents_a).unwrap_or([u16::MAX; 3]);
         let frame = self.codes(codes)?;
-        Ok(PhaseFrame { ia_a: currents_a[0], ib_a: currents_a[1], ic_a: currents_a[2], codes: frame.codes })
+        let corrected: [f32; 3] = core::array::from_fn(|j| match self.sensors.source {
+            ZeroSource::Declared => currents_a[j],
+            ZeroSource::Rest => {
+                let gain = self.declared.phase(Phase::ALL[j]).gain_a_per_count().to_num::<f32>();
+                currents_a[j] - self.sensors.zero_shift_counts[j] * gain
+            }
+        });
+        Ok(PhaseFrame { ia_a: corrected[0], ib_a: corrected[1], ic_a: corrected[2], codes: frame.codes })
     }
+}
+
+/// The codes `calibration`'s sensors give for `currents_a` (`round(i/gain + offset)`, clipped to
+/// `[0, ADC_MAX]`); `None` when a current is not finite.
+fn declared_codes(calibration: &Calibration, currents_a: [f32; 3]) -> Option<[u16; 3]> {
+    let mut codes = [0u16; 3];
+    for phase in Phase::ALL {
+        let cal = calibration.phase(phase);
+        let gain = cal.gain_a_per_count().to_num::<f32>();
+        let offset = cal.offset_counts().to_num::<f32>();
+        let i = currents_a[phase.index()];
+        if !i.is_finite() {
+            return None;
+        }
+        let code = libm::roundf(i / gain + offset);
+        codes[phase.index()] = code.clamp(0.0, f32::from(ADC_MAX)) as u16;
+    }
+    Some(codes)
 }
 
 /// One conversion: at most `max_polls` polls, driver errors classified.

@@ -8,11 +8,15 @@
 //! ```
 //!
 //! **Producer** ([`SamplerProducer::tick`], called from the timer's interrupt once per control
-//! period `Tc`): reads one frame (three conversions and the checks of [`FrameCheck`](super::FrameCheck))
-//! from its [`PhaseCurrents`] source on *every* tick, so that the sensors' history (stuck rule,
-//! sum rule) and a replay's position follow time whether or not the frame is kept.
-//! - *Armed*: the frame is dropped. The tick on which the `trigger` input is first seen high
-//!   starts the recording with that tick's frame. If it has not come after
+//! period `Tc`): reads one frame from its [`PhaseCurrents`] source on *every* tick, so that a
+//! replay's position follows time whether or not the frame is kept.
+//! - *Armed*: the frame is a rest frame ([`PhaseCurrents::read_rest_frame`]: the actuator at rest,
+//!   its codes go to the sensors' zero points when the source measures them). The tick on which
+//!   the `trigger` input is first seen high tells the source the manoeuvre starts
+//!   ([`PhaseCurrents::start_recording`]: the zero points fixed, the stuck and sum history from
+//!   here on), stores what its self-calibration found for the consumer
+//!   ([`PhaseCurrents::sensor_check`]), and starts the recording with that tick's frame (three
+//!   conversions and the checks of [`FrameCheck`](super::FrameCheck)). If it has not come after
 //!   [`SamplerConfig::trigger_timeout_frames`] ticks, the acquisition ends with
 //!   [`AcquisitionError::NoTrigger`]. A source that ends first (a replay) completes it with no
 //!   frame, which the conditioning then refuses as too short.
@@ -44,7 +48,7 @@ use core::sync::atomic::{AtomicU32, AtomicU8, Ordering};
 
 use heapless::spsc::{Consumer, Producer, Queue};
 
-use super::{AcquisitionError, PhaseCurrents, PhaseFrame};
+use super::{AcquisitionError, Phase, PhaseCurrents, PhaseFrame, SensorCheck, SensorFault, ZeroSource};
 
 /// What the producer queues for each recorded frame: the frame, or why it was refused.
 pub type Sample = Result<PhaseFrame, AcquisitionError>;
@@ -91,11 +95,27 @@ struct Shared {
     waited: AtomicU32,
     /// Frames queued since the trigger.
     queued: AtomicU32,
+    /// The source's [`SensorCheck`] at the trigger ([`encode_check`]), written before the state
+    /// becomes [`RECORDING`] (release) and read after it is seen (acquire).
+    sensors: [AtomicU32; CHECK_WORDS],
 }
 
 impl Shared {
     const fn new() -> Self {
-        Self { state: AtomicU8::new(ARMED), waited: AtomicU32::new(0), queued: AtomicU32::new(0) }
+        Self {
+            state: AtomicU8::new(ARMED),
+            waited: AtomicU32::new(0),
+            queued: AtomicU32::new(0),
+            sensors: [const { AtomicU32::new(0) }; CHECK_WORDS],
+        }
+    }
+
+    /// The sensor check the producer stored at the trigger; the declared one before it.
+    fn sensors(&self) -> SensorCheck {
+        if self.state.load(Ordering::Acquire) == ARMED {
+            return SensorCheck::DECLARED;
+        }
+        decode_check(&self.sensors.each_ref().map(|w| w.load(Ordering::Relaxed)))
     }
 
     fn state(&self) -> SamplerState {
@@ -209,23 +229,28 @@ impl<S: PhaseCurrents> SamplerProducer<'_, S> {
             return true;
         }
         self.ticks = self.ticks.saturating_add(1);
-        let sample = self.source.read_frame();
-        let source_ended = matches!(sample, Err(AcquisitionError::EndOfData));
-        if self.state == ARMED {
-            if source_ended {
+        if self.state == ARMED && !trigger {
+            if matches!(self.source.read_rest_frame(), Err(AcquisitionError::EndOfData)) {
                 self.end(COMPLETE);
                 return true;
             }
-            if !trigger {
-                if self.ticks >= self.config.trigger_timeout_frames {
-                    self.end(NO_TRIGGER);
-                }
-                return self.ended();
+            if self.ticks >= self.config.trigger_timeout_frames {
+                self.end(NO_TRIGGER);
             }
+            return self.ended();
+        }
+        if self.state == ARMED {
+            // the trigger: the zero points from the rest frames, then this tick's frame is the first
             self.state = RECORDING;
+            self.source.start_recording();
+            for (word, value) in self.shared.sensors.iter().zip(encode_check(&self.source.sensor_check())) {
+                word.store(value, Ordering::Relaxed);
+            }
             self.shared.waited.store(self.ticks.saturating_sub(1), Ordering::Relaxed);
             self.shared.state.store(RECORDING, Ordering::Release);
         }
+        let sample = self.source.read_frame();
+        let source_ended = matches!(sample, Err(AcquisitionError::EndOfData));
         if self.queued >= self.config.frames || source_ended {
             self.end(COMPLETE);
             return true;
@@ -239,6 +264,53 @@ impl<S: PhaseCurrents> SamplerProducer<'_, S> {
             self.end(COMPLETE);
         }
         self.ended()
+    }
+}
+
+/// Words of an encoded [`SensorCheck`] (its gain check, made in thread mode, left out).
+const CHECK_WORDS: usize = 10;
+
+/// `check` as words for the shared atomics: `[source | fault kind << 8 | fault phase << 16,
+/// zero shifts ×3, rest sd ×3, rest frames, fault value, fault frames needed]`.
+fn encode_check(check: &SensorCheck) -> [u32; CHECK_WORDS] {
+    let source = match check.source {
+        ZeroSource::Declared => 0u32,
+        ZeroSource::Rest => 1,
+    };
+    let (kind, phase, value, needed) = match check.fault {
+        None => (0u32, 0usize, 0u32, 0u32),
+        Some(SensorFault::TooFewRestFrames { frames, needed }) => (1, 0, frames, needed),
+        Some(SensorFault::NotAtRest { phase, sd_counts }) => (2, phase.index(), sd_counts.to_bits(), 0),
+        Some(SensorFault::ZeroBeyondRange { phase, shift_counts }) => (3, phase.index(), shift_counts.to_bits(), 0),
+        Some(SensorFault::GainMismatch { phase, mismatch }) => (4, phase.index(), mismatch.to_bits(), 0),
+    };
+    let [s0, s1, s2] = check.zero_shift_counts.map(f32::to_bits);
+    let [d0, d1, d2] = check.rest_sd_counts.map(f32::to_bits);
+    [source | kind << 8 | (phase as u32) << 16, s0, s1, s2, d0, d1, d2, check.rest_frames, value, needed]
+}
+
+/// The inverse of [`encode_check`].
+fn decode_check(w: &[u32; CHECK_WORDS]) -> SensorCheck {
+    let phase = match (w[0] >> 16) & 0xFF {
+        0 => Phase::A,
+        1 => Phase::B,
+        _ => Phase::C,
+    };
+    let value = f32::from_bits(w[8]);
+    let fault = match (w[0] >> 8) & 0xFF {
+        0 => None,
+        1 => Some(SensorFault::TooFewRestFrames { frames: w[8], needed: w[9] }),
+        2 => Some(SensorFault::NotAtRest { phase, sd_counts: value }),
+        3 => Some(SensorFault::ZeroBeyondRange { phase, shift_counts: value }),
+        _ => Some(SensorFault::GainMismatch { phase, mismatch: value }),
+    };
+    SensorCheck {
+        source: if w[0] & 0xFF == 0 { ZeroSource::Declared } else { ZeroSource::Rest },
+        zero_shift_counts: [w[1], w[2], w[3]].map(f32::from_bits),
+        rest_sd_counts: [w[4], w[5], w[6]].map(f32::from_bits),
+        rest_frames: w[7],
+        fault,
+        ..SensorCheck::DECLARED
     }
 }
 
@@ -314,6 +386,11 @@ impl<W: FnMut()> PhaseCurrents for SamplerConsumer<'_, W> {
             }
             (self.wait)();
         }
+    }
+
+    /// The source's sensor check, as the producer stored it at the trigger.
+    fn sensor_check(&self) -> SensorCheck {
+        self.shared.sensors()
     }
 }
 

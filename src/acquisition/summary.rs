@@ -1,5 +1,7 @@
-//! What one acquisition counted: frames read, refused, and the longest refused run; and when
-//! those make the recording a sensor fault.
+//! What one acquisition counted: frames read, refused, and the longest refused run, and what
+//! the sensors' self-calibration found; and when those make the recording a sensor fault.
+
+use super::SensorCheck;
 
 /// Largest share of refused frames before the recording is a sensor fault: 1 %. Each refused
 /// frame is held at the last good one; 1 % of held frames changes at most 1 % of the samples of
@@ -13,7 +15,7 @@ pub const MAX_REFUSED_SHARE: f32 = 0.01;
 pub const MAX_REFUSED_RUN: u32 = 40;
 
 /// Counts of one acquisition (`monitor::acquire`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct AcquisitionSummary {
     /// Complete frames read (good and refused).
@@ -22,6 +24,8 @@ pub struct AcquisitionSummary {
     pub refused: u32,
     /// Longest run of consecutive refused frames.
     pub longest_refused_run: u32,
+    /// The sensors' zero points and gain check (`acquisition::self_calibration`).
+    pub sensors: SensorCheck,
 }
 
 impl AcquisitionSummary {
@@ -38,8 +42,10 @@ impl AcquisitionSummary {
     }
 
     /// `true` when more than [`MAX_REFUSED_SHARE`] of the frames, or a run of more than
-    /// [`MAX_REFUSED_RUN`] frames, were refused.
+    /// [`MAX_REFUSED_RUN`] frames, were refused, or the sensors' calibration is not trusted.
     pub fn is_sensor_fault(&self) -> bool {
-        self.refused as f32 > MAX_REFUSED_SHARE * self.frames as f32 || self.longest_refused_run > MAX_REFUSED_RUN
+        self.refused as f32 > MAX_REFUSED_SHARE * self.frames as f32
+            || self.longest_refused_run > MAX_REFUSED_RUN
+            || self.sensors.fault.is_some()
     }
 }

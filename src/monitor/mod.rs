@@ -46,7 +46,7 @@ pub use warm::{
     plan_start, ColdReason, Start, COLD_EVERY_FLIGHTS, MAX_NEW_FAULTS, PROBE_SCOUT, PROBE_SEVERITY, TARGETED_REFIT,
 };
 
-use crate::acquisition::{AcquisitionError, PhaseCurrents};
+use crate::acquisition::{AcquisitionError, GainCheck, PhaseCurrents, MAX_GAIN_MISMATCH};
 use crate::conditioning::{ConditioningError, MeasuredTrace};
 use crate::fitness::PoolError;
 use crate::optimizer::ConfigError;
@@ -126,12 +126,14 @@ pub fn acquire<const W: usize, S: PhaseCurrents>(
     trace: &mut MeasuredTrace<W>,
 ) -> Result<AcquisitionSummary, MonitorError> {
     let mut summary = AcquisitionSummary::default();
+    let mut gains = GainCheck::new();
     let mut run = 0u32;
     let mut held = [0.0f32; 3];
     loop {
         match source.read_frame() {
             Ok(f) => {
                 held = [f.ia_a, f.ib_a, f.ic_a];
+                gains.add(held);
                 summary.count(false, &mut run);
             }
             Err(AcquisitionError::EndOfData) => break,
@@ -140,5 +142,6 @@ pub fn acquire<const W: usize, S: PhaseCurrents>(
         trace.push(held[0], held[1], held[2])?;
     }
     trace.finish()?;
+    summary.sensors = source.sensor_check().with_gains(gains.mismatch(), MAX_GAIN_MISMATCH);
     Ok(summary)
 }

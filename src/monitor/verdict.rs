@@ -52,11 +52,12 @@ mod tests {
             frames: 100_000,
             refused: MAX_REFUSED_RUN + 1,
             longest_refused_run: MAX_REFUSED_RUN + 1,
+            ..Default::default()
         };
         assert!(run.is_sensor_fault());
-        let scattered = AcquisitionSummary { frames: 8500, refused: 86, longest_refused_run: 1 };
+        let scattered = AcquisitionSummary { frames: 8500, refused: 86, longest_refused_run: 1, ..Default::default() };
         assert!(scattered.is_sensor_fault());
-        let few = AcquisitionSummary { frames: 8500, refused: 85, longest_refused_run: 1 };
+        let few = AcquisitionSummary { frames: 8500, refused: 85, longest_refused_run: 1, ..Default::default() };
         assert!(!few.is_sensor_fault());
     }
 }
