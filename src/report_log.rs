@@ -4,6 +4,7 @@
 //! and the one-line summary that `scripts/parity` compares
 //! with the host's `ema identify --firmware-trace FILE --bits`. Built with the `defmt` feature.
 
+use crate::acquisition::{SensorCheck, ZeroSource};
 use crate::flight::Flight;
 use crate::health::{FaultMode, HealthReport};
 use crate::monitor::evidence::{mode_name, PooledFlight};
@@ -28,6 +29,7 @@ pub fn log_flight(flight: &Flight) {
     if flight.temperature_c.is_finite() {
         defmt::info!("flight {=u32} diagnosed at {=f32} C", flight.number, flight.temperature_c);
     }
+    log_sensors(&flight.sensors);
     log_report(&flight.report);
     if let Some(warm) = &flight.warm {
         defmt::info!(
@@ -44,6 +46,28 @@ pub fn log_flight(flight: &Flight) {
     }
     if let Some(state) = flight.commissioning {
         log_commissioning(state);
+    }
+}
+
+/// Logs the current sensors' zero points and gain check, and why they are not trusted.
+pub fn log_sensors(check: &SensorCheck) {
+    let [a, b, c] = check.zero_shift_counts;
+    match check.source {
+        ZeroSource::Rest => defmt::info!(
+            "sensors: zero points from {=u32} rest frames, A {=f32} B {=f32} C {=f32} counts from the declared ones",
+            check.rest_frames,
+            a,
+            b,
+            c
+        ),
+        ZeroSource::Declared => defmt::info!("sensors: declared zero points"),
+    }
+    let [ga, gb, gc] = check.gain_mismatch;
+    if ga.is_finite() {
+        defmt::info!("sensors: gains against their median (sum rule): A {=f32} B {=f32} C {=f32}", ga, gb, gc);
+    }
+    if let Some(fault) = check.fault {
+        defmt::error!("sensors: calibration not trusted: {}", fault);
     }
 }
 

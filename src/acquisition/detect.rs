@@ -78,10 +78,11 @@ impl SumDetector {
         Self { consecutive: 0 }
     }
 
-    /// Feeds the sum of one frame; `true` when it is to be reported as inconsistent. A NaN sum
-    /// (cannot come from a valid calibration) counts as inconsistent.
-    pub(super) fn update(&mut self, sum_a: f32, cfg: &AcquisitionConfig) -> bool {
-        let ok = libm::fabsf(sum_a) <= cfg.sum_tolerance_a;
+    /// Feeds the sum of one frame whose largest phase current is `peak_a` (its magnitude);
+    /// `true` when it is to be reported as inconsistent. A NaN sum (cannot come from a valid
+    /// calibration) counts as inconsistent.
+    pub(super) fn update(&mut self, sum_a: f32, peak_a: f32, cfg: &AcquisitionConfig) -> bool {
+        let ok = libm::fabsf(sum_a) <= cfg.sum_tolerance_a + cfg.sum_tolerance_share * peak_a;
         if ok {
             self.consecutive = 0;
             false

@@ -45,13 +45,22 @@
 //! two stop summing to zero. The flag repeats on every frame while the run lasts.
 //!
 //! **Sum rule.** The star point is isolated, so `ia + ib + ic = 0`. A frame is *off* when
-//! `|ia + ib + ic| >` [`AcquisitionConfig::sum_tolerance_a`] (default 0.3 A); after
+//! `|ia + ib + ic| >` [`AcquisitionConfig::sum_tolerance_a`] `+`
+//! [`AcquisitionConfig::sum_tolerance_share`]` · max |i_j|` (defaults 0.3 A and 0.02); after
 //! [`AcquisitionConfig::sum_frames`] consecutive off frames (default 5) every further off frame is
 //! reported as [`InconsistentSum`](AcquisitionError::InconsistentSum) until a good frame resets the
 //! count. Default tolerance: sensor noise σ = 0.02 A per phase gives σ = 0.035 A on the sum (0.3 A is
-//! 8.6 σ; 5 frames in a row make a false alarm negligible), quantization adds ≤ 0.015 A, and a 1 %
-//! residual gain mismatch at 20 A adds 0.2 A. Frames with a saturated code are skipped by this rule
+//! 8.6 σ; 5 frames in a row make a false alarm negligible) and quantization adds ≤ 0.015 A; the
+//! sensors' gains, each within about 1 % of its declaration, differ by up to 2 %, which moves the
+//! sum by that share of the conducting current. A larger mismatch, held over the manoeuvre, is the
+//! gain check's to find (`self_calibration`). Frames with a saturated code are skipped by this rule
 //! (neither counted nor resetting): a clipped phase breaks the sum legitimately.
+//!
+//! **Zero points.** A live reader configured with
+//! [`AcquisitionConfig::self_calibration`] measures each phase's zero on the frames before the
+//! trigger ([`PhaseCurrents::read_rest_frame`], [`PhaseCurrents::start_recording`]), so that a
+//! board carries no hand-measured offset; [`SensorCheck`] says what it found
+//! (`self_calibration`).
 //!
 //! **Timeout and missing samples.** `nb::WouldBlock` is retried up to
 //! [`AcquisitionConfig::max_polls`] times, then [`Timeout`](AcquisitionError::Timeout). Driver errors
@@ -348,8 +357,11 @@ pub struct AcquisitionConfig {
     pub stuck_activity_counts: u16,
     /// Codes this close to the zero-current code are never stuck (default 12 counts ≈ 0.12 A).
     pub stuck_zero_band_counts: u16,
-    /// Largest `|ia + ib + ic|` of a consistent frame (default 0.3 A).
+    /// Largest `|ia + ib + ic|` of a consistent frame at zero current (default 0.3 A).
     pub sum_tolerance_a: f32,
+    /// Share of the frame's largest phase current added to that tolerance (default 0.02): the
+    /// sensors' gain mismatch, which the gain check bounds over the manoeuvre.
+    pub sum_tolerance_share: f32,
     /// Consecutive inconsistent frames before reporting (default 5).
     pub sum_frames: u32,
     /// The zero points measured on the frames before the trigger (`self_calibration`), or the
@@ -365,6 +377,7 @@ impl AcquisitionConfig {
         stuck_activity_counts: 40,
         stuck_zero_band_counts: 12,
         sum_tolerance_a: 0.3,
+        sum_tolerance_share: 0.02,
         sum_frames: 5,
         self_calibration: None,
     };
@@ -381,7 +394,8 @@ impl AcquisitionConfig {
         if self.stuck_min_frames < 2 || self.stuck_activity_counts == 0 {
             return Err(ConfigError::StuckRule);
         }
-        if !self.sum_tolerance_a.is_finite() || self.sum_tolerance_a <= 0.0 || self.sum_frames == 0 {
+        let share_ok = self.sum_tolerance_share.is_finite() && self.sum_tolerance_share >= 0.0;
+        if !self.sum_tolerance_a.is_finite() || self.sum_tolerance_a <= 0.0 || !share_ok || self.sum_frames == 0 {
             return Err(ConfigError::SumRule);
         }
         if self.self_calibration.is_some_and(|c| !c.is_valid()) {
@@ -656,7 +670,8 @@ impl FrameCheck {
             codes,
         };
         let sum_a = frame.ia_a + frame.ib_a + frame.ic_a;
-        let inconsistent = self.sum.update(sum_a, &self.config);
+        let peak_a = libm::fabsf(frame.ia_a).max(libm::fabsf(frame.ib_a)).max(libm::fabsf(frame.ic_a));
+        let inconsistent = self.sum.update(sum_a, peak_a, &self.config);
         if let Some((phase, code)) = stuck {
             return Err(AcquisitionError::Stuck { phase, code });
         }

@@ -564,4 +564,78 @@ mod tests {
         while !p.tick(true) {}
         assert_eq!(c.outcome(), Ok(5));
     }
+
+    #[test]
+    fn the_rest_frames_before_the_trigger_give_the_zero_points_the_consumer_sees() {
+        use crate::acquisition::SensorCheck;
+        // 400 frames at rest (zeros +7, −5, +3 counts, a ±1-count dither), then 200 moving ones
+        let mut frames: std::vec::Vec<[u16; 3]> =
+            (0..400u16).map(|i| [2055 + i % 2, 2043 - i % 2, 2051 + (i / 2) % 2]).collect();
+        frames.extend((0..200u16).map(|i| [2055 + 10 * i, 2043 - 10 * i, 2051]));
+        let mut bytes = std::vec![0u8; packed_len(frames.len())];
+        pack(&frames, trace::SAMPLE_RATE_HZ, &mut bytes).unwrap();
+        let adc = ReplayAdc::new(PackedTrace::parse(&bytes).unwrap());
+        let source = PhaseCurrentReader::new(
+            adc,
+            (PhaseA, PhaseB, PhaseC),
+            Calibration::NOMINAL,
+            AcquisitionConfig::SELF_CALIBRATED,
+        )
+        .unwrap();
+        let mut sampler = Sampler::<8>::new();
+        let slot: RefCell<Option<SamplerProducer<'_, ReplayReader<'_>>>> = RefCell::new(None);
+        let (producer, mut consumer) = sampler.split(source, config(200, 1000), || {
+            if let Some(p) = slot.borrow_mut().as_mut() {
+                let t = p.ticks();
+                p.tick(t >= 400);
+            }
+        });
+        *slot.borrow_mut() = Some(producer);
+        let before = consumer.sensor_check();
+        assert_eq!((before.source, before.rest_frames), (SensorCheck::DECLARED.source, 0));
+        let first = consumer.read_frame().unwrap();
+        // the first recorded frame reads zero current on every phase: its codes are the zeros
+        assert!(first.currents_a().iter().all(|i| i.abs() < 0.01), "{first:?}");
+        while consumer.read_frame().is_ok() {}
+        assert_eq!(consumer.outcome(), Ok(200));
+        let seen = consumer.sensor_check();
+        let producer = slot.borrow_mut().take().unwrap();
+        let own = producer.source().sensor_check();
+        assert_eq!(seen.zero_shift_counts, own.zero_shift_counts);
+        assert_eq!((seen.source, seen.rest_frames, seen.fault), (own.source, 400, None));
+        for (got, want) in seen.zero_shift_counts.iter().zip([7.5f32, -5.5, 3.5]) {
+            assert!((got - want).abs() < 0.01, "{seen:?}");
+        }
+    }
+
+    #[test]
+    fn every_sensor_check_crosses_the_shared_words_unchanged() {
+        use crate::acquisition::{SensorCheck, SensorFault, ZeroSource};
+        let base = SensorCheck {
+            source: ZeroSource::Rest,
+            zero_shift_counts: [1.5, -2.25, 0.125],
+            rest_sd_counts: [2.0, 1.75, 3.5],
+            rest_frames: 777,
+            ..SensorCheck::DECLARED
+        };
+        let faults = [
+            None,
+            Some(SensorFault::TooFewRestFrames { frames: 12, needed: 256 }),
+            Some(SensorFault::NotAtRest { phase: Phase::C, sd_counts: 31.5 }),
+            Some(SensorFault::ZeroBeyondRange { phase: Phase::B, shift_counts: -1000.5 }),
+            Some(SensorFault::GainMismatch { phase: Phase::A, mismatch: 0.0625 }),
+        ];
+        for fault in faults {
+            let check = SensorCheck { fault, ..base };
+            let back = decode_check(&encode_check(&check));
+            assert_eq!(back.fault, check.fault);
+            assert_eq!(
+                (back.source, back.zero_shift_counts, back.rest_frames),
+                (check.source, check.zero_shift_counts, 777)
+            );
+            assert_eq!(back.rest_sd_counts, check.rest_sd_counts);
+        }
+        let declared = decode_check(&encode_check(&SensorCheck::DECLARED));
+        assert_eq!((declared.source, declared.fault), (ZeroSource::Declared, None));
+    }
 }

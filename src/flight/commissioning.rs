@@ -72,6 +72,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         Ok(Flight {
             number,
             temperature_c: acquired.temperature_c,
+            sensors: acquired.summary.sensors,
             start: Start::Cold(ColdReason::NoPrior),
             cold: true,
             report,

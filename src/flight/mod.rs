@@ -36,7 +36,7 @@
 //! Nothing here allocates or panics; a refused input is a [`MonitorError`], an unusable recording
 //! an honest `INCONCLUSIVE` or `SENSOR_FAULT` report.
 
-use crate::acquisition::PhaseCurrents;
+use crate::acquisition::{PhaseCurrents, SensorCheck};
 use crate::conditioning::MeasuredTrace;
 use crate::health::{Abstain, HealthReport, Status};
 use crate::monitor::evidence::{self, PooledFlight};
@@ -129,6 +129,9 @@ pub struct Flight {
     pub number: u32,
     /// The temperature the flight was diagnosed at (°C), NaN when none was read.
     pub temperature_c: f32,
+    /// What the current sensors' self-calibration found: the zero points in use, the gain check,
+    /// and why the flight is a sensor fault when the calibration is not trusted.
+    pub sensors: SensorCheck,
     /// How the identification was planned to start.
     pub start: Start,
     /// `true` when the flight counts as a cold identification in the record: planned cold, or a
@@ -345,6 +348,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         Ok(Flight {
             number,
             temperature_c: acquired.temperature_c,
+            sensors: acquired.summary.sensors,
             start,
             cold,
             report,

@@ -348,3 +348,96 @@ fn commissioning_without_flash_or_on_an_unusable_flight_keeps_nothing() {
     let f = monitor.diagnose(&trace, &acquired, &mut record, &mut NoHooks).unwrap();
     assert!(f.report.status.is_diagnosis() && f.commissioning.is_none(), "{:?}", f.report.status);
 }
+
+/// Sensors of a bench: each phase's zero error (counts) and gain error, as a Hall sensor on a
+/// 12-bit ADC gives them.
+struct BenchSensors {
+    zero_counts: [f32; 3],
+    gain_error: [f32; 3],
+}
+
+/// The packed trace of `rest` frames at rest, then the flight of `unit` with faults `truth`,
+/// every frame through `sensors` onto the 12-bit code grid (zero current at mid-scale).
+fn bench_trace(unit: &EmaParams, truth: &FaultVector, seed: u64, rest: usize, sensors: &BenchSensors) -> Vec<u8> {
+    use crate::trace::{pack, packed_len, AMPS_PER_COUNT};
+    let mut rng = crate::optimizer::rng::Rng::new(seed ^ 0x5EED);
+    let code = |j: usize, i: f32| {
+        let c = 2048.0 + sensors.zero_counts[j] + (1.0 + sensors.gain_error[j]) * i / AMPS_PER_COUNT;
+        libm::roundf(c).clamp(0.0, 4095.0) as u16
+    };
+    let mut frames: Vec<[u16; 3]> = Vec::new();
+    for _ in 0..rest {
+        let i = [0.02 * rng.normal(), 0.02 * rng.normal(), 0.02 * rng.normal()];
+        frames.push(core::array::from_fn(|j| code(j, i[j])));
+    }
+    crate::test_traces::noisy_frames(unit, truth, seed, |i| frames.push(core::array::from_fn(|j| code(j, i[j]))));
+    let mut bytes = vec![0u8; packed_len(frames.len())];
+    pack(&frames, 10_000, &mut bytes).unwrap();
+    bytes
+}
+
+/// Acquires a packed trace as a board does: its first `rest` frames before the trigger, read as
+/// rest frames, then the manoeuvre's.
+fn acquire_bench(
+    monitor: &HealthMonitor<'_>,
+    bytes: &[u8],
+    rest: usize,
+    config: crate::acquisition::AcquisitionConfig,
+) -> (MeasuredTrace<{ crate::monitor::ONBOARD_WINDOW }>, Acquired) {
+    use crate::acquisition::{Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
+    let adc = ReplayAdc::new(crate::trace::PackedTrace::parse(bytes).unwrap());
+    let mut reader = PhaseCurrentReader::new(adc, (PhaseA, PhaseB, PhaseC), Calibration::NOMINAL, config).unwrap();
+    for _ in 0..rest {
+        reader.read_rest_frame().unwrap();
+    }
+    PhaseCurrents::start_recording(&mut reader);
+    let mut trace = MeasuredTrace::new();
+    let acquired = monitor.acquire(&mut reader, &mut trace, 10_000.0).unwrap();
+    (trace, acquired)
+}
+
+#[test]
+fn a_bench_s_sensors_are_calibrated_before_the_trigger_and_diagnose_as_ideal_ones() {
+    use crate::acquisition::{AcquisitionConfig, Phase, SensorFault, ZeroSource};
+    // zero errors of ±10–15 mV at 0.806 mV/count, gain errors of about 1 %
+    let bench = BenchSensors { zero_counts: [18.6, -12.4, 14.9], gain_error: [0.010, -0.008, 0.005] };
+    let ideal = BenchSensors { zero_counts: [0.0; 3], gain_error: [0.0; 3] };
+    let rest = 600;
+    let cases = [(FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]), 0usize), (FaultVector::HEALTHY, 1)];
+    for (truth, u) in cases {
+        let unit = units()[u];
+        let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+        let seed = 900 + u as u64;
+        let flight = |sensors: &BenchSensors, config| {
+            let (trace, acquired) =
+                acquire_bench(&monitor, &bench_trace(&unit, &truth, seed, rest, sensors), rest, config);
+            let (mut record, mut hooks) = (HealthRecord::new(), NoHooks);
+            monitor.diagnose(&trace, &acquired, &mut record, &mut hooks).unwrap()
+        };
+        let reference = flight(&ideal, AcquisitionConfig::DEFAULT);
+        let calibrated = flight(&bench, AcquisitionConfig::SELF_CALIBRATED);
+        let s = calibrated.sensors;
+        assert_eq!((s.source, s.fault, calibrated.report.refused_frames), (ZeroSource::Rest, None, 0), "{s:?}");
+        for j in 0..3 {
+            assert!((s.zero_shift_counts[j] - bench.zero_counts[j]).abs() < 0.5, "zero {j}: {s:?}");
+        }
+        assert_eq!(calibrated.report.status, reference.report.status, "unit {u}");
+        let sigma = reference.report.uncertainty.unwrap().sigma;
+        for k in 0..8 {
+            let (a, b) = (calibrated.report.faults.0[k], reference.report.faults.0[k]);
+            assert!((a - b).abs() <= 2.0 * sigma[k], "unit {u} k{}: {a} against {b} (1σ {})", k + 1, sigma[k]);
+        }
+        // the same sensors at the declared mid-scale zeros: the flight is not the ideal one
+        let declared = flight(&bench, AcquisitionConfig::DEFAULT);
+        assert_ne!(declared.report.status, reference.report.status, "unit {u}");
+        // ten times the correctable zero error on phase B alone
+        let broken = BenchSensors { zero_counts: [18.6, -1000.0, 14.9], ..bench };
+        let refused = flight(&broken, AcquisitionConfig::SELF_CALIBRATED);
+        assert_eq!(refused.report.status, Status::SensorFault);
+        assert!(
+            matches!(refused.sensors.fault, Some(SensorFault::ZeroBeyondRange { phase: Phase::B, .. })),
+            "{:?}",
+            refused.sensors
+        );
+    }
+}
