@@ -43,7 +43,13 @@ fn identify_json_matches_the_schema() {
     let prior = "0.25,0,0,0,0,0,0.5,0.5";
     let warm = json_quietly(&["identify", "--firmware-trace", trace, "--json", "--prior", prior]);
     assert_eq!((&warm["start"], &full["start"]), (&serde_json::json!("warm"), &serde_json::json!("cold")), "{warm}");
-    schema::check_json("`ema identify --json`", &[&short, &full, &from_csv, &warm]);
+    // a zero beyond self-calibration on phase B: the sensors' fault object
+    let text = std::fs::read_to_string(&csv).expect("written");
+    let broken = dir.join("broken.csv");
+    std::fs::write(&broken, common::with_pretrigger(&text, 300, [0.0, 12.0, 0.0])).expect("writable");
+    let fault = json_quietly(&["identify", s(&broken), "--json", "--max-iterations", "2"]);
+    assert_eq!(fault["sensors"]["fault"]["phase"], "B", "{fault}");
+    schema::check_json("`ema identify --json`", &[&short, &full, &from_csv, &warm, &fault]);
 }
 
 #[test]

@@ -119,7 +119,13 @@ fn identify_pooled<'a, const W: usize>(
         Box::new(Identification::new(first, *params, *profile, config)?.pooled_with(more)?);
     id.run(u32::MAX);
     let report = id.with_uncertainty(id.report());
-    Ok(Outcome { report, seconds: start.elapsed().as_secs_f64(), warm: None, unit_check: None })
+    Ok(Outcome {
+        report,
+        seconds: start.elapsed().as_secs_f64(),
+        warm: None,
+        unit_check: None,
+        sensors: ema_monitor::acquisition::SensorCheck::DECLARED,
+    })
 }
 
 /// Runs every planned run of the actuator `params` under `profile` (sensor noise on when

@@ -98,6 +98,8 @@ pub fn run(args: &IdentifyArgs, config: &IdentifyConfig, params: &EmaParams) -> 
         frames: a.frames.saturating_add(s.frames),
         refused: a.refused.saturating_add(s.refused),
         longest_refused_run: a.longest_refused_run.max(s.longest_refused_run),
+        // each file's sensors are checked on their own, below
+        sensors: a.sensors,
     });
     outcome.report = outcome.report.with_acquisition(&total);
     if let Some(worst) = acquired.iter().find(|s| s.is_sensor_fault()) {

@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
+use ema_monitor::acquisition::{SensorCheck, ZeroSource};
 use ema_monitor::effects::ModelEffects;
 use serde::Serialize;
 
@@ -38,6 +39,75 @@ pub struct ModeJson {
     pub detectable_below: Option<f32>,
 }
 
+/// The current sensors of the JSON report ([`ema_monitor::acquisition::SensorCheck`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct SensorsJson {
+    /// `rest` (measured on the rows before the manoeuvre) or `declared`.
+    pub zero_points: &'static str,
+    /// Rows the zero points were measured on (0 when declared).
+    pub rest_frames: u32,
+    /// Each phase's zero in use minus the declared one, in ADC counts of the nominal sensor.
+    pub zero_shift_counts: [f32; 3],
+    /// Each phase's standard deviation at rest (counts; null when declared).
+    pub rest_sd_counts: Option<[f32; 3]>,
+    /// Each phase's gain against the median of the three, minus 1 (null when the manoeuvre does
+    /// not resolve them).
+    pub gain_mismatch: Option<[f32; 3]>,
+    /// Why the calibration is not trusted (null when it is).
+    pub fault: Option<SensorFaultJson>,
+}
+
+/// A sensor fault of the JSON report.
+#[derive(Clone, Debug, Serialize)]
+pub struct SensorFaultJson {
+    /// The reason in words.
+    pub reason: String,
+    /// The phase it names (`A`, `B`, `C`; null when it concerns all three).
+    pub phase: Option<String>,
+}
+
+impl SensorsJson {
+    /// The JSON form of `check`.
+    pub fn of(check: &SensorCheck) -> Self {
+        let finite = |v: [f32; 3]| v.iter().all(|x| x.is_finite()).then_some(v);
+        Self {
+            zero_points: match check.source {
+                ZeroSource::Rest => "rest",
+                ZeroSource::Declared => "declared",
+            },
+            rest_frames: check.rest_frames,
+            zero_shift_counts: check.zero_shift_counts,
+            rest_sd_counts: finite(check.rest_sd_counts),
+            gain_mismatch: finite(check.gain_mismatch),
+            fault: check
+                .fault
+                .map(|f| SensorFaultJson { reason: f.to_string(), phase: f.phase().map(|p| p.to_string()) }),
+        }
+    }
+}
+
+/// The text report's line on the current sensors.
+pub fn sensors_line(check: &SensorCheck) -> String {
+    let zeros = match check.source {
+        ZeroSource::Rest => {
+            let [a, b, c] = check.zero_shift_counts;
+            format!(
+                "zero points from {} rows before the manoeuvre: A {a:+.1}, B {b:+.1}, C {c:+.1} counts from the declared",
+                check.rest_frames
+            )
+        }
+        ZeroSource::Declared => "declared zero points".to_owned(),
+    };
+    let gains = match check.gain_mismatch {
+        [a, b, c] if a.is_finite() => {
+            format!("; gains against their median A {:+.2} %, B {:+.2} %, C {:+.2} %", a * 100.0, b * 100.0, c * 100.0)
+        }
+        _ => String::new(),
+    };
+    let fault = check.fault.map_or_else(String::new, |f| format!("; not trusted: {f}"));
+    format!("sensors: {zeros}{gains}{fault}")
+}
+
 /// The goodness-of-fit test of the JSON report ([`ema_monitor::health::FitCheck`]).
 #[derive(Clone, Debug, Serialize)]
 pub struct FitTestJson {
@@ -69,6 +139,8 @@ pub struct IdentifyJson {
     pub reason: Option<&'static str>,
     /// Frames the acquisition checks refused.
     pub refused_frames: u32,
+    /// The current sensors' zero points and gain check.
+    pub sensors: SensorsJson,
     /// The goodness-of-fit test (null when not run).
     pub fit_test: Option<FitTestJson>,
     /// The fitness of the best vector (A²).
@@ -169,6 +241,7 @@ pub fn json_body(
         status: r.status.label(),
         reason: r.status.reason().map(|a| a.label()),
         refused_frames: r.refused_frames,
+        sensors: SensorsJson::of(&outcome.sensors),
         fit_test: r.fit_check.map(|c| FitTestJson {
             z: c.z,
             z_limit: ema_monitor::health::FIT_TEST_Z,
@@ -250,6 +323,7 @@ pub fn render(
         )
     } else {
         let mut text = format!("{}\n  command: {}", outcome.report, command.label());
+        text.push_str(&format!("\n  {}", sensors_line(&outcome.sensors)));
         if let Some((t, estimated)) = temperature {
             text.push_str(&format!("\n  {}", temperature_line(t, estimated)));
         }

@@ -8,7 +8,7 @@ use ema_monitor::conditioning::DECIMATION;
 use ema_monitor::{EmaParams, Profile};
 use serde::Serialize;
 
-use super::data::Recording;
+use super::data::{Recording, MAX_REST_ROWS};
 use super::error::{RecordingError, RecordingErrorKind};
 use super::read::{read_file, Columns, ReadOptions};
 use super::{align, resample};
@@ -168,6 +168,7 @@ impl RecordingArgs {
                 ib_a: cut(&raw.ib_a),
                 ic_a: cut(&raw.ic_a),
                 row_line: raw.row_line[i0..i0 + n].to_vec(),
+                rest_currents_a: rest_rows(raw, i0),
                 temperature_c: raw.temperature_c.as_ref().map(cut),
             };
             (rec, start)
@@ -191,6 +192,8 @@ impl RecordingArgs {
                 ib_a: next(),
                 ic_a: next(),
                 row_line: times.iter().map(|&u| raw.row_line[nearest(u)]).collect(),
+                // the rows wholly before the start: their time below it by half a period
+                rest_currents_a: rest_rows(raw, raw.time_s.partition_point(|&t| t < start - 0.5 * grid.period_s)),
                 // a slow quantity: linear between neighbours, which stays within the file's values
                 temperature_c: raw
                     .temperature_c
@@ -219,4 +222,10 @@ impl RecordingArgs {
         };
         Ok(Loaded { recording, summary })
     }
+}
+
+/// The phase currents of `raw`'s rows before row `start` (at most the last [`MAX_REST_ROWS`]).
+fn rest_rows(raw: &Recording, start: usize) -> Vec<[f64; 3]> {
+    let start = start.min(raw.len());
+    (start.saturating_sub(MAX_REST_ROWS)..start).map(|k| [raw.ia_a[k], raw.ib_a[k], raw.ic_a[k]]).collect()
 }

@@ -45,6 +45,10 @@ pub const STEP_TOLERANCE: f64 = 0.25;
 /// time moves the 0.4 ms block means the monitor fits by well under 1 % of a block.
 pub const JITTER_TOLERANCE_S: f64 = 2e-6;
 
+/// Rows before the manoeuvre kept for the sensors' zero points: twice the core's
+/// `REST_BLOCK_FRAMES`, all its estimate can use.
+pub const MAX_REST_ROWS: usize = 2 * ema_monitor::acquisition::REST_BLOCK_FRAMES as usize;
+
 /// A recording as columns of equal length: as read from a file (any accepted rate), or on the
 /// monitor's 10 kHz grid once [`RecordingArgs::load`](super::args::RecordingArgs::load) has aligned and resampled it.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -65,6 +69,11 @@ pub struct Recording {
     pub ic_a: Vec<f64>,
     /// Line of each row in its file (1-based), for messages that name the line.
     pub row_line: Vec<usize>,
+    /// The phase currents `[ia, ib, ic]` of the file's rows before the manoeuvre's start (at the
+    /// file's rate, at most the last [`MAX_REST_ROWS`]): the pre-trigger, with the actuator at
+    /// rest, on which the core measures the sensors' zero points. Empty when the manoeuvre starts
+    /// at the first row.
+    pub rest_currents_a: Vec<[f64; 3]>,
     /// The actuator's temperature at each row (°C, within [`MIN_TEMPERATURE_C`] and
     /// [`MAX_TEMPERATURE_C`]), when the file has a temperature column.
     pub temperature_c: Option<Vec<f64>>,
@@ -108,6 +117,7 @@ impl Recording {
             // as `write_csv` lays the file out: comments, header, then one line per row
             row_line: (0..r.samples.len()).map(|k| comments_len + 2 + k).collect(),
             comments,
+            rest_currents_a: Vec::new(),
             temperature_c: None,
         }
     }

@@ -322,6 +322,7 @@ mod tests {
             ib_a: vec![0.0; 4],
             ic_a: vec![1e-300, -1e300, 5e-324, 0.0],
             row_line: vec![3, 4, 5, 6], // one comment line, the header, then the rows
+            rest_currents_a: Vec::new(),
             temperature_c: None,
         };
         let path = std::env::temp_dir().join(format!("ema-rt-{}.csv", std::process::id()));

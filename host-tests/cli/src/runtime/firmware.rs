@@ -84,7 +84,7 @@ pub fn firmware_trace_outcome_for(
         .map_err(|e| Refusal::new("identification", e))?;
     let report = outcome.report.with_acquisition(&acquired);
     let report = if rate_ok { report } else { report.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
-    Ok(Outcome { report, ..outcome })
+    Ok(Outcome { report, sensors: acquired.sensors, ..outcome })
 }
 
 /// The fault vector's `f32` bit patterns: 8 lower-case hex words.

@@ -3,6 +3,7 @@
 //! [`run_to_end`] evaluates each sweep of the PSO global search in parallel and is bit for bit
 //! the firmware's sequential run.
 
+use ema_monitor::acquisition::SensorCheck;
 use std::path::Path;
 use std::time::Instant;
 
@@ -38,6 +39,9 @@ pub struct Outcome {
     /// The best healthy unit within the unit's tolerances against a fault found
     /// ([`super::unit_check`]; `None`: not checked).
     pub unit_check: Option<UnitCheck>,
+    /// What the current sensors' self-calibration found (the declared calibration where the
+    /// recording was not acquired through the frame checks).
+    pub sensors: SensorCheck,
 }
 
 /// The prior of a warm start and what its stages did ([`ema_monitor::monitor::WarmReport`]).
@@ -85,7 +89,7 @@ pub fn identify_recording_with(
 ) -> Result<Outcome, CliError> {
     let (trace, acquired) = condition_recording_checked_for(recording, path, params, command)?;
     let outcome = identify_trace(&trace, params, command.command(), config, path)?;
-    Ok(Outcome { report: outcome.report.with_acquisition(&acquired), ..outcome })
+    Ok(Outcome { report: outcome.report.with_acquisition(&acquired), sensors: acquired.sensors, ..outcome })
 }
 
 /// [`identify_recording_with`] for a unit known to within `tolerances`: a fault found must also
@@ -116,7 +120,7 @@ pub fn identify_unit_recording(
     let check = check_unit(&trace, params, command.command(), config, tolerances, &outcome.report);
     let report = with_unit_check(outcome.report, check.as_ref()).with_acquisition(&acquired);
     let seconds = outcome.seconds + start.elapsed().as_secs_f64();
-    Ok((Outcome { report, seconds, unit_check: check, ..outcome }, temperature_c))
+    Ok((Outcome { report, seconds, unit_check: check, sensors: acquired.sensors, ..outcome }, temperature_c))
 }
 
 /// Identifies a conditioned trace (any window size) of the actuator `params`, the model driven by
@@ -147,7 +151,13 @@ pub fn run_identification<const W: usize>(
     let warm = config.prior.zip(id.warm_report()).map(|(prior, report)| WarmStart { prior, report });
     let seconds = start.elapsed().as_secs_f64();
     // the 1σ and detectable-below severities of the reported vector, as the firmware logs them
-    Ok(Outcome { report: id.with_uncertainty(id.report()), seconds, warm, unit_check: None })
+    Ok(Outcome {
+        report: id.with_uncertainty(id.report()),
+        seconds,
+        warm,
+        unit_check: None,
+        sensors: SensorCheck::DECLARED,
+    })
 }
 
 /// Runs `id` to its end as [`Identification::run`] does, with each sweep of the PSO global search
@@ -198,5 +208,11 @@ pub fn identify_pooled<const W: usize>(
     let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> =
         Box::new(Identification::new(first, *params, first_command, config)?.pooled_with(&more)?);
     id.run(u32::MAX);
-    Ok(Outcome { report: id.report(), seconds: start.elapsed().as_secs_f64(), warm: None, unit_check: None })
+    Ok(Outcome {
+        report: id.report(),
+        seconds: start.elapsed().as_secs_f64(),
+        warm: None,
+        unit_check: None,
+        sensors: SensorCheck::DECLARED,
+    })
 }

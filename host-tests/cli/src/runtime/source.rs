@@ -5,13 +5,16 @@
 //! row. With [`FrameChecks::OnBoard`] every frame first passes the core's frame checks
 //! ([`FrameCheck::amps`]: range, stuck channel and sum, nominal calibration, default settings),
 //! so a refused frame is held at the last good one and counted exactly as the firmware holds and
-//! counts it; with [`FrameChecks::None`] every frame is taken as it is. [`acquire_recording`]
+//! counts it; a recording with rows before its manoeuvre ([`Recording::rest_currents_a`]) has
+//! its sensors' zero points measured on them first, as a board measures them on the frames
+//! before its trigger (`AcquisitionConfig::SELF_CALIBRATED`), and one without keeps the declared
+//! ones. With [`FrameChecks::None`] every frame is taken as it is. [`acquire_recording`]
 //! runs the acquisition and names the row of a refused window in its error.
 
 use std::path::Path;
 
 use ema_monitor::acquisition::{
-    AcquisitionConfig, AcquisitionError, Calibration, FrameCheck, PhaseCurrents, PhaseFrame,
+    AcquisitionConfig, AcquisitionError, Calibration, FrameCheck, PhaseCurrents, PhaseFrame, SensorCheck,
 };
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::monitor::{self, AcquisitionSummary, MonitorError};
@@ -47,7 +50,17 @@ impl<'r> RecordingSource<'r> {
     /// core's defaults, which it accepts (an error here is the core refusing its own defaults).
     pub fn new(recording: &'r Recording, checks: FrameChecks) -> Result<Self, ema_monitor::acquisition::ConfigError> {
         let check = match checks {
-            FrameChecks::OnBoard => Some(FrameCheck::new(Calibration::NOMINAL, AcquisitionConfig::DEFAULT)?),
+            FrameChecks::OnBoard if recording.rest_currents_a.is_empty() => {
+                Some(FrameCheck::new(Calibration::NOMINAL, AcquisitionConfig::DEFAULT)?)
+            }
+            FrameChecks::OnBoard => {
+                let mut check = FrameCheck::new(Calibration::NOMINAL, AcquisitionConfig::SELF_CALIBRATED)?;
+                for row in &recording.rest_currents_a {
+                    check.rest_amps(row.map(|i| i as f32));
+                }
+                check.start_recording();
+                Some(check)
+            }
             FrameChecks::None => None,
         };
         Ok(Self { recording, check, next: 0, ended: false })
@@ -79,6 +92,10 @@ impl PhaseCurrents for RecordingSource<'_> {
             // no ADC stands behind a recording's currents: the codes are not read downstream
             None => Ok(PhaseFrame { ia_a: currents_a[0], ib_a: currents_a[1], ic_a: currents_a[2], codes: [0; 3] }),
         }
+    }
+
+    fn sensor_check(&self) -> SensorCheck {
+        self.check.as_ref().map_or(SensorCheck::DECLARED, FrameCheck::sensor_check)
     }
 }
 

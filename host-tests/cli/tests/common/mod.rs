@@ -44,3 +44,28 @@ pub fn accepted(args: &[&str]) -> String {
     assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
     String::from_utf8(out.stdout).expect("utf-8 stdout")
 }
+
+/// A bench's version of the recording CSV `text` (`ema simulate`'s columns): `rest_rows` rows at
+/// rest before it (command, position and currents zero, the time axis shifted so that they come
+/// first), and each phase current through a sensor with a zero error of `offsets_a` (A) on every
+/// row, with a ±1-count dither at rest so that a sensor is never frozen.
+pub fn with_pretrigger(text: &str, rest_rows: usize, offsets_a: [f64; 3]) -> String {
+    const AMPS_PER_COUNT: f64 = 40.0 / 4096.0;
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+    let header = lines.next().expect("a header");
+    let rows: Vec<Vec<f64>> =
+        lines.map(|l| l.split(',').map(|x| x.parse::<f64>().expect("a number")).collect()).collect();
+    let period = rows[1][0] - rows[0][0];
+    let mut out = format!("{header}\n");
+    for k in 0..rest_rows {
+        let dither = if k % 2 == 0 { 0.0 } else { AMPS_PER_COUNT };
+        let [a, b, c] = offsets_a.map(|o| o + dither);
+        out.push_str(&format!("{},0,0,{a},{b},{c}\n", k as f64 * period));
+    }
+    for (k, r) in rows.iter().enumerate() {
+        let t = (rest_rows + k) as f64 * period;
+        let [a, b, c] = [r[3] + offsets_a[0], r[4] + offsets_a[1], r[5] + offsets_a[2]];
+        out.push_str(&format!("{t},{},{},{a},{b},{c}\n", r[1], r[2]));
+    }
+    out
+}
