@@ -441,3 +441,49 @@ fn a_bench_s_sensors_are_calibrated_before_the_trigger_and_diagnose_as_ideal_one
         );
     }
 }
+
+#[test]
+fn a_board_s_flights_accumulate_evidence_across_a_sensor_fault() {
+    use crate::acquisition::AcquisitionConfig;
+    // the board's sequence, through its self-calibrated acquisition and a power cycle between
+    // flights: healthy, a friction fault, a flight whose phase-A sensor lost its zero, the fault
+    // again
+    let bench = BenchSensors { zero_counts: [-9.3, 16.2, 4.4], gain_error: [0.004, -0.006, 0.009] };
+    let broken = BenchSensors { zero_counts: [700.0, 16.2, 4.4], ..bench };
+    let friction = FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+    let unit = units()[1];
+    let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+    let (mut record, mut hooks) = (HealthRecord::new(), FlashHooks::new());
+    let rest = 400;
+    let plan = [(&FaultVector::HEALTHY, &bench), (&friction, &bench), (&friction, &broken), (&friction, &bench)];
+    let mut evidence = std::vec::Vec::new();
+    for (n, (truth, sensors)) in plan.into_iter().enumerate() {
+        let bytes = bench_trace(&unit, truth, 700 + n as u64, rest, sensors);
+        let (trace, acquired) = acquire_bench(&monitor, &bytes, rest, AcquisitionConfig::SELF_CALIBRATED);
+        let f = monitor.diagnose(&trace, &acquired, &mut record, &mut hooks).unwrap();
+        let mut bytes = [0u8; HealthRecord::ENCODED_LEN];
+        record.encode(&mut bytes).unwrap();
+        record = HealthRecord::decode(&bytes).unwrap();
+        assert_eq!(f.number, n as u32 + 1);
+        evidence.push(f.pooled.map(|p| p.evidence.flights));
+        match n {
+            0 => assert_eq!(f.report.status, Status::Healthy, "{:?}", f.report),
+            2 => {
+                assert_eq!(f.report.status, Status::SensorFault);
+                assert_eq!(f.sensors.fault.and_then(|x| x.phase()), Some(crate::acquisition::Phase::A));
+            }
+            _ => {
+                assert!(f.report.status.is_diagnosis(), "flight {}: {:?}", n + 1, f.report.status);
+                assert!(
+                    (f.recorded_report().faults.0[0] - 0.3).abs() < 0.05,
+                    "flight {}: {:?}",
+                    n + 1,
+                    f.report.faults
+                );
+            }
+        }
+    }
+    // the sensor fault pools nothing and loses nothing: the fourth flight's evidence holds three
+    assert_eq!(evidence, [Some(1), Some(2), None, Some(3)]);
+    assert_eq!(record.flights(), 4);
+}
