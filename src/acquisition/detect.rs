@@ -82,7 +82,7 @@ impl SumDetector {
     /// `true` when it is to be reported as inconsistent. A NaN sum (cannot come from a valid
     /// calibration) counts as inconsistent.
     pub(super) fn update(&mut self, sum_a: f32, peak_a: f32, cfg: &AcquisitionConfig) -> bool {
-        let ok = libm::fabsf(sum_a) <= cfg.sum_tolerance_a + cfg.sum_tolerance_share * peak_a;
+        let ok = libm::fabsf(sum_a) <= cfg.sum_tolerance_at(peak_a);
         if ok {
             self.consecutive = 0;
             false

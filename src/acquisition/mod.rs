@@ -46,7 +46,10 @@
 //!
 //! **Sum rule.** The star point is isolated, so `ia + ib + ic = 0`. A frame is *off* when
 //! `|ia + ib + ic| >` [`AcquisitionConfig::sum_tolerance_a`] `+`
-//! [`AcquisitionConfig::sum_tolerance_share`]` · max |i_j|` (defaults 0.3 A and 0.02); after
+//! [`AcquisitionConfig::sum_tolerance_share`]` · max |i_j|` (defaults 0.3 A and 0.02), plus, when
+//! the phases are sampled at different instants ([`AcquisitionConfig::phase_skew_us`], one ADC
+//! converting them in turn), the skews' spread times the fastest current slope
+//! ([`AcquisitionConfig::max_current_slope_a_per_us`]; [`AcquisitionConfig::sum_tolerance_at`]); after
 //! [`AcquisitionConfig::sum_frames`] consecutive off frames (default 5) every further off frame is
 //! reported as [`InconsistentSum`](AcquisitionError::InconsistentSum) until a good frame resets the
 //! count. Default tolerance: sensor noise σ = 0.02 A per phase gives σ = 0.035 A on the sum (0.3 A is
@@ -323,7 +326,8 @@ pub enum ConfigError {
     MaxPolls,
     /// `stuck_min_frames` is below 2 or `stuck_activity_counts` is 0.
     StuckRule,
-    /// `sum_tolerance_a` is not finite and positive, or `sum_frames` is 0.
+    /// `sum_tolerance_a` is not finite and positive, the share, a skew or the slope is negative
+    /// or not finite, or `sum_frames` is 0.
     SumRule,
     /// A self-calibration limit is zero, negative or not finite.
     SelfCalibration,
@@ -362,6 +366,14 @@ pub struct AcquisitionConfig {
     /// Share of the frame's largest phase current added to that tolerance (default 0.02): the
     /// sensors' gain mismatch, which the gain check bounds over the manoeuvre.
     pub sum_tolerance_share: f32,
+    /// When each phase is sampled after the frame's instant (µs): 0 for simultaneous sampling
+    /// (the default), the conversion order's spacing for one ADC converting the phases in turn.
+    pub phase_skew_us: [f32; 3],
+    /// Fastest change of a phase current (A/µs) the skew can meet (default 0.0675 A/µs: the
+    /// 270 V supply across the conducting pair's 2 × 2 mH). With skewed phases the sum rule's
+    /// tolerance grows by `(max skew − min skew) · slope`: the phases' samples are up to that far
+    /// apart along the current's ripple.
+    pub max_current_slope_a_per_us: f32,
     /// Consecutive inconsistent frames before reporting (default 5).
     pub sum_frames: u32,
     /// The zero points measured on the frames before the trigger (`self_calibration`), or the
@@ -378,6 +390,8 @@ impl AcquisitionConfig {
         stuck_zero_band_counts: 12,
         sum_tolerance_a: 0.3,
         sum_tolerance_share: 0.02,
+        phase_skew_us: [0.0; 3],
+        max_current_slope_a_per_us: 0.0675,
         sum_frames: 5,
         self_calibration: None,
     };
@@ -395,13 +409,30 @@ impl AcquisitionConfig {
             return Err(ConfigError::StuckRule);
         }
         let share_ok = self.sum_tolerance_share.is_finite() && self.sum_tolerance_share >= 0.0;
-        if !self.sum_tolerance_a.is_finite() || self.sum_tolerance_a <= 0.0 || !share_ok || self.sum_frames == 0 {
+        let skew_ok = self.phase_skew_us.iter().all(|s| s.is_finite() && *s >= 0.0)
+            && self.max_current_slope_a_per_us.is_finite()
+            && self.max_current_slope_a_per_us >= 0.0;
+        if !self.sum_tolerance_a.is_finite()
+            || self.sum_tolerance_a <= 0.0
+            || !share_ok
+            || !skew_ok
+            || self.sum_frames == 0
+        {
             return Err(ConfigError::SumRule);
         }
         if self.self_calibration.is_some_and(|c| !c.is_valid()) {
             return Err(ConfigError::SelfCalibration);
         }
         Ok(())
+    }
+}
+
+impl AcquisitionConfig {
+    /// The sum rule's tolerance for a frame whose largest phase current is `peak_a` (module doc).
+    pub fn sum_tolerance_at(&self, peak_a: f32) -> f32 {
+        let [a, b, c] = self.phase_skew_us;
+        let spread_us = a.max(b).max(c) - a.min(b).min(c);
+        self.sum_tolerance_a + self.sum_tolerance_share * peak_a + spread_us * self.max_current_slope_a_per_us
     }
 }
 

@@ -318,6 +318,34 @@ fn config_is_validated() {
     assert_eq!(try_cfg(|c| c.sum_tolerance_a = f32::NAN), Some(ConfigError::SumRule));
     assert_eq!(try_cfg(|c| c.sum_tolerance_a = 0.0), Some(ConfigError::SumRule));
     assert_eq!(try_cfg(|c| c.sum_frames = 0), Some(ConfigError::SumRule));
+    assert_eq!(try_cfg(|c| c.sum_tolerance_share = -0.1), Some(ConfigError::SumRule));
+    assert_eq!(try_cfg(|c| c.phase_skew_us = [0.0, f32::NAN, 0.0]), Some(ConfigError::SumRule));
+    assert_eq!(try_cfg(|c| c.max_current_slope_a_per_us = f32::INFINITY), Some(ConfigError::SumRule));
+    assert_eq!(
+        try_cfg(|c| c.self_calibration =
+            Some(SelfCalibrationConfig { min_rest_frames: 0, ..SelfCalibrationConfig::DEFAULT })),
+        Some(ConfigError::SelfCalibration)
+    );
+}
+
+#[test]
+fn sequential_sampling_widens_the_sum_rule_by_the_skew_it_declares() {
+    // one ADC converting A, B, C 5 µs apart while the pair's current ripples at its 0.0675 A/µs:
+    // phase C is read 10 µs after A, so the frame sums to 10 µs · 0.0675 A/µs = 0.675 A
+    let ramp = |k: u16| {
+        let i = 0.015 * f32::from(k) - 3.0; // the pair current at the frame's instant
+                                            // the pair A–C conducts; phase C is sampled 10 µs later, the pair's current 0.675 A on
+        [i, 0.0, -(i + 0.675)]
+    };
+    let run = |skew: [f32; 3]| {
+        let config = AcquisitionConfig { phase_skew_us: skew, ..AcquisitionConfig::DEFAULT };
+        let mut check = FrameCheck::new(Calibration::NOMINAL, config).unwrap();
+        (0..400u16).filter(|&k| check.amps(ramp(k)).is_err()).count()
+    };
+    assert!(run([0.0; 3]) > 300, "simultaneous sampling declared: the skewed frames are refused");
+    assert_eq!(run([0.0, 5.0, 10.0]), 0, "the declared skew accounts for them");
+    let c = AcquisitionConfig { phase_skew_us: [0.0, 5.0, 10.0], ..AcquisitionConfig::DEFAULT };
+    assert!((c.sum_tolerance_at(0.0) - (0.3 + 0.675)).abs() < 1e-6);
 }
 
 #[test]
