@@ -654,14 +654,16 @@ impl FrameCheck {
     }
 
     /// The manoeuvre starts: with self-calibration configured, the zero points are measured on
-    /// the rest frames seen so far (or refused, the declared ones kept); the stuck and sum
-    /// history starts afresh. Without it, nothing changes.
+    /// the rest frames since the last start (or refused, the declared ones kept), and the next
+    /// acquisition's rest frames start afresh; the stuck and sum history starts afresh. Without
+    /// it, nothing changes.
     pub fn start_recording(&mut self) {
         if let Some(config) = self.config.self_calibration {
             let (calibration, sensors) = self.rest.zero_points(&self.declared, &config);
             self.calibration = calibration;
             self.zero_codes = Phase::ALL.map(|p| calibration.phase(p).zero_code());
             self.sensors = sensors;
+            self.rest = RestEstimator::new();
             self.reset();
         }
     }

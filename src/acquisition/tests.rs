@@ -452,3 +452,24 @@ fn frame_limit_of_zero_or_a_bad_ratio_reads_nothing() {
     assert_eq!(limited.read_frame(), Err(AcquisitionError::EndOfData));
     assert_eq!(limited.source().frames_read(), 0);
 }
+
+#[test]
+fn each_recording_measures_its_zero_points_on_its_own_rest_frames() {
+    let mut check = FrameCheck::new(Calibration::NOMINAL, AcquisitionConfig::SELF_CALIBRATED).unwrap();
+    for k in 0..600u16 {
+        check.rest([2060 + k % 2, 2048, 2040]);
+    }
+    check.start_recording();
+    let first = check.sensor_check();
+    assert_eq!((first.rest_frames, first.fault), (600, None));
+    assert!((first.zero_shift_counts[0] - 12.5).abs() < 0.01);
+    // the next acquisition: too few rest frames of its own, whatever came before
+    for _ in 0..100 {
+        check.rest([2070, 2048, 2040]);
+    }
+    check.start_recording();
+    assert!(matches!(
+        check.sensor_check().fault,
+        Some(crate::acquisition::SensorFault::TooFewRestFrames { frames: 100, .. })
+    ));
+}
