@@ -473,6 +473,12 @@ impl<A, PA, PB, PC, M> PhaseCurrentReader<A, PA, PB, PC, M> {
         &self.adc
     }
 
+    /// The driver, for another channel between acquisitions (e.g. a temperature input on the
+    /// same ADC while no frame is read).
+    pub fn adc_mut(&mut self) -> &mut A {
+        &mut self.adc
+    }
+
     /// Forgets the stuck and sum history (e.g. after a gap in the data).
     pub fn reset_checks(&mut self) {
         self.check.reset();
