@@ -2,23 +2,20 @@
 //! three ADC pins at the control rate, one flight through the core's [`HealthMonitor`] (the
 //! QEMU firmware's flight policy), the report over defmt-rtt (`cargo run --release` in this
 //! folder runs it through `probe-rs run`). Wiring only:
-//! 1. the independent watchdog first ([`WATCHDOG_MS`], `safe_state.rs`), so that every later hang
-//!    resets; clocks at 180 MHz from the ST-LINK's 8 MHz; the health record from flash sectors
-//!    6–7 (`health_flash.rs`), erased first when the user button B1 (PC13) is held at start-up;
-//!    a new record (the first start, or after that maintenance reset) commissions the unit over
-//!    its first [`COMMISSIONING_FLIGHTS`] flights, their windows kept in the same sectors;
+//! 1. the independent watchdog first ([`WATCHDOG_MS`], `watchdog.rs`, `safe_state.rs`), so that
+//!    every later hang resets; clocks at 180 MHz from the ST-LINK's 8 MHz; the health record from
+//!    flash sectors 6–7 (`health_flash.rs`), erased first when the user button B1 (PC13) is held
+//!    at start-up; a new record commissions the unit over its first [`COMMISSIONING_FLIGHTS`];
 //! 2. the actuator's temperature on PB0 (a TMP36-type sensor), read once; ADC1 on PA0, PA1, PA4
-//!    (phases A, B, C) behind the core's `PhaseCurrentReader`, the start
-//!    trigger on PA10, and TIM2's interrupt reading one frame per [`FRAME_PERIOD_US`] into the
-//!    sampler (`tim2_sampling.rs`); thread mode acquires the manoeuvre's frames after the trigger
-//!    (at most [`TRIGGER_TIMEOUT_FRAMES`] ticks away), sleeping with `wfi` and feeding the watchdog;
-//! 3. the flight: planned from the record (a record of other parameters or another unit archived
-//!    and a new one started), identified one objective evaluation per step with the
+//!    (phases A, B, C) behind the core's `PhaseCurrentReader`, the start trigger on PA10, and
+//!    TIM2's interrupt reading one frame per [`FRAME_PERIOD_US`] into the sampler
+//!    (`tim2_sampling.rs`); thread mode acquires the manoeuvre's frames after the trigger (at
+//!    most [`TRIGGER_TIMEOUT_FRAMES`] ticks away), sleeping with `wfi` and feeding the watchdog;
+//! 3. the flight: planned from the record, identified one objective evaluation per step with the
 //!    watchdog fed and each step timed by the DWT cycle counter (`WatchdogHooks`), reported with
 //!    its uncertainty, recorded with its pooled evidence; the record saved; then idle, fed.
 //!
-//! A panic or fault ends in the safe state: logged `FAILSAFE`, parked without feeding the
-//! watchdog, which resets the chip (docs/board.md).
+//! A panic or fault ends in the safe state: `FAILSAFE`, then the watchdog's reset (docs/board.md).
 #![no_std]
 #![no_main]
 
@@ -38,20 +35,24 @@ use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Config;
 
+/// FLASH_ACR: the data cache flush.
+mod flash_control;
 /// The health record in flash sectors 6–7.
 mod health_flash;
 /// Failure and the safe state.
 mod safe_state;
 /// TIM2's interrupt: one frame per control period into the sampler.
 mod tim2_sampling;
+/// The independent watchdog.
+mod watchdog;
 
 use safe_state::{failsafe, idle_failed, refused, WatchdogHooks};
 use tim2_sampling::{wait_tick, Isr, LATE};
 
 /// Independent-watchdog timeout. The longest thing done between two feeds is one objective
-/// evaluation: at most about 1.2e7 instructions at this crate's `opt-level = "s"` (a full,
-/// not early-abandoned model run), about 105 ms at 1.6 cycles per instruction and 180 MHz.
-/// 500 ms leaves a margin above 4, and above 3 at the LSI's fastest (47 kHz against 32 kHz).
+/// evaluation: at most about 1.2e7 instructions at `opt-level = "s"` (a full model run), about
+/// 105 ms at 1.6 cycles per instruction and 180 MHz: 500 ms leaves a margin above 4, and above 3
+/// at the LSI's fastest (47 kHz against 32 kHz).
 const WATCHDOG_MS: u32 = 500;
 
 /// Period of one ADC frame: 100 µs, the control period of `EmaParams::NOMINAL` (10 kHz).
@@ -73,8 +74,7 @@ const COMMISSIONING_FLIGHTS: u8 = 3;
 /// reference. An implausible or missing reading diagnoses the flight at the parameters' 20 °C.
 const TEMPERATURE_SENSOR: TemperatureSensor = TemperatureSensor::TMP36_3V3;
 
-/// Polls of the temperature conversion before it counts as unavailable (one conversion takes
-/// 3 µs; the HAL's blocking read returns it on the first).
+/// Polls of the temperature conversion before it counts as unavailable (one takes 3 µs).
 const TEMPERATURE_POLLS: u32 = 100;
 
 /// The core clock, for converting DWT cycles to seconds.
@@ -84,7 +84,7 @@ const SYSCLK_HZ: u32 = 180_000_000;
 fn main() -> ! {
     // 1. Watchdog first: from here on, a hang resets the chip.
     let Some(dp) = pac::Peripherals::take() else { failsafe("device peripherals already taken") };
-    let mut watchdog = safe_state::start_watchdog(dp.IWDG, &dp.DBGMCU, &dp.RCC);
+    let watchdog = safe_state::start_watchdog(dp.IWDG, &dp.DBGMCU, &dp.RCC);
     let Some(mut cp) = cortex_m::Peripherals::take() else { failsafe("core peripherals already taken") };
 
     // 2. Clocks: 8 MHz HSE (ST-LINK MCO, bypass) → PLL → 180 MHz; APB1 45 MHz, APB2 90 MHz.
@@ -103,7 +103,7 @@ fn main() -> ! {
     // 2b. Health record; B1 (PC13, low when pressed) held at start-up is the maintenance reset.
     let maintenance = dp.GPIOC.split(&mut rcc).pc13.into_floating_input().is_low();
     let mut flash = LockedFlash::new(dp.FLASH);
-    let mut record = health_flash::start(&mut flash, &mut watchdog, maintenance);
+    let mut record = health_flash::start(&mut flash, &watchdog, maintenance);
 
     // 3. The actuator's temperature on PB0 (ADC1_IN8), read once; then ADC1 on PA0/PA1/PA4
     //    behind the core's reader (`tim2_sampling::phase_reader`).
@@ -115,13 +115,13 @@ fn main() -> ! {
     let pins = (gpioa.pa0.into_analog(), gpioa.pa1.into_analog(), gpioa.pa4.into_analog());
     let reader = match tim2_sampling::phase_reader(adc, pins) {
         Ok(r) => r,
-        Err(e) => refused("acquisition config refused", e, watchdog),
+        Err(e) => refused("acquisition config refused", e, &watchdog),
     };
     let trigger = gpioa.pa10.into_pull_down_input();
     let mut timer = dp.TIM2.counter_us(&mut rcc);
     if timer.start(FRAME_PERIOD_US.micros()).is_err() {
         defmt::error!("TIM2 refused the {=u32} us period", FRAME_PERIOD_US);
-        idle_failed(watchdog)
+        idle_failed(&watchdog)
     }
 
     // 4. Arm the sampler: TIM2's interrupt reads the frames, thread mode consumes them.
@@ -132,10 +132,10 @@ fn main() -> ! {
         .and_then(|m| m.with_commissioning(COMMISSIONING_FLIGHTS, Tolerances::TYPICAL))
     {
         Ok(m) => m,
-        Err(e) => refused("monitor refused", e, watchdog),
+        Err(e) => refused("monitor refused", e, &watchdog),
     };
     let record_kept = match monitor.adopt(&mut record) {
-        Some(old) => health_flash::archive(&mut flash, &mut watchdog, &old),
+        Some(old) => health_flash::archive(&mut flash, &watchdog, &old),
         None => true,
     };
     let frames = monitor.frames();
@@ -157,11 +157,11 @@ fn main() -> ! {
     // the consumer's last use: its wait hook gives the watchdog back
     let (outcome, waited, read) = (live.outcome(), live.waited_frames(), live.frames_read());
     if let Err(e) = outcome {
-        refused("acquisition stopped", e, watchdog)
+        refused("acquisition stopped", e, &watchdog)
     }
     let mut acquired = match acquired {
         Ok(a) => a,
-        Err(e) => refused("acquisition stopped", e, watchdog),
+        Err(e) => refused("acquisition stopped", e, &watchdog),
     };
     // The frames came at the timer's rate unless a tick's handler overran its period.
     acquired.late_frames = LATE.load(Ordering::Relaxed);
@@ -180,16 +180,16 @@ fn main() -> ! {
     );
 
     // 5. The flight, the watchdog fed between evaluations.
-    let mut hooks = WatchdogHooks::new(&mut watchdog, &mut flash);
+    let mut hooks = WatchdogHooks::new(&watchdog, &mut flash);
     let flight = match monitor.diagnose(&trace, &acquired, &mut record, &mut hooks) {
         Ok(f) => f,
-        Err(e) => refused("identification refused", e, watchdog),
+        Err(e) => refused("identification refused", e, &watchdog),
     };
 
     // 6. Report, record, then idle.
     report_log::log_flight(&flight);
     if record_kept {
-        health_flash::save(&mut flash, &mut watchdog, &record);
+        health_flash::save(&mut flash, &watchdog, &record);
     }
     defmt::info!("ema-monitor: OK");
     loop {
