@@ -37,9 +37,9 @@ pub fn refused(what: &str, e: impl defmt::Format, watchdog: &Watchdog) -> ! {
     idle_failed(watchdog)
 }
 
-/// A refused configuration or recording: no report (`ema-monitor: FAILED`), but the firmware
-/// itself is sound, so it idles with the watchdog fed every 100 ms (timed by the DWT cycle
-/// counter, so no timer is needed).
+/// A configuration refused at start-up: no flight can run (`ema-monitor: FAILED`), but the
+/// firmware itself is sound, so it idles with the watchdog fed every 100 ms (timed by the DWT
+/// cycle counter, so no timer is needed).
 pub fn idle_failed(watchdog: &Watchdog) -> ! {
     defmt::error!("ema-monitor: FAILED (no health report)");
     loop {
