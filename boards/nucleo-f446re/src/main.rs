@@ -3,7 +3,8 @@
 //! (the QEMU firmware's flight policy), each report over defmt-rtt (`cargo run --release` in this
 //! folder runs it through `probe-rs run`). Wiring only:
 //! 1. the independent watchdog first ([`WATCHDOG_MS`], `watchdog.rs`, `safe_state.rs`), so that
-//!    every later hang resets; clocks at 180 MHz from the ST-LINK's 8 MHz;
+//!    every later hang resets; the debug connection kept through `wfi` (`dbgmcu.rs`); clocks at
+//!    180 MHz from the ST-LINK's 8 MHz;
 //! 2. the health record from flash sectors 6–7 (`health_flash.rs`), erased first when the user
 //!    button B1 (PC13) is held at start-up; a new record (the first start, or after that
 //!    maintenance reset) commissions the unit over its first [`COMMISSIONING_FLIGHTS`] flights;
@@ -31,6 +32,8 @@ use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Config;
 
+/// DBGMCU: the debug connection through low-power modes.
+mod dbgmcu;
 /// FLASH_ACR: the data cache flush.
 mod flash_control;
 /// The flight loop.

@@ -1,7 +1,7 @@
 //! The watchdog and the safe state: the watchdog's start and its flight hooks (fed before each
 //! objective evaluation, each evaluation timed); a refused configuration idles with the watchdog
 //! fed; a panic, a fault or a lost state parks without feeding it, so that the IWDG resets the chip.
-//! The IWDG's registers are in `watchdog.rs`.
+//! The registers are in `watchdog.rs` and `dbgmcu.rs`.
 
 use cortex_m::peripheral::DWT;
 use cortex_m_rt::{exception, ExceptionFrame};
@@ -13,13 +13,14 @@ use stm32f4xx_hal::flash::LockedFlash;
 use stm32f4xx_hal::pac::{DBGMCU, IWDG, RCC};
 
 use crate::watchdog::Watchdog;
-use crate::{SYSCLK_HZ, WATCHDOG_MS};
+use crate::{dbgmcu, SYSCLK_HZ, WATCHDOG_MS};
 
-/// Starts the independent watchdog at [`WATCHDOG_MS`], frozen while a probe halts the core, and
-/// says when the last reset came from it (the previous run ended in the safe state or hung).
+/// Starts the independent watchdog at [`WATCHDOG_MS`], frozen while a probe halts the core (with
+/// the debug connection kept through `wfi`: [`dbgmcu::keep_debug_in_low_power`]), and says when
+/// the last reset came from it (the previous run ended in the safe state or hung).
 pub fn start_watchdog(iwdg: IWDG, dbgmcu: &DBGMCU, rcc: &RCC) -> Watchdog {
     let watchdog = Watchdog::start(iwdg);
-    dbgmcu.apb1_fz().modify(|_, w| w.dbg_iwdg_stop().set_bit());
+    dbgmcu::keep_debug_in_low_power(dbgmcu);
     match watchdog.set_timeout_ms(WATCHDOG_MS) {
         Ok(ms) => defmt::info!("ema-monitor on NUCLEO-F446RE: watchdog {=u32} ms", ms),
         Err(e) => defmt::error!("ema-monitor on NUCLEO-F446RE: watchdog timeout not set ({}), 512 ms at reset", e),
