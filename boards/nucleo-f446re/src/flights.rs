@@ -18,10 +18,11 @@ use ema_monitor::report_log;
 use stm32f4xx_hal::flash::LockedFlash;
 use stm32f4xx_hal::gpio::{Analog, Input, PA10, PB0};
 
+use crate::rcc::SYSCLK_HZ;
 use crate::safe_state::{failsafe, WatchdogHooks};
 use crate::tim2_sampling::{self, Isr, LATE};
 use crate::watchdog::Watchdog;
-use crate::{health_flash, FRAME_RATE_HZ, PARAMS, SYSCLK_HZ};
+use crate::{health_flash, FRAME_RATE_HZ, PARAMS};
 
 /// The actuator's temperature sensor on PB0: a TMP36 (0.5 V at 0 °C, 10 mV/°C) on the 3.3 V
 /// reference, read before each flight. An implausible or missing reading diagnoses the flight at

@@ -4,7 +4,7 @@
 //! folder runs it through `probe-rs run`). Wiring only:
 //! 1. the independent watchdog first ([`WATCHDOG_MS`], `watchdog.rs`, `safe_state.rs`), so that
 //!    every later hang resets; the debug connection kept through `wfi` (`dbgmcu.rs`); clocks at
-//!    180 MHz from the ST-LINK's 8 MHz;
+//!    180 MHz from the ST-LINK's 8 MHz, or from the HSI when it does not come (`rcc.rs`);
 //! 2. the health record from flash sectors 6–7 (`health_flash.rs`), erased first when the user
 //!    button B1 (PC13) is held at start-up; a new record (the first start, or after that
 //!    maintenance reset) commissions the unit over its first [`COMMISSIONING_FLIGHTS`] flights;
@@ -30,7 +30,6 @@ use ema_monitor::{EmaParams, ModelEffects, Profile, Tolerances};
 use stm32f4xx_hal::flash::LockedFlash;
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
-use stm32f4xx_hal::rcc::Config;
 
 /// DBGMCU: the debug connection through low-power modes.
 mod dbgmcu;
@@ -40,6 +39,8 @@ mod flash_control;
 mod flights;
 /// The health record in flash sectors 6–7.
 mod health_flash;
+/// RCC: the clocks and the reset cause.
+mod rcc;
 /// Failure and the safe state.
 mod safe_state;
 /// TIM2's interrupt: one frame per control period into the sampler.
@@ -71,9 +72,6 @@ const PARAMS: EmaParams = EmaParams::NOMINAL;
 /// Flights of the commissioning a new record starts with (`docs/commissioning.md`).
 const COMMISSIONING_FLIGHTS: u8 = 3;
 
-/// The core clock, for converting DWT cycles to seconds.
-const SYSCLK_HZ: u32 = 180_000_000;
-
 #[entry]
 fn main() -> ! {
     // 1. Watchdog first: from here on, a hang resets the chip.
@@ -81,16 +79,8 @@ fn main() -> ! {
     let watchdog = safe_state::start_watchdog(dp.IWDG, &dp.DBGMCU, &dp.RCC);
     let Some(mut cp) = cortex_m::Peripherals::take() else { failsafe("core peripherals already taken") };
 
-    // Clocks: 8 MHz HSE (ST-LINK MCO, bypass) → PLL → 180 MHz; APB1 45 MHz, APB2 90 MHz.
-    let mut rcc = dp
-        .RCC
-        .freeze(Config::hse(8.MHz()).bypass_hse_oscillator().sysclk(SYSCLK_HZ.Hz()).pclk1(45.MHz()).pclk2(90.MHz()));
-    defmt::info!(
-        "clocks: sysclk {=u32} Hz, pclk1 {=u32} Hz, pclk2 {=u32} Hz",
-        rcc.clocks.sysclk().raw(),
-        rcc.clocks.pclk1().raw(),
-        rcc.clocks.pclk2().raw()
-    );
+    // Clocks: 8 MHz HSE (ST-LINK MCO, bypass) or 16 MHz HSI → PLL → 180 MHz; APB1 45, APB2 90 MHz.
+    let (mut rcc, _clock) = rcc::freeze(dp.RCC, &watchdog);
     cp.DCB.enable_trace();
     cp.DWT.enable_cycle_counter();
 

@@ -1,7 +1,7 @@
 //! The watchdog and the safe state: the watchdog's start and its flight hooks (fed before each
 //! objective evaluation, each evaluation timed); a refused configuration idles with the watchdog
 //! fed; a panic, a fault or a lost state parks without feeding it, so that the IWDG resets the chip.
-//! The registers are in `watchdog.rs` and `dbgmcu.rs`.
+//! The registers are in `watchdog.rs`, `dbgmcu.rs` and `rcc.rs`.
 
 use cortex_m::peripheral::DWT;
 use cortex_m_rt::{exception, ExceptionFrame};
@@ -12,8 +12,9 @@ use ema_monitor::report_log;
 use stm32f4xx_hal::flash::LockedFlash;
 use stm32f4xx_hal::pac::{DBGMCU, IWDG, RCC};
 
+use crate::rcc::SYSCLK_HZ;
 use crate::watchdog::Watchdog;
-use crate::{dbgmcu, SYSCLK_HZ, WATCHDOG_MS};
+use crate::{dbgmcu, rcc, WATCHDOG_MS};
 
 /// Starts the independent watchdog at [`WATCHDOG_MS`], frozen while a probe halts the core (with
 /// the debug connection kept through `wfi`: [`dbgmcu::keep_debug_in_low_power`]), and says when
@@ -25,10 +26,9 @@ pub fn start_watchdog(iwdg: IWDG, dbgmcu: &DBGMCU, rcc: &RCC) -> Watchdog {
         Ok(ms) => defmt::info!("ema-monitor on NUCLEO-F446RE: watchdog {=u32} ms", ms),
         Err(e) => defmt::error!("ema-monitor on NUCLEO-F446RE: watchdog timeout not set ({}), 512 ms at reset", e),
     }
-    if rcc.csr().read().wdgrstf().bit_is_set() {
+    if rcc::reset_by_watchdog(rcc) {
         defmt::warn!("reset by the watchdog: the previous run ended in the safe state or hung");
     }
-    rcc.csr().modify(|_, w| w.rmvf().set_bit()); // clear the reset flags for the next boot
     watchdog
 }
 
