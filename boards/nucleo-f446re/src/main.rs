@@ -4,7 +4,8 @@
 //! folder runs it through `probe-rs run`). Wiring only:
 //! 1. the independent watchdog first ([`WATCHDOG_MS`], `watchdog.rs`, `safe_state.rs`), so that
 //!    every later hang resets; the debug connection kept through `wfi` (`dbgmcu.rs`); clocks at
-//!    180 MHz from the ST-LINK's 8 MHz, or from the HSI when it does not come (`rcc.rs`);
+//!    180 MHz from the ST-LINK's 8 MHz, or from the HSI when it does not come (`rcc.rs`); the
+//!    brown-out reset at level 3 (`flash_control.rs`);
 //! 2. the health record from flash sectors 6–7 (`health_flash.rs`), erased first when the user
 //!    button B1 (PC13) is held at start-up; a new record (the first start, or after that
 //!    maintenance reset) commissions the unit over its first [`COMMISSIONING_FLIGHTS`] flights;
@@ -33,7 +34,7 @@ use stm32f4xx_hal::prelude::*;
 
 /// DBGMCU: the debug connection through low-power modes.
 mod dbgmcu;
-/// FLASH_ACR: the data cache flush.
+/// FLASH_ACR and FLASH_OPTCR: the data cache flush and the brown-out level.
 mod flash_control;
 /// The flight loop.
 mod flights;
@@ -83,6 +84,7 @@ fn main() -> ! {
     let (mut rcc, _clock) = rcc::freeze(dp.RCC, &watchdog);
     cp.DCB.enable_trace();
     cp.DWT.enable_cycle_counter();
+    flash_control::ensure_brown_out_level3(&dp.FLASH, &watchdog);
 
     // 2. Health record; B1 (PC13, low when pressed) held at start-up is the maintenance reset.
     let maintenance = dp.GPIOC.split(&mut rcc).pc13.into_floating_input().is_low();
