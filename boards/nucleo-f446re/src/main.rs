@@ -5,7 +5,7 @@
 //! 1. the independent watchdog first ([`WATCHDOG_MS`], `watchdog.rs`, `safe_state.rs`), so that
 //!    every later hang resets; the debug connection kept through `wfi` (`dbgmcu.rs`); clocks at
 //!    180 MHz from the ST-LINK's 8 MHz, or from the HSI when it does not come (`rcc.rs`); the
-//!    brown-out reset at level 3 (`flash_control.rs`);
+//!    log's timestamps (`timestamp.rs`); the brown-out reset at level 3 (`flash_control.rs`);
 //! 2. the health record from flash sectors 6–7 (`health_flash.rs`), erased first when the user
 //!    button B1 (PC13) is held at start-up; a new record (the first start, or after that
 //!    maintenance reset) commissions the unit over its first [`COMMISSIONING_FLIGHTS`] flights;
@@ -46,6 +46,8 @@ mod rcc;
 mod safe_state;
 /// TIM2's interrupt: one frame per control period into the sampler.
 mod tim2_sampling;
+/// TIM5: the log's timestamps.
+mod timestamp;
 /// The independent watchdog.
 mod watchdog;
 
@@ -84,6 +86,9 @@ fn main() -> ! {
     let (mut rcc, _clock) = rcc::freeze(dp.RCC, &watchdog);
     cp.DCB.enable_trace();
     cp.DWT.enable_cycle_counter();
+    if !timestamp::start(dp.TIM5, &mut rcc) {
+        defmt::warn!("log timestamps off: TIM5's clock is not a whole number of MHz");
+    }
     flash_control::ensure_brown_out_level3(&dp.FLASH, &watchdog);
 
     // 2. Health record; B1 (PC13, low when pressed) held at start-up is the maintenance reset.
