@@ -1,6 +1,6 @@
 //! The flights, one after another with no reset: for each, the actuator's temperature, the
 //! trigger released, the sampler armed, the manoeuvre acquired, the flight diagnosed and
-//! reported, the record saved; then the sampler is re-armed.
+//! reported (defmt log and the USART2 line), the record saved; then the sampler is re-armed.
 //!
 //! The health record is loaded once at start-up (`health_flash::start`) and kept in RAM between
 //! flights; each diagnosed flight is added to it and saved. Nothing a flight can refuse stops
@@ -18,7 +18,8 @@ use ema_monitor::report_log;
 use stm32f4xx_hal::flash::LockedFlash;
 use stm32f4xx_hal::gpio::{Analog, Input, PA10, PB0};
 
-use crate::rcc::SYSCLK_HZ;
+use crate::rcc::{ClockSource, SYSCLK_HZ};
+use crate::report_uart::{Line, ReportUart};
 use crate::safe_state::{failsafe, WatchdogHooks};
 use crate::tim2_sampling::{self, Isr, LATE};
 use crate::watchdog::Watchdog;
@@ -53,8 +54,12 @@ pub struct Board<'a> {
     pub flash: LockedFlash,
     /// The watchdog.
     pub watchdog: &'a Watchdog,
+    /// The report line's USART (`None` when it could not be set up: the log alone reports).
+    pub uart: Option<ReportUart>,
     /// The temperature input, read through the phase reader's ADC between acquisitions.
     pub temperature_pin: PB0<Analog>,
+    /// The oscillator the clocks run from, for the report line.
+    pub clock: ClockSource,
 }
 
 /// Runs flight after flight: `isr` is TIM2's handler state (disarmed), `live` the sampler's
@@ -122,7 +127,8 @@ pub fn run<W: FnMut()>(
 }
 
 impl Board<'_> {
-    /// One acquired flight: diagnosed, reported, added to the record and saved.
+    /// One acquired flight: diagnosed, reported (log, then the USART2 line), added to the record
+    /// and saved.
     fn fly(&mut self, trace: &MeasuredTrace<ONBOARD_WINDOW>, acquired: &Acquired) {
         defmt::info!(
             "refused frames: {=u32} (longest run {=u32}), held at the last good frame; late frames: {=u32}",
@@ -139,6 +145,12 @@ impl Board<'_> {
             }
         };
         report_log::log_flight(&flight);
+        if let Some(uart) = self.uart.as_mut() {
+            match uart.send(&Line::of(&flight, acquired.late_frames, self.clock), self.watchdog) {
+                Ok(bytes) => defmt::info!("report line sent on USART2 ({=usize} bytes)", bytes),
+                Err(e) => defmt::error!("report line not sent: {}", e),
+            }
+        }
         if self.record_kept {
             health_flash::save(&mut self.flash, self.watchdog, &self.record);
         } else {

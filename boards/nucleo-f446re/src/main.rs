@@ -1,7 +1,7 @@
 //! ema-monitor on a NUCLEO-F446RE (STM32F446RE, Cortex-M4F at 180 MHz): the phase currents from
 //! three ADC pins at the control rate, flight after flight through the core's [`HealthMonitor`]
 //! (the QEMU firmware's flight policy), each report over defmt-rtt (`cargo run --release` in this
-//! folder runs it through `probe-rs run`). Wiring only:
+//! folder runs it through `probe-rs run`) and as one line on USART2. Wiring only:
 //! 1. the independent watchdog first ([`WATCHDOG_MS`], `watchdog.rs`, `safe_state.rs`), so that
 //!    every later hang resets; the debug connection kept through `wfi` (`dbgmcu.rs`); clocks at
 //!    180 MHz from the ST-LINK's 8 MHz, or from the HSI when it does not come (`rcc.rs`); the
@@ -11,7 +11,8 @@
 //!    maintenance reset) commissions the unit over its first [`COMMISSIONING_FLIGHTS`] flights;
 //! 3. ADC1 on PA0, PA1, PA4 (phases A, B, C) behind the core's `PhaseCurrentReader`, the start
 //!    trigger on PA10 and TIM2's interrupt reading one frame per [`FRAME_PERIOD_US`] into the
-//!    sampler (`tim2_sampling.rs`); the actuator's temperature on PB0;
+//!    sampler (`tim2_sampling.rs`); the actuator's temperature on PB0; the report line on PA2
+//!    (`report_uart.rs`);
 //! 4. the flights (`flights.rs`): each acquired after the trigger (at most
 //!    [`TRIGGER_TIMEOUT_FRAMES`] ticks away, else re-armed), identified with the watchdog fed
 //!    before each step, reported, recorded and saved; then the sampler re-armed.
@@ -42,6 +43,8 @@ mod flights;
 mod health_flash;
 /// RCC: the clocks and the reset cause.
 mod rcc;
+/// USART2: the report line.
+mod report_uart;
 /// Failure and the safe state.
 mod safe_state;
 /// TIM2's interrupt: one frame per control period into the sampler.
@@ -83,7 +86,7 @@ fn main() -> ! {
     let Some(mut cp) = cortex_m::Peripherals::take() else { failsafe("core peripherals already taken") };
 
     // Clocks: 8 MHz HSE (ST-LINK MCO, bypass) or 16 MHz HSI → PLL → 180 MHz; APB1 45, APB2 90 MHz.
-    let (mut rcc, _clock) = rcc::freeze(dp.RCC, &watchdog);
+    let (mut rcc, clock) = rcc::freeze(dp.RCC, &watchdog);
     cp.DCB.enable_trace();
     cp.DWT.enable_cycle_counter();
     if !timestamp::start(dp.TIM5, &mut rcc) {
@@ -97,7 +100,7 @@ fn main() -> ! {
     let mut record = health_flash::start(&mut flash, &watchdog, maintenance);
 
     // 3. ADC1 on PA0/PA1/PA4 behind the core's reader, and PB0 through the same ADC; the
-    //    trigger on PA10; TIM2 at the frame period.
+    //    trigger on PA10; TIM2 at the frame period; USART2 on PA2.
     let adc = tim2_sampling::adc1(dp.ADC1, &mut rcc);
     let temperature_pin = dp.GPIOB.split(&mut rcc).pb0.into_analog();
     let gpioa = dp.GPIOA.split(&mut rcc);
@@ -111,6 +114,10 @@ fn main() -> ! {
     if timer.start(FRAME_PERIOD_US.micros()).is_err() {
         defmt::error!("TIM2 refused the {=u32} us period", FRAME_PERIOD_US);
         idle_failed(&watchdog)
+    }
+    let uart = report_uart::ReportUart::new(dp.USART2, gpioa.pa2, &mut rcc);
+    if uart.is_none() {
+        defmt::error!("USART2 refused 115200 8N1: no report line, the log alone reports");
     }
 
     // 4. The monitor; a record of other parameters or another unit is archived.
@@ -135,6 +142,7 @@ fn main() -> ! {
         cortex_m::asm::wfi();
         watchdog.feed();
     });
-    let board = flights::Board { monitor, record, record_kept, flash, watchdog: &watchdog, temperature_pin };
+    let board =
+        flights::Board { monitor, record, record_kept, flash, watchdog: &watchdog, uart, temperature_pin, clock };
     flights::run(board, Isr { producer, timer, trigger }, &mut live, config)
 }

@@ -39,6 +39,16 @@ pub enum ClockSource {
     Hsi,
 }
 
+impl ClockSource {
+    /// Lower-case name, as the report line gives it: `hse`, `hsi`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            ClockSource::Hse => "hse",
+            ClockSource::Hsi => "hsi",
+        }
+    }
+}
+
 /// `true` when the last reset came from the independent watchdog (RCC_CSR.WDGRSTF); the reset
 /// flags are then cleared (RMVF) so that the next start reads its own.
 pub fn reset_by_watchdog(rcc: &RCC) -> bool {
