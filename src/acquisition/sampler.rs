@@ -151,6 +151,7 @@ impl<const N: usize, const C: usize> Sampler<N, C> {
         self.shared = Shared::new();
         let (producer, consumer) = self.queue.split();
         let shared = &self.shared;
+        const { assert!(C < 256, "the trigger's glitch filter holds at most 255 frames") };
         let held = [Err(AcquisitionError::EndOfData); C];
         (
             SamplerProducer {
@@ -187,8 +188,9 @@ pub struct SamplerProducer<'a, S, const C: usize = 0> {
     queued: u32,
     /// The frames of the trigger's first high ticks while it is being confirmed (armed only).
     held: [Sample; C],
-    /// Consecutive high ticks so far, while armed, at most `C`: the frames in `held`.
-    high: usize,
+    /// Consecutive high ticks so far, while armed, at most `C` (below 256, checked when the
+    /// sampler is split): the frames in `held`.
+    high: u8,
 }
 
 impl<S, const C: usize> SamplerProducer<'_, S, C> {
@@ -275,7 +277,7 @@ impl<S: PhaseCurrents, const C: usize> SamplerProducer<'_, S, C> {
             }
             if !trigger {
                 self.high = 0; // a glitch's held frames are dropped
-            } else if let Some(slot) = self.held.get_mut(self.high) {
+            } else if let Some(slot) = self.held.get_mut(usize::from(self.high)) {
                 // high, not yet on `C + 1` ticks: held until the trigger counts
                 *slot = sample;
                 self.high += 1;
@@ -291,17 +293,22 @@ impl<S: PhaseCurrents, const C: usize> SamplerProducer<'_, S, C> {
     }
 
     /// The trigger counts at this tick: the recording starts with the held frames of its first
-    /// high ticks, then this tick's `sample`.
+    /// high ticks, then this tick's `sample`. Inlined, as [`SamplerProducer::record`]: the tick
+    /// runs in the timer's interrupt, on top of thread mode's deepest stack.
+    #[inline(always)]
     fn start(&mut self, sample: Sample) -> bool {
-        let (held, count) = (self.held, self.high);
+        let count = self.high;
         self.high = 0;
         self.state = RECORDING;
-        let before = self.ticks.saturating_sub(1).saturating_sub(u32::try_from(count).unwrap_or(u32::MAX));
-        self.shared.waited.store(before, Ordering::Relaxed);
+        self.shared.waited.store(self.ticks.saturating_sub(1 + u32::from(count)), Ordering::Relaxed);
         self.shared.state.store(RECORDING, Ordering::Release);
-        for frame in held.into_iter().take(count) {
-            if self.record(frame, false) {
-                return true;
+        if C > 0 {
+            // (no filter, no frame held: the block folds away)
+            for i in 0..usize::from(count) {
+                let Some(&frame) = self.held.get(i) else { break };
+                if self.record(frame, false) {
+                    return true;
+                }
             }
         }
         self.record(sample, false)
@@ -309,6 +316,7 @@ impl<S: PhaseCurrents, const C: usize> SamplerProducer<'_, S, C> {
 
     /// Queues one recorded `sample`, or ends the acquisition: complete after the frame count or
     /// when the source has ended, overrun when the queue is full.
+    #[inline(always)]
     fn record(&mut self, sample: Sample, source_ended: bool) -> bool {
         if self.queued >= self.config.frames || source_ended {
             self.end(COMPLETE);
