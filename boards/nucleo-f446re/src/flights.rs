@@ -11,7 +11,7 @@
 use cortex_m::peripheral::DWT;
 use ema_monitor::acquisition::{AcquisitionError, SamplerConfig, SamplerConsumer, TemperatureSensor};
 use ema_monitor::conditioning::MeasuredTrace;
-use ema_monitor::flight::{Acquired, HealthMonitor};
+use ema_monitor::flight::{Acquired, Flight, HealthMonitor};
 use ema_monitor::monitor::ONBOARD_WINDOW;
 use ema_monitor::persist::HealthRecord;
 use ema_monitor::report_log;
@@ -21,7 +21,7 @@ use stm32f4xx_hal::gpio::{Analog, Input, PA10, PB0};
 use crate::rcc::{ClockSource, SYSCLK_HZ};
 use crate::report_uart::{Line, ReportUart};
 use crate::safe_state::{failsafe, WatchdogHooks};
-use crate::tim2_sampling::{self, Isr, LATE};
+use crate::tim2_sampling::{self, Isr, LATE, TRIGGER_CONFIRM_TICKS};
 use crate::watchdog::Watchdog;
 use crate::{health_flash, FRAME_RATE_HZ, PARAMS};
 
@@ -83,7 +83,8 @@ pub fn run<W: FnMut()>(
         if announce {
             defmt::info!("actuator temperature: {}", temperature);
             defmt::info!(
-                "waiting for the trigger (PA10 high for 5 ticks, at most {=u32} frames), then {=u32} frames at {=u32} Hz",
+                "waiting for the trigger (PA10 high for {=usize} ticks, at most {=u32} frames), then {=u32} frames at {=u32} Hz",
+                TRIGGER_CONFIRM_TICKS + 1,
                 config.trigger_timeout_frames,
                 config.frames,
                 FRAME_RATE_HZ
@@ -145,18 +146,24 @@ impl Board<'_> {
             }
         };
         report_log::log_flight(&flight);
-        if let Some(uart) = self.uart.as_mut() {
-            match uart.send(&Line::of(&flight, acquired.late_frames, self.clock), self.watchdog) {
-                Ok(bytes) => defmt::info!("report line sent on USART2 ({=usize} bytes)", bytes),
-                Err(e) => defmt::error!("report line not sent: {}", e),
-            }
-        }
+        self.send_line(&flight, acquired.late_frames);
         if self.record_kept {
             health_flash::save(&mut self.flash, self.watchdog, &self.record);
         } else {
             defmt::warn!("health record not saved: the other unit's record it replaces is not archived");
         }
         defmt::info!("ema-monitor: OK (flight {=u32}); re-arming", flight.number);
+    }
+
+    /// Sends `flight`'s report line on USART2 (logged). Not inlined: the line's 512-byte buffer
+    /// lives in this frame alone, not in [`Board::fly`]'s beside the identification's stack.
+    #[inline(never)]
+    fn send_line(&mut self, flight: &Flight, late_frames: u32) {
+        let Some(uart) = self.uart.as_mut() else { return };
+        match uart.send(&Line::of(flight, late_frames, self.clock), self.watchdog) {
+            Ok(bytes) => defmt::info!("report line sent on USART2 ({=usize} bytes)", bytes),
+            Err(e) => defmt::error!("report line not sent: {}", e),
+        }
     }
 }
 
