@@ -428,6 +428,11 @@ impl AcquisitionConfig {
 }
 
 impl AcquisitionConfig {
+    /// These settings for phases sampled `phase_skew_us` after the frame's instant.
+    pub const fn with_phase_skew_us(self, phase_skew_us: [f32; 3]) -> Self {
+        Self { phase_skew_us, ..self }
+    }
+
     /// The sum rule's tolerance for a frame whose largest phase current is `peak_a` (module doc).
     pub fn sum_tolerance_at(&self, peak_a: f32) -> f32 {
         let [a, b, c] = self.phase_skew_us;
@@ -480,6 +485,10 @@ pub trait PhaseCurrents {
 
     /// The trigger came: the frames from here on are the manoeuvre's. By default, nothing.
     fn start_recording(&mut self) {}
+
+    /// A new acquisition is armed on the same source (a board's next flight): the rest frames
+    /// start afresh. By default, nothing.
+    fn rearm(&mut self) {}
 
     /// What the sensors' self-calibration found; by default the declared calibration.
     fn sensor_check(&self) -> SensorCheck {
@@ -568,6 +577,12 @@ impl<A, PA, PB, PC, M> PhaseCurrentReader<A, PA, PB, PC, M> {
         &self.adc
     }
 
+    /// The driver, for another channel between acquisitions (e.g. a temperature input on the
+    /// same ADC while no frame is read).
+    pub fn adc_mut(&mut self) -> &mut A {
+        &mut self.adc
+    }
+
     /// Forgets the stuck and sum history (e.g. after a gap in the data).
     pub fn reset_checks(&mut self) {
         self.check.reset();
@@ -599,6 +614,10 @@ where
 
     fn start_recording(&mut self) {
         self.check.start_recording();
+    }
+
+    fn rearm(&mut self) {
+        self.check.rearm();
     }
 
     fn sensor_check(&self) -> SensorCheck {
@@ -654,18 +673,22 @@ impl FrameCheck {
     }
 
     /// The manoeuvre starts: with self-calibration configured, the zero points are measured on
-    /// the rest frames since the last start (or refused, the declared ones kept), and the next
-    /// acquisition's rest frames start afresh; the stuck and sum history starts afresh. Without
-    /// it, nothing changes.
+    /// the rest frames since [`FrameCheck::rearm`] (or refused, the declared ones kept); the
+    /// stuck and sum history starts afresh. Without it, nothing changes. A trigger that turns
+    /// out a glitch calls it again later, on the rest frames gathered meanwhile as well.
     pub fn start_recording(&mut self) {
         if let Some(config) = self.config.self_calibration {
             let (calibration, sensors) = self.rest.zero_points(&self.declared, &config);
             self.calibration = calibration;
             self.zero_codes = Phase::ALL.map(|p| calibration.phase(p).zero_code());
             self.sensors = sensors;
-            self.rest = RestEstimator::new();
             self.reset();
         }
+    }
+
+    /// A new acquisition is armed: its zero points come from its own rest frames.
+    pub fn rearm(&mut self) {
+        self.rest = RestEstimator::new();
     }
 
     /// What the sensors' self-calibration found ([`SensorCheck::DECLARED`] before

@@ -10,16 +10,21 @@
 //! **Producer** ([`SamplerProducer::tick`], called from the timer's interrupt once per control
 //! period `Tc`): reads one frame from its [`PhaseCurrents`] source on *every* tick, so that a
 //! replay's position follows time whether or not the frame is kept.
-//! - *Armed*: the frame is a rest frame ([`PhaseCurrents::read_rest_frame`]: the actuator at rest,
-//!   its codes go to the sensors' zero points when the source measures them). The tick on which
-//!   the `trigger` input is first seen high tells the source the manoeuvre starts
-//!   ([`PhaseCurrents::start_recording`]: the zero points fixed, the stuck and sum history from
-//!   here on), stores what its self-calibration found for the consumer
-//!   ([`PhaseCurrents::sensor_check`]), and starts the recording with that tick's frame (three
-//!   conversions and the checks of [`FrameCheck`](super::FrameCheck)). If it has not come after
-//!   [`SamplerConfig::trigger_timeout_frames`] ticks, the acquisition ends with
-//!   [`AcquisitionError::NoTrigger`]. A source that ends first (a replay) completes it with no
-//!   frame, which the conditioning then refuses as too short.
+//! - *Armed*: while the `trigger` input is low the frame is a rest frame
+//!   ([`PhaseCurrents::read_rest_frame`]: the actuator at rest, its codes go to the sensors' zero
+//!   points when the source measures them). The first high tick tells the source the manoeuvre
+//!   may start ([`PhaseCurrents::start_recording`]: the zero points fixed from the rest frames so
+//!   far, the stuck and sum history from here on), and its frame is the manoeuvre's first (three
+//!   conversions and the checks of [`FrameCheck`](super::FrameCheck)). The trigger counts once
+//!   it is seen high on `C + 1` consecutive ticks (`C`, the sampler's second parameter, 0 by
+//!   default: the first high tick counts); the recording then starts with the frame of the first
+//!   of them, the `C` frames read while the level was being confirmed having been held in the
+//!   producer, and what the source's self-calibration found is stored for the consumer
+//!   ([`PhaseCurrents::sensor_check`]). A high run shorter than that (a glitch) is dropped with
+//!   its held frames; the rest frames go on accumulating, and the next high tick fixes the zero
+//!   points again. If the trigger has not counted after [`SamplerConfig::trigger_timeout_frames`]
+//!   ticks, the acquisition ends with [`AcquisitionError::NoTrigger`]. A source that ends first
+//!   (a replay) completes it with no frame, which the conditioning then refuses as too short.
 //! - *Recording*: the frame (a refused one too, as its error: it still takes one period) goes into
 //!   the queue. After [`SamplerConfig::frames`] frames (the manoeuvre's frame count,
 //!   [`manoeuvre_frames`](super::manoeuvre_frames)) the acquisition is complete. A source that
@@ -30,7 +35,8 @@
 //!   recording with a gap would no longer be aligned with the command profile, so it is not
 //!   continued.
 //! - Once ended, `tick` does nothing: the timer may keep running until thread mode stops it (a
-//!   consumer waiting with `wfi` then always wakes up to see the end).
+//!   consumer waiting with `wfi` then always wakes up to see the end). With both halves in hand
+//!   again, [`SamplerProducer::rearm`] arms the next acquisition on the same queue and source.
 //!
 //! **Consumer** ([`SamplerConsumer`], thread mode): a [`PhaseCurrents`] source for
 //! [`monitor::acquire`](crate::monitor::acquire). `read_frame` returns the next queued frame,
@@ -133,14 +139,16 @@ impl Shared {
 
 /// The storage of one live acquisition: a queue of `N − 1` frames and the shared state. Place it
 /// in a `static` (e.g. `cortex_m::singleton!`) so that its producer half can be handed to the
-/// timer's interrupt, then [`Sampler::split`] it.
+/// timer's interrupt, then [`Sampler::split`] it. `C` is the trigger's glitch filter: the ticks
+/// the trigger must stay high after its first high tick before it counts (module doc); the
+/// producer holds that many frames, so that `C` sizes its buffer and the default, 0, holds none.
 #[derive(Debug)]
-pub struct Sampler<const N: usize> {
+pub struct Sampler<const N: usize, const C: usize = 0> {
     queue: Queue<Sample, N>,
     shared: Shared,
 }
 
-impl<const N: usize> Sampler<N> {
+impl<const N: usize, const C: usize> Sampler<N, C> {
     /// An empty sampler (`const`, so it can initialise a `static`).
     pub const fn new() -> Self {
         Self { queue: Queue::new(), shared: Shared::new() }
@@ -160,26 +168,39 @@ impl<const N: usize> Sampler<N> {
         source: S,
         config: SamplerConfig,
         wait: W,
-    ) -> (SamplerProducer<'_, S>, SamplerConsumer<'_, W>) {
+    ) -> (SamplerProducer<'_, S, C>, SamplerConsumer<'_, W>) {
         self.queue = Queue::new();
         self.shared = Shared::new();
         let (producer, consumer) = self.queue.split();
         let shared = &self.shared;
+        const { assert!(C < 256, "the trigger's glitch filter holds at most 255 frames") };
+        let held = [Err(AcquisitionError::EndOfData); C];
         (
-            SamplerProducer { queue: producer, shared, source, config, ticks: 0, state: ARMED, queued: 0 },
+            SamplerProducer {
+                queue: producer,
+                shared,
+                source,
+                config,
+                ticks: 0,
+                state: ARMED,
+                queued: 0,
+                held,
+                high: 0,
+            },
             SamplerConsumer { queue: consumer, shared, wait, read: 0 },
         )
     }
 }
 
-impl<const N: usize> Default for Sampler<N> {
+impl<const N: usize, const C: usize> Default for Sampler<N, C> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-/// The interrupt half: one [`SamplerProducer::tick`] per timer period.
-pub struct SamplerProducer<'a, S> {
+/// The interrupt half: one [`SamplerProducer::tick`] per timer period. `C` is the trigger's
+/// glitch filter ([`Sampler`]).
+pub struct SamplerProducer<'a, S, const C: usize = 0> {
     queue: Producer<'a, Sample>,
     shared: &'a Shared,
     source: S,
@@ -187,9 +208,14 @@ pub struct SamplerProducer<'a, S> {
     ticks: u32,
     state: u8,
     queued: u32,
+    /// The frames of the trigger's first high ticks while it is being confirmed (armed only).
+    held: [Sample; C],
+    /// Consecutive high ticks so far, while armed, at most `C` (below 256, checked when the
+    /// sampler is split): the frames in `held`.
+    high: u8,
 }
 
-impl<S> SamplerProducer<'_, S> {
+impl<S, const C: usize> SamplerProducer<'_, S, C> {
     /// Ticks seen so far (from arming; one per call of [`SamplerProducer::tick`]).
     pub const fn ticks(&self) -> u32 {
         self.ticks
@@ -203,6 +229,12 @@ impl<S> SamplerProducer<'_, S> {
     /// The source.
     pub const fn source(&self) -> &S {
         &self.source
+    }
+
+    /// The source, for use between acquisitions (e.g. another input of the same ADC while no
+    /// tick runs).
+    pub fn source_mut(&mut self) -> &mut S {
+        &mut self.source
     }
 
     /// Gives the source back.
@@ -220,37 +252,110 @@ impl<S> SamplerProducer<'_, S> {
     }
 }
 
-impl<S: PhaseCurrents> SamplerProducer<'_, S> {
-    /// One timer period: reads one frame from the source and drops it (armed), queues it
-    /// (recording) or does nothing (ended); `trigger` is the start input's level at this tick.
-    /// Returns [`SamplerProducer::ended`].
+impl<S: PhaseCurrents, const C: usize> SamplerProducer<'_, S, C> {
+    /// Arms the next acquisition of `config` on the same queue and source, without a new
+    /// [`Sampler::split`]: the frames `consumer` has not read are dropped, the counts and the
+    /// state start again (armed), and the source's rest frames too ([`PhaseCurrents::rearm`]). Both halves are borrowed mutably, so no tick runs while the
+    /// queue is emptied: the caller has taken the producer back from the timer's interrupt.
+    /// `false`, and nothing changes, when `consumer` is the other half of another sampler.
+    pub fn rearm<W>(&mut self, consumer: &mut SamplerConsumer<'_, W>, config: SamplerConfig) -> bool {
+        if !core::ptr::eq(self.shared, consumer.shared) {
+            return false;
+        }
+        if !no_slot(consumer.queue.capacity()) {
+            // no producer runs, so the queue empties within its capacity
+            for _ in 0..consumer.queue.capacity() {
+                if consumer.queue.dequeue().is_none() {
+                    break;
+                }
+            }
+        }
+        self.source.rearm();
+        self.config = config;
+        self.ticks = 0;
+        self.state = ARMED;
+        self.queued = 0;
+        self.high = 0;
+        consumer.read = 0;
+        self.shared.waited.store(0, Ordering::Relaxed);
+        self.shared.queued.store(0, Ordering::Relaxed);
+        self.shared.state.store(ARMED, Ordering::Release);
+        true
+    }
+
+    /// One timer period: reads one frame from the source and drops it (armed), holds it (armed,
+    /// the trigger being confirmed), queues it (recording) or does nothing (ended); `trigger` is
+    /// the start input's level at this tick. Returns [`SamplerProducer::ended`].
     pub fn tick(&mut self, trigger: bool) -> bool {
         if self.ended() {
             return true;
         }
         self.ticks = self.ticks.saturating_add(1);
-        if self.state == ARMED && !trigger {
-            if matches!(self.source.read_rest_frame(), Err(AcquisitionError::EndOfData)) {
-                self.end(COMPLETE);
-                return true;
+        if self.state == ARMED {
+            if !trigger {
+                self.high = 0; // a glitch's held frames are dropped
+                if matches!(self.source.read_rest_frame(), Err(AcquisitionError::EndOfData)) {
+                    self.end(COMPLETE);
+                    return true;
+                }
+            } else {
+                if self.high == 0 {
+                    // the first high tick: the zero points from the rest frames so far, so that
+                    // the frames from here on are checked through them
+                    self.source.start_recording();
+                }
+                let sample = self.source.read_frame();
+                if matches!(sample, Err(AcquisitionError::EndOfData)) {
+                    self.end(COMPLETE);
+                    return true;
+                }
+                if let Some(slot) = self.held.get_mut(usize::from(self.high)) {
+                    // high, not yet on `C + 1` ticks: held until the trigger counts
+                    *slot = sample;
+                    self.high += 1;
+                } else {
+                    return self.start(sample);
+                }
             }
             if self.ticks >= self.config.trigger_timeout_frames {
                 self.end(NO_TRIGGER);
             }
             return self.ended();
         }
-        if self.state == ARMED {
-            // the trigger: the zero points from the rest frames, then this tick's frame is the first
-            self.state = RECORDING;
-            self.source.start_recording();
-            for (word, value) in self.shared.sensors.iter().zip(encode_check(&self.source.sensor_check())) {
-                word.store(value, Ordering::Relaxed);
-            }
-            self.shared.waited.store(self.ticks.saturating_sub(1), Ordering::Relaxed);
-            self.shared.state.store(RECORDING, Ordering::Release);
-        }
         let sample = self.source.read_frame();
         let source_ended = matches!(sample, Err(AcquisitionError::EndOfData));
+        self.record(sample, source_ended)
+    }
+
+    /// The trigger counts at this tick: the recording starts with the held frames of its first
+    /// high ticks, then this tick's `sample`. Inlined, as [`SamplerProducer::record`]: the tick
+    /// runs in the timer's interrupt, on top of thread mode's deepest stack.
+    #[inline(always)]
+    fn start(&mut self, sample: Sample) -> bool {
+        let count = self.high;
+        self.high = 0;
+        self.state = RECORDING;
+        for (word, value) in self.shared.sensors.iter().zip(encode_check(&self.source.sensor_check())) {
+            word.store(value, Ordering::Relaxed);
+        }
+        self.shared.waited.store(self.ticks.saturating_sub(1 + u32::from(count)), Ordering::Relaxed);
+        self.shared.state.store(RECORDING, Ordering::Release);
+        if C > 0 {
+            // (no filter, no frame held: the block folds away)
+            for i in 0..usize::from(count) {
+                let Some(&frame) = self.held.get(i) else { break };
+                if self.record(frame, false) {
+                    return true;
+                }
+            }
+        }
+        self.record(sample, false)
+    }
+
+    /// Queues one recorded `sample`, or ends the acquisition: complete after the frame count or
+    /// when the source has ended, overrun when the queue is full.
+    #[inline(always)]
+    fn record(&mut self, sample: Sample, source_ended: bool) -> bool {
         if self.queued >= self.config.frames || source_ended {
             self.end(COMPLETE);
             return true;
@@ -347,7 +452,8 @@ impl<W> SamplerConsumer<'_, W> {
         self.queue.len()
     }
 
-    /// Ticks dropped before the trigger (0 until the trigger or the timeout).
+    /// Ticks dropped before the trigger's first high tick, the recording's first frame (0 until
+    /// the trigger counts or the timeout).
     pub fn waited_frames(&self) -> u32 {
         self.shared.waited.load(Ordering::Relaxed)
     }
@@ -429,12 +535,23 @@ mod tests {
         cfg: SamplerConfig,
         trigger_at: u32,
     ) -> (std::vec::Vec<u16>, Result<u32, AcquisitionError>) {
-        let mut sampler = Sampler::<N>::new();
-        let slot: RefCell<Option<SamplerProducer<'_, ReplayReader<'_>>>> = RefCell::new(None);
+        let (codes, outcome, _) = run_filtered::<N, 0>(bytes, cfg, |t| t >= trigger_at);
+        (codes, outcome)
+    }
+
+    /// [`run`] through a sampler with glitch filter `C`, the trigger's level at tick `t` (from 0)
+    /// being `high(t)`. Returns the phase-A codes read, the outcome and the ticks waited.
+    fn run_filtered<const N: usize, const C: usize>(
+        bytes: &[u8],
+        cfg: SamplerConfig,
+        high: impl Fn(u32) -> bool,
+    ) -> (std::vec::Vec<u16>, Result<u32, AcquisitionError>, u32) {
+        let mut sampler = Sampler::<N, C>::new();
+        let slot: RefCell<Option<SamplerProducer<'_, ReplayReader<'_>, C>>> = RefCell::new(None);
         let (producer, mut consumer) = sampler.split(reader(bytes), cfg, || {
             if let Some(p) = slot.borrow_mut().as_mut() {
                 let t = p.ticks();
-                p.tick(t >= trigger_at);
+                p.tick(high(t));
             }
         });
         *slot.borrow_mut() = Some(producer);
@@ -448,7 +565,7 @@ mod tests {
         }
         let outcome = consumer.outcome();
         assert_eq!(consumer.frames_read() as usize, codes.len());
-        (codes, outcome)
+        (codes, outcome, consumer.waited_frames())
     }
 
     #[test]
@@ -473,6 +590,80 @@ mod tests {
         let (codes, outcome) = run::<8>(&bytes, config(200, 120), u32::MAX);
         assert!(codes.is_empty());
         assert_eq!(outcome, Err(AcquisitionError::NoTrigger { waited_frames: 120 }));
+    }
+
+    #[test]
+    fn a_filtered_trigger_starts_the_recording_at_its_first_high_tick() {
+        let bytes = numbered(300);
+        // five ticks (57 to 61) confirm it; the frames of 57 to 60 were held meanwhile
+        let (codes, outcome, waited) = run_filtered::<8, 4>(&bytes, config(200, 1000), |t| t >= 57);
+        assert_eq!(outcome, Ok(200));
+        assert_eq!(waited, 57);
+        assert_eq!(codes, (1057..1257).collect::<std::vec::Vec<u16>>());
+    }
+
+    #[test]
+    fn a_glitch_shorter_than_the_filter_is_dropped() {
+        let bytes = numbered(300);
+        // high on ticks 10 to 13 (four, one short) and 20 (one), then from 30 on
+        let high = |t: u32| (10..14).contains(&t) || t == 20 || t >= 30;
+        let (codes, outcome, waited) = run_filtered::<8, 4>(&bytes, config(100, 1000), high);
+        assert_eq!(outcome, Ok(100));
+        assert_eq!(waited, 30);
+        assert_eq!(codes, (1030..1130).collect::<std::vec::Vec<u16>>());
+    }
+
+    #[test]
+    fn a_trigger_still_unconfirmed_at_the_timeout_is_no_trigger() {
+        let bytes = numbered(300);
+        // ticks 117 to 119 are high, but the timeout falls on the 120th tick
+        let (codes, outcome, _) = run_filtered::<8, 4>(&bytes, config(100, 120), |t| t >= 117);
+        assert!(codes.is_empty());
+        assert_eq!(outcome, Err(AcquisitionError::NoTrigger { waited_frames: 120 }));
+    }
+
+    #[test]
+    fn fewer_frames_than_the_filter_holds_complete_from_the_held_ones() {
+        let bytes = numbered(100);
+        let (codes, outcome, _) = run_filtered::<8, 4>(&bytes, config(3, 1000), |t| t >= 5);
+        assert_eq!(outcome, Ok(3));
+        assert_eq!(codes, [1005, 1006, 1007]);
+    }
+
+    #[test]
+    fn rearm_runs_the_next_acquisition_on_the_same_halves() {
+        let bytes = numbered(300);
+        let mut sampler = Sampler::<8, 2>::new();
+        let (mut producer, mut consumer) = sampler.split(reader(&bytes), config(5, 100), || {});
+        // the first acquisition ends with its frames left unread in the queue
+        while !producer.tick(true) {}
+        assert_eq!(consumer.outcome(), Ok(5));
+        assert_eq!(consumer.queued(), 5);
+        assert!(producer.rearm(&mut consumer, config(4, 100)));
+        assert_eq!(consumer.state(), SamplerState::Armed);
+        assert_eq!((consumer.queued(), consumer.frames_read(), consumer.waited_frames()), (0, 0, 0));
+        assert_eq!(producer.ticks(), 0);
+        // the second one: two low ticks, then the trigger
+        let mut level = [false, false, true, true, true, true, true, true, true].into_iter();
+        while !producer.tick(level.next().unwrap_or(true)) {}
+        let codes: std::vec::Vec<u16> = (0..4).map(|_| consumer.read_frame().unwrap().codes[0]).collect();
+        assert_eq!(consumer.read_frame(), Err(AcquisitionError::EndOfData));
+        assert_eq!(consumer.outcome(), Ok(4));
+        assert_eq!(consumer.waited_frames(), 2);
+        // the source went on from where the first acquisition left it (5 frames read)
+        assert_eq!(codes, [1007, 1008, 1009, 1010]);
+    }
+
+    #[test]
+    fn rearm_refuses_the_consumer_of_another_sampler() {
+        let bytes = numbered(50);
+        let mut one = Sampler::<8>::new();
+        let mut other = Sampler::<8>::new();
+        let (mut producer, _consumer) = one.split(reader(&bytes), config(5, 100), || {});
+        let (_p, mut foreign) = other.split(reader(&bytes), config(5, 100), || {});
+        producer.tick(true);
+        assert!(!producer.rearm(&mut foreign, config(5, 100)));
+        assert_eq!(producer.ticks(), 1);
     }
 
     #[test]
@@ -637,5 +828,40 @@ mod tests {
         }
         let declared = decode_check(&encode_check(&SensorCheck::DECLARED));
         assert_eq!((declared.source, declared.fault), (ZeroSource::Declared, None));
+    }
+
+    #[test]
+    fn a_glitch_keeps_the_rest_frames_and_a_rearm_starts_them_afresh() {
+        // rest codes at zeros +7, −5, +3 (a dither), then a ramp; the trigger glitches high on
+        // ticks 300–301 and rises for good at tick 400; the filter confirms it over 5 more ticks
+        let mut frames: std::vec::Vec<[u16; 3]> =
+            (0..400u16).map(|i| [2055 + i % 2, 2043 - i % 2, 2051 + (i / 2) % 2]).collect();
+        frames.extend((0..300u16).map(|i| [2055 + 5 * i, 2043 - 5 * i, 2051]));
+        let mut bytes = std::vec![0u8; packed_len(frames.len())];
+        pack(&frames, trace::SAMPLE_RATE_HZ, &mut bytes).unwrap();
+        let source = PhaseCurrentReader::new(
+            ReplayAdc::new(PackedTrace::parse(&bytes).unwrap()),
+            (PhaseA, PhaseB, PhaseC),
+            Calibration::NOMINAL,
+            AcquisitionConfig::SELF_CALIBRATED,
+        )
+        .unwrap();
+        let mut sampler = Sampler::<512, 5>::new();
+        let (mut producer, mut consumer) = sampler.split(source, config(100, 1000), || {});
+        for t in 0..520u32 {
+            producer.tick((300..302).contains(&t) || t >= 400);
+        }
+        assert_eq!(consumer.outcome(), Ok(100));
+        let first = consumer.read_frame().unwrap();
+        assert!(first.currents_a().iter().all(|i| i.abs() < 0.01), "the first frame is tick 400's: {first:?}");
+        let check = consumer.sensor_check();
+        assert_eq!((check.rest_frames, check.fault), (398, None), "{check:?}");
+        // the next flight on the same source: only 50 rest frames of its own
+        assert!(producer.rearm(&mut consumer, config(100, 1000)));
+        for t in 0..200u32 {
+            producer.tick(t >= 50);
+        }
+        let again = consumer.sensor_check();
+        assert!(matches!(again.fault, Some(SensorFault::TooFewRestFrames { frames: 50, .. })), "{again:?}");
     }
 }

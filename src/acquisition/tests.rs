@@ -464,6 +464,7 @@ fn each_recording_measures_its_zero_points_on_its_own_rest_frames() {
     assert_eq!((first.rest_frames, first.fault), (600, None));
     assert!((first.zero_shift_counts[0] - 12.5).abs() < 0.01);
     // the next acquisition: too few rest frames of its own, whatever came before
+    check.rearm();
     for _ in 0..100 {
         check.rest([2070, 2048, 2040]);
     }

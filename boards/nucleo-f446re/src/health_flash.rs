@@ -2,48 +2,87 @@
 //! [`RECORD_RANGE`], addresses `0x0804_0000..0x0808_0000`), which `memory.x` keeps out of the
 //! program's `FLASH` region. stm32f4xx-hal's `UnlockedFlash` is the `embedded-storage` NOR flash
 //! (1-byte writes, 128 KiB erase pages: its smaller sectors would be erased together, so the
-//! record takes two large ones), under the core's `HealthStore` (`docs/persistence.md`).
+//! record takes two large ones), under the core's `HealthStore` (`docs/persistence.md`), through
+//! the core's `EraseGuarded`: every erase goes one sector at a time, with [`FeedAndFlush`]
+//! around each.
 //!
-//! **Watchdog.** A sector erase stalls the core (the program runs from the same bank) for up to
-//! 4 s (RM0390 / datasheet, x8 parallelism, which the HAL programs with), far beyond
-//! the 500 ms watchdog; every operation that may erase (a save that opens a new page, about one
-//! in 170 saves, and the maintenance reset) runs with the watchdog at [`FLASH_WATCHDOG_MS`] and
-//! puts it back after.
+//! **Watchdog.** A sector erase stalls the core (the program runs from the same bank) for as long
+//! as it takes: the HAL erases at x8 parallelism (FLASH_CR.PSIZE = 00), where the datasheet gives
+//! a 128 KiB sector 2 s typical and 4 s at most. Every store operation runs with the watchdog at
+//! [`FLASH_WATCHDOG_MS`], fed before and after each sector, so that the timeout covers one
+//! sector whatever the number an operation erases (a save that opens a new page, one save in
+//! 151; the maintenance reset, two), then sets back the timeout it found.
 
 use core::ops::Range;
 
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::persist::store::MAX_KEPT_SAMPLES;
-use ema_monitor::persist::{window_encoded_len, HealthRecord, HealthStore, StoreError};
+use ema_monitor::persist::{window_encoded_len, EraseGuard, EraseGuarded, FlashFault};
+use ema_monitor::persist::{HealthRecord, HealthStore, StoreError};
 use ema_monitor::report_log;
-use stm32f4xx_hal::flash::{FlashExt, LockedFlash};
-use stm32f4xx_hal::prelude::*;
-use stm32f4xx_hal::watchdog::IndependentWatchdog;
+use stm32f4xx_hal::flash::{FlashExt, LockedFlash, UnlockedFlash};
 
-use crate::WATCHDOG_MS;
+use crate::flash_control;
+use crate::watchdog::Watchdog;
 
 /// Offsets (from the flash base) of the record's two sectors, 6 and 7.
 pub const RECORD_RANGE: Range<u32> = 0x4_0000..0x8_0000;
 
-/// Watchdog timeout while the flash may be erasing: two 128 KiB sector erases at their 4 s
-/// maximum, with a margin above 1.4 at the LSI's fastest (47 kHz against 32 kHz).
-const FLASH_WATCHDOG_MS: u32 = 16_000;
+/// Watchdog timeout while the flash may be erasing or programming (ms). The longest stretch
+/// between two feeds is one 128 KiB sector erase, 4 s at most at x8 parallelism (datasheet),
+/// or a run of byte writes between two erases: at most 100 µs a byte, 0.09 s for a record,
+/// 0.92 s for a commissioning window (9 KiB), about 3 s for the live items (record, archive,
+/// three windows) a page change may copy. 10 s is 2.5 times the erase at the LSI's nominal 32 kHz and 1.7 times at its
+/// fastest, 47 kHz.
+pub const FLASH_WATCHDOG_MS: u32 = 10_000;
 
-/// Runs `op` on the store with the long flash timeout on the watchdog.
+/// What runs around each sector erase: the watchdog fed before and after, and the data cache
+/// flushed after ([`flash_control::flush_data_cache`]), so that no read returns the erased
+/// sector's old bytes.
+pub struct FeedAndFlush<'a> {
+    /// The watchdog, fed around each sector.
+    watchdog: &'a Watchdog,
+}
+
+impl EraseGuard for FeedAndFlush<'_> {
+    fn before_page_erase(&mut self, _offset: u32) {
+        self.watchdog.feed();
+    }
+
+    fn after_page_erase(&mut self, _offset: u32) {
+        flash_control::flush_data_cache();
+        self.watchdog.feed();
+    }
+}
+
+/// The store over the record's sectors, each erase guarded.
+type Store<'a> = HealthStore<EraseGuarded<UnlockedFlash<'a>, FeedAndFlush<'a>>>;
+
+/// Runs `op` on the store with the watchdog at [`FLASH_WATCHDOG_MS`], then sets back the timeout
+/// it found (the commissioning's own, during its fit). When the watchdog cannot be raised, the
+/// flash is left untouched (logged) and `op` fails as a flash fault: an erase under the short
+/// timeout would reset the chip.
 fn with_store<T>(
     flash: &mut LockedFlash,
-    watchdog: &mut IndependentWatchdog,
-    op: impl FnOnce(&mut HealthStore<stm32f4xx_hal::flash::UnlockedFlash<'_>>) -> Result<T, StoreError>,
+    watchdog: &Watchdog,
+    op: impl FnOnce(&mut Store<'_>) -> Result<T, StoreError>,
 ) -> Result<T, StoreError> {
-    watchdog.start(FLASH_WATCHDOG_MS.millis());
-    let result = HealthStore::new(flash.unlocked(), RECORD_RANGE).and_then(|mut store| op(&mut store));
-    watchdog.start(WATCHDOG_MS.millis());
+    let previous_ms = watchdog.timeout_ms();
+    if let Err(e) = watchdog.set_timeout_ms(FLASH_WATCHDOG_MS) {
+        defmt::error!("health record: watchdog not raised for the flash ({}), flash left untouched", e);
+        return Err(StoreError::Flash(FlashFault::Other));
+    }
+    let guarded = EraseGuarded::new(flash.unlocked(), FeedAndFlush { watchdog });
+    let result = HealthStore::new(guarded, RECORD_RANGE).and_then(|mut store| op(&mut store));
+    if let Err(e) = watchdog.set_timeout_ms(previous_ms) {
+        defmt::error!("watchdog timeout not set back to {=u32} ms: {}", previous_ms, e);
+    }
     result
 }
 
 /// At start-up: the maintenance reset when `maintenance` (the user button B1 held), then the last
 /// flight's record, or a new one for a cold start (logged either way).
-pub fn start(flash: &mut LockedFlash, watchdog: &mut IndependentWatchdog, maintenance: bool) -> HealthRecord {
+pub fn start(flash: &mut LockedFlash, watchdog: &Watchdog, maintenance: bool) -> HealthRecord {
     if maintenance {
         match with_store(flash, watchdog, |s| s.reset()) {
             Ok(()) => defmt::warn!("maintenance: health record erased; this flight runs cold"),
@@ -74,7 +113,7 @@ pub fn start(flash: &mut LockedFlash, watchdog: &mut IndependentWatchdog, mainte
 /// the store's archive, readable, while a new record starts. `false` (logged) when the flash
 /// refuses: the caller then does not save the new record, so that the old one stays current in
 /// flash and is archived at the next start.
-pub fn archive(flash: &mut LockedFlash, watchdog: &mut IndependentWatchdog, old: &HealthRecord) -> bool {
+pub fn archive(flash: &mut LockedFlash, watchdog: &Watchdog, old: &HealthRecord) -> bool {
     match with_store(flash, watchdog, |s| s.archive(old)) {
         Ok(()) => {
             defmt::warn!("health record of another unit or other parameters archived ({=u32} flights)", old.flights());
@@ -89,7 +128,7 @@ pub fn archive(flash: &mut LockedFlash, watchdog: &mut IndependentWatchdog, old:
 
 /// After the flight (which the core's `HealthMonitor::diagnose` added to `record`): the record
 /// is saved (a failure is logged; the monitor goes on).
-pub fn save(flash: &mut LockedFlash, watchdog: &mut IndependentWatchdog, record: &HealthRecord) {
+pub fn save(flash: &mut LockedFlash, watchdog: &Watchdog, record: &HealthRecord) {
     match with_store(flash, watchdog, |s| s.save(record)) {
         Ok(()) => defmt::info!("health record saved: flight {=u32}", record.flights()),
         Err(e) => defmt::error!("health record not saved: {}", e),
@@ -101,7 +140,7 @@ pub fn save(flash: &mut LockedFlash, watchdog: &mut IndependentWatchdog, record:
 #[inline(never)]
 pub fn keep_window<const W: usize>(
     flash: &mut LockedFlash,
-    watchdog: &mut IndependentWatchdog,
+    watchdog: &Watchdog,
     slot: u8,
     window: &MeasuredTrace<W>,
     temperature_c: f32,
@@ -117,7 +156,7 @@ pub fn keep_window<const W: usize>(
 #[inline(never)]
 pub fn load_window<const W: usize>(
     flash: &mut LockedFlash,
-    watchdog: &mut IndependentWatchdog,
+    watchdog: &Watchdog,
     slot: u8,
     out: &mut MeasuredTrace<W>,
 ) -> Option<f32> {

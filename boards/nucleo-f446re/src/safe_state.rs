@@ -1,6 +1,7 @@
 //! The watchdog and the safe state: the watchdog's start and its flight hooks (fed before each
 //! objective evaluation, each evaluation timed); a refused configuration idles with the watchdog
 //! fed; a panic, a fault or a lost state parks without feeding it, so that the IWDG resets the chip.
+//! The registers are in `watchdog.rs`, `dbgmcu.rs` and `rcc.rs`.
 
 use cortex_m::peripheral::DWT;
 use cortex_m_rt::{exception, ExceptionFrame};
@@ -9,37 +10,38 @@ use ema_monitor::flight::FlightHooks;
 use ema_monitor::monitor::Start;
 use ema_monitor::report_log;
 use stm32f4xx_hal::flash::LockedFlash;
-use stm32f4xx_hal::watchdog::IndependentWatchdog;
-
 use stm32f4xx_hal::pac::{DBGMCU, IWDG, RCC};
-use stm32f4xx_hal::prelude::*;
 
-use crate::{SYSCLK_HZ, WATCHDOG_MS};
+use crate::rcc::SYSCLK_HZ;
+use crate::watchdog::Watchdog;
+use crate::{dbgmcu, rcc, WATCHDOG_MS};
 
-/// Starts the independent watchdog (`WATCHDOG_MS`), stopped while a probe halts the core, and
-/// says when the last reset came from it (the previous run ended in the safe state or hung).
-pub fn start_watchdog(iwdg: IWDG, dbgmcu: &DBGMCU, rcc: &RCC) -> IndependentWatchdog {
-    let mut watchdog = IndependentWatchdog::new(iwdg);
-    watchdog.stop_on_debug(dbgmcu, true);
-    watchdog.start(WATCHDOG_MS.millis());
-    defmt::info!("ema-monitor on NUCLEO-F446RE: watchdog {=u32} ms", WATCHDOG_MS);
-    if rcc.csr().read().wdgrstf().bit_is_set() {
+/// Starts the independent watchdog at [`WATCHDOG_MS`], frozen while a probe halts the core (with
+/// the debug connection kept through `wfi`: [`dbgmcu::keep_debug_in_low_power`]), and says when
+/// the last reset came from it (the previous run ended in the safe state or hung).
+pub fn start_watchdog(iwdg: IWDG, dbgmcu: &DBGMCU, rcc: &RCC) -> Watchdog {
+    let watchdog = Watchdog::start(iwdg);
+    dbgmcu::keep_debug_in_low_power(dbgmcu);
+    match watchdog.set_timeout_ms(WATCHDOG_MS) {
+        Ok(ms) => defmt::info!("ema-monitor on NUCLEO-F446RE: watchdog {=u32} ms", ms),
+        Err(e) => defmt::error!("ema-monitor on NUCLEO-F446RE: watchdog timeout not set ({}), 512 ms at reset", e),
+    }
+    if rcc::reset_by_watchdog(rcc) {
         defmt::warn!("reset by the watchdog: the previous run ended in the safe state or hung");
     }
-    rcc.csr().modify(|_, w| w.rmvf().set_bit()); // clear the reset flags for the next boot
     watchdog
 }
 
 /// Logs `what` and its error `e`, then idles failed ([`idle_failed`]).
-pub fn refused(what: &str, e: impl defmt::Format, watchdog: IndependentWatchdog) -> ! {
+pub fn refused(what: &str, e: impl defmt::Format, watchdog: &Watchdog) -> ! {
     defmt::error!("{=str}: {}", what, e);
     idle_failed(watchdog)
 }
 
-/// A refused configuration or recording: no report (`ema-monitor: FAILED`), but the firmware
-/// itself is sound, so it idles with the watchdog fed every 100 ms (timed by the DWT cycle
-/// counter, so no timer is needed).
-pub fn idle_failed(mut watchdog: IndependentWatchdog) -> ! {
+/// A configuration refused at start-up: no flight can run (`ema-monitor: FAILED`), but the
+/// firmware itself is sound, so it idles with the watchdog fed every 100 ms (timed by the DWT
+/// cycle counter, so no timer is needed).
+pub fn idle_failed(watchdog: &Watchdog) -> ! {
     defmt::error!("ema-monitor: FAILED (no health report)");
     loop {
         watchdog.feed();
@@ -86,7 +88,7 @@ fn defmt_panic() -> ! {
 /// the 23.8 s wrap at 180 MHz).
 pub struct WatchdogHooks<'a> {
     /// The watchdog, fed before each evaluation.
-    watchdog: &'a mut IndependentWatchdog,
+    watchdog: &'a Watchdog,
     /// The flash the commissioning windows are kept in (`health_flash`).
     flash: &'a mut LockedFlash,
     /// DWT count at the current step's start.
@@ -95,13 +97,16 @@ pub struct WatchdogHooks<'a> {
     total_cycles: u64,
     /// The longest step's cycles.
     longest_step_cycles: u32,
+    /// The watchdog's timeout before the commissioning's fit raised it (ms).
+    before_commissioning_ms: u32,
 }
 
 impl<'a> WatchdogHooks<'a> {
     /// Hooks that feed `watchdog` and keep commissioning windows in `flash`, with no cycles
     /// counted yet.
-    pub fn new(watchdog: &'a mut IndependentWatchdog, flash: &'a mut LockedFlash) -> Self {
-        Self { watchdog, flash, step_start: 0, total_cycles: 0, longest_step_cycles: 0 }
+    pub fn new(watchdog: &'a Watchdog, flash: &'a mut LockedFlash) -> Self {
+        let before_commissioning_ms = watchdog.timeout_ms();
+        Self { watchdog, flash, step_start: 0, total_cycles: 0, longest_step_cycles: 0, before_commissioning_ms }
     }
 }
 
@@ -128,13 +133,16 @@ impl FlightHooks for WatchdogHooks<'_> {
             (self.total_cycles / u64::from(SYSCLK_HZ / 1000)) as u32,
             SYSCLK_HZ,
             self.longest_step_cycles,
-            WATCHDOG_MS
+            self.watchdog.timeout_ms()
         );
     }
 
     fn commissioning_start(&mut self) {
-        defmt::info!("commissioning: fitting the unit's baseline (watchdog {=u32} ms)", COMMISSIONING_WATCHDOG_MS);
-        self.watchdog.start(COMMISSIONING_WATCHDOG_MS.millis());
+        self.before_commissioning_ms = self.watchdog.timeout_ms();
+        match self.watchdog.set_timeout_ms(COMMISSIONING_WATCHDOG_MS) {
+            Ok(ms) => defmt::info!("commissioning: fitting the unit's baseline (watchdog {=u32} ms)", ms),
+            Err(e) => defmt::error!("commissioning: watchdog not raised for the fit ({})", e),
+        }
     }
 
     fn commissioning_tick(&mut self) {
@@ -142,7 +150,9 @@ impl FlightHooks for WatchdogHooks<'_> {
     }
 
     fn commissioning_end(&mut self) {
-        self.watchdog.start(WATCHDOG_MS.millis());
+        if let Err(e) = self.watchdog.set_timeout_ms(self.before_commissioning_ms) {
+            defmt::error!("commissioning: watchdog timeout not set back ({})", e);
+        }
     }
 
     fn keep_window<const W: usize>(&mut self, slot: u8, window: &MeasuredTrace<W>, temperature_c: f32) -> bool {
