@@ -18,10 +18,10 @@ use ema_monitor::report_log;
 use stm32f4xx_hal::flash::LockedFlash;
 use stm32f4xx_hal::gpio::{Analog, Input, PA10, PB0};
 
+use crate::dma_sampling::{self, Isr, LATE, TRIGGER_CONFIRM_TICKS};
 use crate::rcc::{ClockSource, SYSCLK_HZ};
 use crate::report_uart::{Line, ReportUart};
 use crate::safe_state::{failsafe, WatchdogHooks};
-use crate::tim2_sampling::{self, Isr, LATE, TRIGGER_CONFIRM_TICKS};
 use crate::watchdog::Watchdog;
 use crate::{health_flash, FRAME_RATE_HZ, PARAMS};
 
@@ -56,13 +56,13 @@ pub struct Board<'a> {
     pub watchdog: &'a Watchdog,
     /// The report line's USART (`None` when it could not be set up: the log alone reports).
     pub uart: Option<ReportUart>,
-    /// The temperature input, read through the phase reader's ADC between acquisitions.
+    /// The temperature input, read through ADC1 between acquisitions.
     pub temperature_pin: PB0<Analog>,
     /// The oscillator the clocks run from, for the report line.
     pub clock: ClockSource,
 }
 
-/// Runs flight after flight: `isr` is TIM2's handler state (disarmed), `live` the sampler's
+/// Runs flight after flight: `isr` is the sampling interrupt's state (disarmed), `live` the sampler's
 /// thread-mode half, `config` each acquisition's settings.
 pub fn run<W: FnMut()>(
     mut board: Board<'_>,
@@ -72,14 +72,13 @@ pub fn run<W: FnMut()>(
 ) -> ! {
     let mut announce = true;
     loop {
-        let temperature = TEMPERATURE_SENSOR.read(
-            isr.producer.source_mut().adc_mut(),
-            &mut board.temperature_pin,
-            &PARAMS,
-            TEMPERATURE_POLLS,
-        );
+        let temperature =
+            TEMPERATURE_SENSOR.read(isr.producer.source_mut(), &mut board.temperature_pin, &PARAMS, TEMPERATURE_POLLS);
         wait_released(&isr.trigger, board.watchdog);
-        tim2_sampling::arm(isr);
+        if let Err(e) = dma_sampling::arm(isr) {
+            defmt::error!("simultaneous sampling did not start: {}", e);
+            failsafe("sampling hardware stuck")
+        }
         if announce {
             defmt::info!("actuator temperature: {}", temperature);
             defmt::info!(
@@ -92,7 +91,7 @@ pub fn run<W: FnMut()>(
         }
         let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
         let acquired = board.monitor.acquire(live, &mut trace, FRAME_RATE_HZ as f32);
-        isr = tim2_sampling::disarm().unwrap_or_else(|| failsafe("sampler interrupt state lost"));
+        isr = dma_sampling::disarm().unwrap_or_else(|| failsafe("sampler interrupt state lost"));
         announce = match (live.outcome(), acquired) {
             (Err(AcquisitionError::NoTrigger { waited_frames }), _) => {
                 defmt::debug!("no trigger in {=u32} frames: re-armed", waited_frames);
@@ -107,7 +106,7 @@ pub fn run<W: FnMut()>(
                 true
             }
             (Ok(_), Ok(mut acquired)) => {
-                // the frames came at the timer's rate unless a tick's handler overran its period
+                // the frames came at TIM2's rate unless one was lost between two interrupts
                 acquired.late_frames = LATE.load(core::sync::atomic::Ordering::Relaxed);
                 acquired.temperature_c = temperature.celsius_or_nan();
                 defmt::info!(
@@ -123,7 +122,6 @@ pub fn run<W: FnMut()>(
         if !isr.producer.rearm(live, config) {
             failsafe("sampler halves of two samplers")
         }
-        isr.producer.source_mut().reset_checks();
     }
 }
 

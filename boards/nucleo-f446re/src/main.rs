@@ -9,9 +9,10 @@
 //! 2. the health record from flash sectors 6–7 (`health_flash.rs`), erased first when the user
 //!    button B1 (PC13) is held at start-up; a new record (the first start, or after that
 //!    maintenance reset) commissions the unit over its first [`COMMISSIONING_FLIGHTS`] flights;
-//! 3. ADC1 on PA0, PA1, PA4 (phases A, B, C) behind the core's `PhaseCurrentReader`, the start
-//!    trigger on PA10 and TIM2's interrupt reading one frame per [`FRAME_PERIOD_US`] into the
-//!    sampler (`tim2_sampling.rs`); the actuator's temperature on PB0; the report line on PA2
+//! 3. ADC1–3 sampling PA0, PA1, PC0 (phases A, B, C) at one instant on TIM2's trigger every
+//!    [`FRAME_PERIOD_US`], DMA2 reading them and its interrupt ticking the sampler with the start
+//!    trigger on PA10 (`triple_adc.rs`, `dma_sampling.rs`), the sensors' zero points measured
+//!    before each trigger; the actuator's temperature on PB0; the report line on PA2
 //!    (`report_uart.rs`);
 //! 4. the flights (`flights.rs`): each acquired after the trigger (at most
 //!    [`TRIGGER_TIMEOUT_FRAMES`] ticks away, else re-armed), identified with the watchdog fed
@@ -35,6 +36,8 @@ use stm32f4xx_hal::prelude::*;
 
 /// DBGMCU: the debug connection through low-power modes.
 mod dbgmcu;
+/// DMA2 stream 0's interrupt: one simultaneous frame per control period into the sampler.
+mod dma_sampling;
 /// FLASH_ACR and FLASH_OPTCR: the data cache flush and the brown-out level.
 mod flash_control;
 /// The flight loop.
@@ -47,15 +50,16 @@ mod rcc;
 mod report_uart;
 /// Failure and the safe state.
 mod safe_state;
-/// TIM2's interrupt: one frame per control period into the sampler.
-mod tim2_sampling;
 /// TIM5: the log's timestamps.
 mod timestamp;
+/// ADC1–3 in triple regular simultaneous mode, triggered by TIM2, read by DMA2.
+mod triple_adc;
 /// The independent watchdog.
 mod watchdog;
 
+use dma_sampling::{BoardSampler, Isr};
 use safe_state::{failsafe, idle_failed, refused};
-use tim2_sampling::{BoardSampler, Isr};
+use triple_adc::{SimultaneousReader, TripleAdc};
 
 /// Independent-watchdog timeout. The longest thing done between two feeds is one objective
 /// evaluation: at most about 1.2e7 instructions at this crate's `opt-level = "s"` (a full,
@@ -95,26 +99,28 @@ fn main() -> ! {
     flash_control::ensure_brown_out_level3(&dp.FLASH, &watchdog);
 
     // 2. Health record; B1 (PC13, low when pressed) held at start-up is the maintenance reset.
-    let maintenance = dp.GPIOC.split(&mut rcc).pc13.into_floating_input().is_low();
+    let gpioc = dp.GPIOC.split(&mut rcc);
+    let maintenance = gpioc.pc13.into_floating_input().is_low();
     let mut flash = LockedFlash::new(dp.FLASH);
     let mut record = health_flash::start(&mut flash, &watchdog, maintenance);
 
-    // 3. ADC1 on PA0/PA1/PA4 behind the core's reader, and PB0 through the same ADC; the
-    //    trigger on PA10; TIM2 at the frame period; USART2 on PA2.
-    let adc = tim2_sampling::adc1(dp.ADC1, &mut rcc);
+    // 3. ADC1–3 on PA0/PA1/PC0 at one instant on TIM2's trigger, read by DMA2, PB0 through
+    //    ADC1 between acquisitions; the trigger on PA10; TIM2 at the frame period; USART2 on PA2.
     let temperature_pin = dp.GPIOB.split(&mut rcc).pb0.into_analog();
     let gpioa = dp.GPIOA.split(&mut rcc);
-    let pins = (gpioa.pa0.into_analog(), gpioa.pa1.into_analog(), gpioa.pa4.into_analog());
-    let reader = match tim2_sampling::phase_reader(adc, pins) {
-        Ok(r) => r,
-        Err(e) => refused("acquisition config refused", e, &watchdog),
-    };
+    let pins = (gpioa.pa0.into_analog(), gpioa.pa1.into_analog(), gpioc.pc0.into_analog());
     let trigger = gpioa.pa10.into_pull_down_input();
     let mut timer = dp.TIM2.counter_us(&mut rcc);
     if timer.start(FRAME_PERIOD_US.micros()).is_err() {
         defmt::error!("TIM2 refused the {=u32} us period", FRAME_PERIOD_US);
         idle_failed(&watchdog)
     }
+    let adc1 = triple_adc::hal_adc1(dp.ADC1, &mut rcc);
+    let parts = triple_adc::Parts { adc1, adc2: dp.ADC2, adc3: dp.ADC3, common: dp.ADC_COMMON, dma2: dp.DMA2 };
+    let reader = match SimultaneousReader::new(TripleAdc::new(parts, pins, &mut timer, &mut rcc)) {
+        Ok(r) => r,
+        Err(e) => refused("acquisition config refused", e, &watchdog),
+    };
     let uart = report_uart::ReportUart::new(dp.USART2, gpioa.pa2, &mut rcc);
     if uart.is_none() {
         defmt::error!("USART2 refused 115200 8N1: no report line, the log alone reports");
@@ -132,7 +138,7 @@ fn main() -> ! {
         None => true,
     };
 
-    // 5. The sampler: TIM2's interrupt reads the frames, thread mode consumes them, sleeping
+    // 5. The sampler: DMA2's interrupt queues the frames, thread mode consumes them, sleeping
     //    (`wfi`) and feeding the watchdog while it waits; then the flights, one after another.
     let Some(sampler) = cortex_m::singleton!(: BoardSampler = BoardSampler::new()) else {
         failsafe("sampler already taken")

@@ -20,6 +20,7 @@
 //! baud.
 
 use cortex_m::peripheral::DWT;
+use ema_monitor::acquisition::{SensorCheck, SensorFault};
 use ema_monitor::flight::Flight;
 use ema_monitor::health::{Condition, FaultMode, HealthReport, ModeReport};
 use ema_monitor::persist::Commissioning;
@@ -34,7 +35,7 @@ use crate::rcc::{ClockSource, SYSCLK_HZ};
 use crate::watchdog::Watchdog;
 
 /// The line's format version.
-pub const VERSION: &str = "v1";
+pub const VERSION: &str = "v2";
 
 /// Baud rate (8 data bits, no parity, 1 stop bit).
 const BAUD: u32 = 115_200;
@@ -173,6 +174,8 @@ impl Line {
         l.uint(r.evaluations);
         l.key("refused");
         l.uint(r.refused_frames);
+        l.key("sensors");
+        l.sensors(&flight.sensors);
         l.key("late");
         l.uint(late_frames);
         l.key("clock");
@@ -206,6 +209,20 @@ impl Line {
             }
             None => self.overflow = true,
         }
+    }
+
+    /// The sensors' self-calibration: `-` when trusted, else the fault and its phase
+    /// (`zero_B`, `rest_A`, `gain_C`, `rest_frames`).
+    fn sensors(&mut self, check: &SensorCheck) {
+        let (what, phase) = match check.fault {
+            None => return self.text("-"),
+            Some(SensorFault::TooFewRestFrames { .. }) => return self.text("rest_frames"),
+            Some(SensorFault::NotAtRest { phase, .. }) => ("rest_", phase),
+            Some(SensorFault::ZeroBeyondRange { phase, .. }) => ("zero_", phase),
+            Some(SensorFault::GainMismatch { phase, .. }) => ("gain_", phase),
+        };
+        self.text(what);
+        self.text(["A", "B", "C"].get(phase.index()).copied().unwrap_or("?"));
     }
 
     /// Appends `s` as it is.
