@@ -49,22 +49,30 @@ pub fn log_flight(flight: &Flight) {
     }
 }
 
-/// Logs the current sensors' zero points and gain check, and why they are not trusted.
+/// Logs the current sensors' zero points and gain check in one line, and why they are not
+/// trusted.
 pub fn log_sensors(check: &SensorCheck) {
     let [a, b, c] = check.zero_shift_counts;
-    match check.source {
-        ZeroSource::Rest => defmt::info!(
-            "sensors: zero points from {=u32} rest frames, A {=f32} B {=f32} C {=f32} counts from the declared ones",
+    let resolved = check.gain_mismatch.iter().all(|g| g.is_finite());
+    let gains_pct = 100.0 * check.gain_mismatch.iter().fold(0.0f32, |m, g| m.max(libm::fabsf(*g)));
+    match (check.source, resolved) {
+        (ZeroSource::Rest, true) => defmt::info!(
+            "sensors: zeros from {=u32} rest frames, A {=f32} B {=f32} C {=f32} counts; gains within {=f32} %",
+            check.rest_frames,
+            a,
+            b,
+            c,
+            gains_pct
+        ),
+        (ZeroSource::Rest, false) => defmt::info!(
+            "sensors: zeros from {=u32} rest frames, A {=f32} B {=f32} C {=f32} counts; gains not resolved",
             check.rest_frames,
             a,
             b,
             c
         ),
-        ZeroSource::Declared => defmt::info!("sensors: declared zero points"),
-    }
-    let [ga, gb, gc] = check.gain_mismatch;
-    if ga.is_finite() {
-        defmt::info!("sensors: gains against their median (sum rule): A {=f32} B {=f32} C {=f32}", ga, gb, gc);
+        (ZeroSource::Declared, true) => defmt::info!("sensors: declared zeros; gains within {=f32} %", gains_pct),
+        (ZeroSource::Declared, false) => defmt::info!("sensors: declared zeros; gains not resolved"),
     }
     if let Some(fault) = check.fault {
         defmt::error!("sensors: calibration not trusted: {}", fault);
