@@ -14,7 +14,8 @@
 //!   │                                                   ─► T_m = Σ k_j f_j i_j ─► Borello friction, gear N, backlash,
 //!   │                                                      hinge load K_h θ_u, end stops ─► θ_u
 //!   └── position transducer (lag, noise, 16 bit) ◄───────────────────────────────────────────┘
-//! recorded at t_k = k·T (10 kHz): time_s, command_rad, position_rad, i_a, i_b, i_c (20 kHz lag, noise, 12-bit ADC)
+//! recorded at t_k = k·T (10 kHz): time_s, command_rad, position_rad, i_a, i_b, i_c (the sensor chain: zero and
+//! gain errors, 20 kHz lag, skew, noise, 12-bit ADC; ideal by default)
 //! ```
 //!
 //! Use: [`simulate`]`(&`[`SimConfig`]`) -> Result<`[`Recording`]`, `[`ConfigError`]`>`; or step a
@@ -74,7 +75,8 @@ pub mod sim;
 
 pub use effects::{Effect, Effects, UnknownEffect, EFFECT_COUNT};
 pub use params::{BacklashModel, Plant};
+pub use sensors::{CurrentAdc, PhaseSensor, SensorChain, SensorChainError};
 pub use sim::{
     simulate, ConfigError, EnergyLedger, Recording, Sample, SimConfig, Simulator, Truth, DEFAULT_STEP_S,
-    MAX_DURATION_S, MAX_SAMPLES,
+    MAX_DURATION_S, MAX_PRE_TRIGGER_S, MAX_SAMPLES,
 };
