@@ -101,7 +101,8 @@ unsafe fn DefaultHandler(irqn: i16) {
 }
 
 /// Arms an acquisition of `trace` into `sampler` with the trigger at tick `trigger_at` and starts
-/// the timer; the consumer waits with `wfi`.
+/// the timer; the consumer waits with `wfi`. Tick `n` (from 0) reads frame `n` of the replay, so
+/// the trace's trigger frame as `trigger_at` starts the recording at the manoeuvre's first frame.
 pub fn arm<const N: usize>(
     sampler: &'static mut Sampler<N>,
     trace: PackedTrace<'static>,
