@@ -322,18 +322,35 @@ impl std::error::Error for SensorChainError {}
 #[derive(Clone, Debug)]
 pub struct CurrentSensing {
     chain: SensorChain,
-    /// The drive's sensor error (the `sensor_offset` effect): `x_j = (1 + g_e,j)·i_j + o_e,j`.
-    drive_offset_a: [f64; 3],
-    drive_gain_error: [f64; 3],
-    lags: [Lag; 3],
-    /// `s_j/dt`, whole when within rounding of a step.
-    skew_steps: [f64; 3],
-    /// The noise of each conversion still to take in this frame.
-    pending: [Option<f64>; 3],
-    /// The frame's values at their conversion instants, noise included, before the ADC.
-    taken: [f64; 3],
+    phases: [PhaseState; 3],
     /// Steps since the frame instant.
     steps: u32,
+}
+
+/// One phase of a [`CurrentSensing`].
+#[derive(Clone, Copy, Debug)]
+struct PhaseState {
+    sensor: PhaseSensor,
+    /// The drive's sensor error (the `sensor_offset` effect): `x_j = (1 + g_e,j)·i_j + o_e,j`.
+    drive_offset_a: f64,
+    drive_gain_error: f64,
+    lag: Lag,
+    /// `s_j/dt`, whole when within rounding of a step.
+    skew_steps: f64,
+    /// The noise of the frame's conversion while it is still to take.
+    pending: Option<f64>,
+    /// The frame's value at its conversion instant, noise included, before the ADC.
+    taken: f64,
+}
+
+impl PhaseState {
+    /// The value to convert: the one taken, or the lag's present output for one still pending.
+    fn raw(&self) -> f64 {
+        match self.pending {
+            Some(noise) => self.lag.value + noise,
+            None => self.taken,
+        }
+    }
 }
 
 impl CurrentSensing {
@@ -341,24 +358,20 @@ impl CurrentSensing {
     /// `dt` s. Each lag starts at its sensor's reading of zero current `o_j` (the sensors are on
     /// before a recording starts); the drive's error enters through the lags from the first step.
     pub fn new(chain: &SensorChain, drive_offset_a: [f64; 3], drive_gain_error: [f64; 3], dt: f64) -> Self {
-        let skew_steps = chain.phases.map(|p| {
-            let x = p.skew_s / dt;
-            if (x - x.round()).abs() <= 1e-9 * x.max(1.0) {
-                x.round()
-            } else {
-                x
+        let phase = |j: usize| {
+            let sensor = chain.phases[j];
+            let x = sensor.skew_s / dt;
+            PhaseState {
+                sensor,
+                drive_offset_a: drive_offset_a[j],
+                drive_gain_error: drive_gain_error[j],
+                lag: Lag { value: sensor.offset_a, ..Lag::new(sensor.time_constant_s(), dt) },
+                skew_steps: if (x - x.round()).abs() <= 1e-9 * x.max(1.0) { x.round() } else { x },
+                pending: None,
+                taken: 0.0,
             }
-        });
-        Self {
-            chain: *chain,
-            drive_offset_a,
-            drive_gain_error,
-            lags: chain.phases.map(|p| Lag { value: p.offset_a, ..Lag::new(p.time_constant_s(), dt) }),
-            skew_steps,
-            pending: [None; 3],
-            taken: [0.0; 3],
-            steps: 0,
-        }
+        };
+        Self { chain: *chain, phases: [phase(0), phase(1), phase(2)], steps: 0 }
     }
 
     /// The chain.
@@ -370,19 +383,19 @@ impl CurrentSensing {
     /// phases without skew are taken now, the others are pending.
     pub fn start_frame(&mut self, noise: [f64; 3]) {
         self.steps = 0;
-        for j in 0..3 {
-            if self.skew_steps[j] > 0.0 {
-                self.pending[j] = Some(noise[j]);
+        for (p, n) in self.phases.iter_mut().zip(noise) {
+            if p.skew_steps > 0.0 {
+                p.pending = Some(n);
             } else {
-                self.pending[j] = None;
-                self.taken[j] = self.lags[j].value + noise[j];
+                p.pending = None;
+                p.taken = p.lag.value + n;
             }
         }
     }
 
     /// `true` once every conversion of the frame is taken.
     pub fn frame_complete(&self) -> bool {
-        self.pending.iter().all(Option::is_none)
+        self.phases.iter().all(|p| p.pending.is_none())
     }
 
     /// One integration step with the true phase currents `i` at its end: the lags advance, and
@@ -390,18 +403,17 @@ impl CurrentSensing {
     pub fn update(&mut self, i: [f64; 3]) {
         self.steps = self.steps.saturating_add(1);
         let step_end = f64::from(self.steps);
-        for j in 0..3 {
-            let before = self.lags[j].value;
-            let x = (1.0 + self.drive_gain_error[j]) * i[j] + self.drive_offset_a[j];
-            self.lags[j].update(self.chain.phases[j].sense(x));
-            if let Some(noise) = self.pending[j] {
-                let at = self.skew_steps[j];
-                if at <= step_end {
-                    let f = at - (step_end - 1.0);
-                    let after = self.lags[j].value;
+        for (p, i) in self.phases.iter_mut().zip(i) {
+            let before = p.lag.value;
+            let x = (1.0 + p.drive_gain_error) * i + p.drive_offset_a;
+            p.lag.update(p.sensor.sense(x));
+            if let Some(noise) = p.pending {
+                if p.skew_steps <= step_end {
+                    let f = p.skew_steps - (step_end - 1.0);
+                    let after = p.lag.value;
                     let value = if f >= 1.0 { after } else { before + f * (after - before) };
-                    self.taken[j] = value + noise;
-                    self.pending[j] = None;
+                    p.taken = value + noise;
+                    p.pending = None;
                 }
             }
         }
@@ -411,18 +423,12 @@ impl CurrentSensing {
     /// `quantization` off the values before the ADC (numerical studies; the codes are still
     /// given). A conversion still pending reads its lag's present output.
     pub fn frame(&self, quantization: bool) -> ([u16; 3], [f64; 3]) {
-        let mut codes = [0u16; 3];
-        let mut amps = [0.0; 3];
-        for j in 0..3 {
-            let raw = match self.pending[j] {
-                Some(noise) => self.lags[j].value + noise,
-                None => self.taken[j],
-            };
-            let (c, a) = self.chain.adc.convert(raw);
-            codes[j] = c;
-            amps[j] = if quantization { a } else { raw };
-        }
-        (codes, amps)
+        let converted = self.phases.map(|p| {
+            let raw = p.raw();
+            let (code, amps) = self.chain.adc.convert(raw);
+            (code, if quantization { amps } else { raw })
+        });
+        (converted.map(|c| c.0), converted.map(|c| c.1))
     }
 }
 
@@ -551,7 +557,7 @@ mod tests {
         assert!((amps[2] - (at_frame + 3.3)).abs() < 1e-9, "{amps:?}");
         // the ADC codes of those values
         let (codes, quantized) = sensing.frame(true);
-        assert_eq!(codes.map(|c| f64::from(c)), quantized.map(|a| 2048.0 + a / f64::from(trace::AMPS_PER_COUNT)));
+        assert_eq!(codes.map(f64::from), quantized.map(|a| 2048.0 + a / f64::from(trace::AMPS_PER_COUNT)));
         // the lags start at the sensors' zero errors
         let at_rest = CurrentSensing::new(&SensorChain::NUCLEO_F446RE, [0.0; 3], [0.0; 3], dt);
         let mut at_rest = at_rest;
