@@ -36,7 +36,8 @@
 //! * Rigid transmission: the hinge load is reflected to the motor even inside the gap (as in the
 //!   monitor model); the energy ledger shows the (small) consequence.
 //! * Hysteresis comparators see the sensor error of the `sensor_offset` effect (the drive regulates
-//!   the measured current) but not the sensor lag or noise.
+//!   the measured current) but not the recording's sensor chain ([`SensorChain`]: its zero and gain
+//!   errors, lag, conversion instants, noise and ADC act on the recorded currents only).
 //! * Parameters: the `f32` table is widened to the `f64` of its shortest decimal form
 //!   ([`params::widen`]: `0.13f32` → `0.13`).
 //! * Time base: `t_k = k·T` with `T` = 100 µs (written `k/10000` so the CSV holds exact decimals);
