@@ -13,9 +13,10 @@
 //! running), the mechanism stands still at zero, and only the sensors run: the position reads its
 //! noise, the currents their chain's zero errors and noise. Their noise comes from a generator of
 //! its own (seeded from [`SimConfig::seed`] and [`PRE_TRIGGER_STREAM`]), so the manoeuvre that
-//! follows draws the same noise as without a pre-trigger: with a chain without zero error (whose
-//! lags rest at zero) its samples are those of the run without one, bit for bit, `N` samples
-//! later.
+//! follows draws the same noise as without a pre-trigger, and since the current sensors rest at
+//! their zero errors either way, its samples are those of the run without one, bit for bit, `N`
+//! samples later (except with the `sensor_offset` effect, whose drive-sensor error has then settled
+//! through the lags before the manoeuvre instead of entering them at its start).
 
 use core::f64::consts::{PI, TAU};
 use core::fmt;
@@ -290,7 +291,7 @@ pub struct Simulator {
     pre_trigger_samples: u64,
     /// The period being integrated is before the manoeuvre: the drive is off.
     resting: bool,
-    /// Steps of the current period already integrated (by [`Simulator::sample`] under a skew).
+    /// Steps of the current period already integrated by [`Simulator::sample`] (under a skew).
     steps_done: u32,
     quantization: bool,
     /// Code grid of the position transducer (`EmaParams::position_resolution_rad` over the travel).
@@ -495,12 +496,12 @@ impl Simulator {
         (Sample { time_s, command_rad, position_rad, phase_current_a, adc_counts }, truth)
     }
 
-    /// Runs the integration steps of one ACE period (those [`Simulator::sample`] has not).
+    /// Runs the integration steps of one ACE period: after [`Simulator::sample`], those it has not.
     pub fn advance_period(&mut self) {
         for _ in self.steps_done..self.steps_per_sample {
             self.step();
         }
-        self.steps_done = self.steps_per_sample;
+        self.steps_done = 0;
     }
 
     /// One integration step `dt` with the held current reference; before the trigger, only the
