@@ -6,15 +6,12 @@
 use std::path::{Path, PathBuf};
 
 mod common;
-use common::{accepted, refused, s, scratch};
-use ema_cli::params_file::template;
+use common::{accepted, refused, s, scratch, unit_params_file};
 use ema_cli::recording::read_recording;
 use ema_cli::recording::sidecar::Sidecar;
 use ema_cli::recording::Recording;
 use ema_cli::sensors_file::parse_sensors;
-use ema_monitor::params::FIELDS;
 use ema_monitor::trace::{amps_to_counts, PackedTrace};
-use ema_monitor::EmaParams;
 use ema_reference::SensorChain;
 
 /// The unit every recording here is of (typical tolerances), and the noise seed.
@@ -208,25 +205,13 @@ fn diagnosis(out: &str) -> Vec<&str> {
     out.lines().filter(|l| !l.contains("identification took") && !l.contains("recording:")).collect()
 }
 
-/// The unit's parameter file (its parameters, from the recording's sidecar), beside it: the
-/// monitor identifies the unit it was told about.
-fn unit_params_file(recording: &Path, side: &Sidecar) -> PathBuf {
-    let mut p = EmaParams::NOMINAL;
-    for f in FIELDS.iter() {
-        f.set(&mut p, side.params[f.name]);
-    }
-    assert_ne!(p, EmaParams::NOMINAL, "a drawn unit");
-    let path = recording.with_extension("toml");
-    std::fs::write(&path, template(&p)).expect("writes");
-    path
-}
-
 #[test]
 fn identify_finds_the_start_and_the_same_diagnosis() {
     let dir = scratch("sensors", "identify");
-    let (plain, _, side) = record(&dir, "plain", &[]);
+    let (plain, ..) = record(&dir, "plain", &[]);
     let (pre, ..) = record(&dir, "pre", &["--pre-trigger-ms", "50"]);
-    let params = unit_params_file(&plain, &side);
+    // the monitor identifies the unit it is told about
+    let params = unit_params_file(&plain);
     let without = accepted(&["identify", s(&plain), "--params", s(&params), "--quiet"]);
     let with = accepted(&["identify", s(&pre), "--params", s(&params), "--quiet"]);
     assert!(with.contains("manoeuvre starts at 0.050000 s (aligned); trimmed 0.050000 s before"), "{with}");
