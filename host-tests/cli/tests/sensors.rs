@@ -69,10 +69,10 @@ fn digest(path: &Path) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
 }
 
-/// The ideal chain is the recording path it replaces, a fixed 20 kHz lag and the 12-bit ±20 A
-/// ADC behind the `sensor_offset` effect's error: the same files, byte for byte, for drawn units
-/// with that effect, at a temperature and on the pbit manoeuvre (their digests, and sizes, as that
-/// path wrote them; `tests/firmware_trace.rs` checks the built-in trace the same way).
+/// The ideal chain is a fixed 20 kHz lag and the 12-bit ±20 A ADC behind the `sensor_offset`
+/// effect's error, and records these files byte for byte (their digests and sizes): the nominal
+/// actuator, drawn units with that effect, at a temperature and on the pbit manoeuvre
+/// (`tests/firmware_trace.rs` checks the built-in trace the same way).
 #[test]
 fn the_ideal_chain_records_what_the_fixed_path_recorded() {
     let dir = scratch("sensors", "ideal");
