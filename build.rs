@@ -201,23 +201,32 @@ fn write_model_config(out: &Path) -> Result<(), String> {
     Ok(())
 }
 
-/// The packed-trace header checks that need no decoding (magic, non-zero rate, exact length);
-/// the firmware re-checks everything with `PackedTrace::parse` at start-up.
+/// The packed-trace header checks that need no decoding (magic `EMA1` or `EMA2`, non-zero rate,
+/// trigger frame within the frames, exact length); the firmware re-checks everything with
+/// `PackedTrace::parse` at start-up.
 fn check_trace(bytes: &[u8]) -> Result<(), String> {
     if bytes.len() < 12 {
         return Err(format!("{} bytes, shorter than the 12-byte packed-trace header", bytes.len()));
     }
-    if bytes[..4] != *b"EMA1" {
-        return Err(
-            "not a packed trace (does not start with EMA1); pack a recording with `ema firmware-trace --from`".into()
-        );
-    }
+    let header = match &bytes[..4] {
+        b"EMA1" => 12,
+        b"EMA2" if bytes.len() >= 16 => 16,
+        b"EMA2" => return Err(format!("{} bytes, shorter than the 16-byte EMA2 header", bytes.len())),
+        _ => {
+            return Err("not a packed trace (does not start with EMA1 or EMA2); pack a recording with \
+                 `ema firmware-trace --from`"
+                .into())
+        }
+    };
     let word = |at: usize| u32::from_le_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]) as usize;
     let (frames, rate) = (word(4), word(8));
     if rate == 0 {
         return Err("sample rate 0 in the header".into());
     }
-    let expected = 12 + (3 * frames).div_ceil(2) * 3;
+    if header == 16 && word(12) > frames {
+        return Err(format!("trigger frame {} past the last of {frames} frames", word(12)));
+    }
+    let expected = header + (3 * frames).div_ceil(2) * 3;
     if bytes.len() != expected {
         return Err(format!("{} bytes, but {frames} frames need {expected}", bytes.len()));
     }

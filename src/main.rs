@@ -6,7 +6,8 @@
 //!    commissions the unit over the two flights ([`HealthMonitor::with_commissioning`]);
 //! 2. replay the built-in trace (`traces/standard.ematrace`, or `EMA_TRACE` and `EMA_PROFILE`,
 //!    `build.rs`) through the replay ADC, one frame per TIMER0 interrupt (`qemu_live.rs`), into
-//!    the monitor's acquisition;
+//!    the monitor's acquisition, the trigger raised at the trace's trigger frame (the first tick
+//!    for an `EMA1` trace; after the pre-trigger frames of an `EMA2` one);
 //! 3. flight 1, then flight 2 on the same recording, each through [`HealthMonitor::diagnose`]
 //!    with the instruction-count markers around its identification (`insn_markers.rs`), saved to
 //!    the record's flash and read back as the next power-up does;
@@ -54,8 +55,10 @@ use semihosting_host::exit;
 /// keeping its window, the second fitting the baseline to both and diagnosing against it.
 const COMMISSIONING_FLIGHTS: u8 = 2;
 
-/// Ticks the sampler waits for its trigger (100 ms); the replay triggers on the first tick.
-const TRIGGER_TIMEOUT_FRAMES: u32 = 1000;
+/// Ticks the sampler waits for its trigger (200 ms): the replay raises it at the trace's trigger
+/// frame, after at most the 100 ms of pre-trigger `ema firmware-trace --from` keeps; a trace
+/// whose trigger comes later ends its acquisition with `NoTrigger`.
+const TRIGGER_TIMEOUT_FRAMES: u32 = 2000;
 
 #[entry]
 fn main() -> ! {
@@ -80,9 +83,12 @@ fn main() -> ! {
         Err(e) => refuse("trace", e),
     };
     defmt::info!("trace: {=usize} frames at {=u32} Hz", trace.frames(), trace.sample_rate_hz());
+    if trace.trigger_frame() > 0 {
+        defmt::info!("trigger at frame {=u32}", trace.trigger_frame());
+    }
     let Some(sampler) = cortex_m::singleton!(: Sampler<SAMPLER_QUEUE> = Sampler::new()) else { exit(false) };
     let config = SamplerConfig { frames: monitor.frames(), trigger_timeout_frames: TRIGGER_TIMEOUT_FRAMES };
-    let mut live = match qemu_live::arm(sampler, trace, config, 0) {
+    let mut live = match qemu_live::arm(sampler, trace, config, trace.trigger_frame()) {
         Ok(c) => c,
         Err(e) => refuse("reader", e),
     };

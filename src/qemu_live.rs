@@ -10,7 +10,7 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::interrupt::Mutex;
 use cortex_m_rt::exception;
 use ema_monitor::acquisition::{
-    AcquisitionConfig, Calibration, ConfigError, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc, ReplayReader,
+    replay_config, Calibration, ConfigError, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc, ReplayReader,
     Sampler, SamplerConfig, SamplerConsumer, SamplerProducer,
 };
 use ema_monitor::trace::PackedTrace;
@@ -101,7 +101,8 @@ unsafe fn DefaultHandler(irqn: i16) {
 }
 
 /// Arms an acquisition of `trace` into `sampler` with the trigger at tick `trigger_at` and starts
-/// the timer; the consumer waits with `wfi`.
+/// the timer; the consumer waits with `wfi`. Tick `n` (from 0) reads frame `n` of the replay, so
+/// the trace's trigger frame as `trigger_at` starts the recording at the manoeuvre's first frame.
 pub fn arm<const N: usize>(
     sampler: &'static mut Sampler<N>,
     trace: PackedTrace<'static>,
@@ -112,7 +113,7 @@ pub fn arm<const N: usize>(
         ReplayAdc::new(trace),
         (PhaseA, PhaseB, PhaseC),
         Calibration::NOMINAL,
-        AcquisitionConfig::DEFAULT,
+        replay_config(&trace),
     )?;
     let (producer, consumer) = sampler.split(reader, config, cortex_m::asm::wfi as fn());
     TRIGGER_AT.store(trigger_at, Ordering::Relaxed);

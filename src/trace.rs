@@ -4,20 +4,27 @@
 //! Current sensors: 12-bit ADC over ±20 A, mid-scale at zero current:
 //! `counts = clamp(round(ADC_MIDSCALE + i/AMPS_PER_COUNT), 0, ADC_MAX)`.
 //!
-//! **Packed trace** ([`PackedTrace`], [`pack`]): the compact on-flash form of a recording.
+//! **Packed trace** ([`PackedTrace`], [`pack`]): the compact on-flash form of a recording. Two
+//! versions: `EMA1`, the recording of the manoeuvre alone, and `EMA2`, which opens with frames
+//! recorded before the manoeuvre (a pre-trigger: the actuator at rest, from which the sensors'
+//! zero points can be measured) and holds the trigger frame, the index of the manoeuvre's first
+//! frame.
 //!
 //! | offset | bytes | field |
 //! |--------|-------|-------|
-//! | 0 | 4 | magic `b"EMA1"` ([`TRACE_MAGIC`]) |
-//! | 4 | 4 | frame count `n`, `u32` little-endian |
+//! | 0 | 4 | magic `b"EMA1"` ([`TRACE_MAGIC`]) or `b"EMA2"` ([`TRACE_MAGIC_TRIGGERED`]) |
+//! | 4 | 4 | frame count `n` (pre-trigger frames included), `u32` little-endian |
 //! | 8 | 4 | sample rate in Hz, `u32` little-endian, > 0 |
-//! | 12 | `3·⌈3n/2⌉` | the codes `ia0 ib0 ic0 ia1 ib1 ic1 …`, 12 bits each, two codes per 3 bytes |
+//! | 12 | 4 | `EMA2` only: trigger frame `t ≤ n`, `u32` little-endian (frames `0..t` are the pre-trigger) |
+//! | 12 (`EMA1`), 16 (`EMA2`) | `3·⌈3n/2⌉` | the codes `ia0 ib0 ic0 ia1 ib1 ic1 …`, 12 bits each, two codes per 3 bytes |
 //!
-//! A pair of codes `(x, y)` is stored as `[x & 0xFF, (x >> 8) | (y & 0x0F) << 4, y >> 4]` (the FAT12
-//! order). With an odd number of codes the last pair is padded with `y = 0`, and the padding must
-//! read back as 0. The encoder [`pack`] writes into a caller's buffer (no alloc); the reader
-//! [`PackedTrace::parse`] checks magic, rate, exact length and padding, then decodes frame by frame.
-//! Both return a [`TraceError`] on any bad input and never panic.
+//! An `EMA1` trace has trigger frame 0. A pair of codes `(x, y)` is stored as
+//! `[x & 0xFF, (x >> 8) | (y & 0x0F) << 4, y >> 4]` (the FAT12 order). With an odd number of codes
+//! the last pair is padded with `y = 0`, and the padding must read back as 0. The encoder [`pack`]
+//! writes into a caller's buffer (no alloc), `EMA1` for a trigger frame of 0 and `EMA2` otherwise
+//! ([`TraceHeader`]); the reader [`PackedTrace::parse`] checks magic, rate, trigger frame, exact
+//! length and padding, then decodes frame by frame. Both return a [`TraceError`] on any bad input
+//! and never panic.
 
 /// ADC resolution.
 pub const ADC_BITS: u32 = 12;
@@ -49,20 +56,78 @@ pub fn counts_to_amps(counts: u16) -> f32 {
     (counts as f32 - ADC_MIDSCALE as f32) * AMPS_PER_COUNT
 }
 
-/// Magic bytes that open a packed trace.
+/// Magic bytes that open a packed trace of the manoeuvre alone (trigger frame 0).
 pub const TRACE_MAGIC: [u8; 4] = *b"EMA1";
-/// Size of the packed-trace header: magic, frame count, sample rate.
+/// Magic bytes that open a packed trace with a trigger frame.
+pub const TRACE_MAGIC_TRIGGERED: [u8; 4] = *b"EMA2";
+/// Size of the `EMA1` header: magic, frame count, sample rate.
 pub const TRACE_HEADER_LEN: usize = 12;
+/// Size of the `EMA2` header: magic, frame count, sample rate, trigger frame.
+pub const TRIGGERED_HEADER_LEN: usize = 16;
+
+/// What a packed trace's header holds besides its frame count: the sample rate and the trigger
+/// frame. A bare rate converts to the header of a trace without pre-trigger
+/// (`pack(frames, SAMPLE_RATE_HZ, out)` writes `EMA1`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TraceHeader {
+    /// Sample rate of the frames, Hz (> 0).
+    pub rate_hz: u32,
+    /// Index of the manoeuvre's first frame: the number of pre-trigger frames before it.
+    pub trigger_frame: u32,
+}
+
+impl TraceHeader {
+    /// The header of a trace at `rate_hz` whose manoeuvre starts at frame `trigger_frame`.
+    pub const fn new(rate_hz: u32, trigger_frame: u32) -> Self {
+        Self { rate_hz, trigger_frame }
+    }
+
+    /// Bytes of the header: [`TRACE_HEADER_LEN`] (`EMA1`) without pre-trigger,
+    /// [`TRIGGERED_HEADER_LEN`] (`EMA2`) with one.
+    pub const fn header_len(&self) -> usize {
+        if self.trigger_frame == 0 {
+            TRACE_HEADER_LEN
+        } else {
+            TRIGGERED_HEADER_LEN
+        }
+    }
+
+    /// Bytes of a packed trace of `frames` frames under this header; `usize::MAX` if that
+    /// overflows (as [`packed_len`]).
+    pub const fn packed_len(&self, frames: usize) -> usize {
+        let body = match frames.checked_mul(3) {
+            Some(codes) => packed_codes_len(codes),
+            None => None,
+        };
+        match body {
+            Some(b) => match b.checked_add(self.header_len()) {
+                Some(n) => n,
+                None => usize::MAX,
+            },
+            None => usize::MAX,
+        }
+    }
+}
+
+impl From<u32> for TraceHeader {
+    /// The header of a trace at `rate_hz` without pre-trigger.
+    fn from(rate_hz: u32) -> Self {
+        Self::new(rate_hz, 0)
+    }
+}
 
 /// Why a packed trace could not be read or written. Never a panic: every input gives a value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum TraceError {
-    /// Fewer bytes than the 12-byte header.
+    /// Fewer bytes than the header (12 bytes, 16 for `EMA2`).
     TruncatedHeader,
-    /// The first four bytes are not `b"EMA1"`.
+    /// The first four bytes are neither `b"EMA1"` nor `b"EMA2"`.
     BadMagic,
+    /// The trigger frame of an `EMA2` header is past the last frame.
+    TriggerFrame,
     /// The byte length does not match the frame count in the header (truncated or trailing data).
     Length,
     /// The sample rate in the header is 0.
@@ -80,8 +145,9 @@ pub enum TraceError {
 impl core::fmt::Display for TraceError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(match self {
-            TraceError::TruncatedHeader => "packed trace shorter than its 12-byte header",
-            TraceError::BadMagic => "packed trace does not start with EMA1",
+            TraceError::TruncatedHeader => "packed trace shorter than its 12-byte header (16 bytes for EMA2)",
+            TraceError::BadMagic => "packed trace does not start with EMA1 or EMA2",
+            TraceError::TriggerFrame => "packed trace's trigger frame is past its last frame",
             TraceError::Length => "packed trace length does not match its frame count",
             TraceError::SampleRate => "packed trace sample rate is zero",
             TraceError::Padding => "packed trace padding is not zero",
@@ -102,20 +168,11 @@ const fn packed_codes_len(codes: usize) -> Option<usize> {
     }
 }
 
-/// Bytes of a packed trace of `frames` frames (header included); `usize::MAX` if that overflows
-/// (such a trace can never fit a buffer, so [`pack`] then reports [`TraceError::TooManyFrames`]).
+/// Bytes of a packed trace of `frames` frames without pre-trigger (`EMA1`, header included);
+/// `usize::MAX` if that overflows (such a trace can never fit a buffer, so [`pack`] then reports
+/// [`TraceError::TooManyFrames`]). With a trigger frame: [`TraceHeader::packed_len`].
 pub const fn packed_len(frames: usize) -> usize {
-    let body = match frames.checked_mul(3) {
-        Some(codes) => packed_codes_len(codes),
-        None => None,
-    };
-    match body {
-        Some(b) => match b.checked_add(TRACE_HEADER_LEN) {
-            Some(n) => n,
-            None => usize::MAX,
-        },
-        None => usize::MAX,
-    }
+    TraceHeader::new(1, 0).packed_len(frames)
 }
 
 /// A validated, borrowed packed trace (typically `include_bytes!` in flash). Decoding is lazy:
@@ -125,13 +182,22 @@ pub struct PackedTrace<'a> {
     codes: &'a [u8],
     frames: usize,
     sample_rate_hz: u32,
+    trigger_frame: u32,
 }
 
 impl<'a> PackedTrace<'a> {
-    /// Checks the header (magic, non-zero rate), that the length matches the frame count exactly
-    /// and that any padding is zero.
+    /// Checks the header (magic, non-zero rate, a trigger frame not past the last frame), that
+    /// the length matches the frame count exactly and that any padding is zero.
     pub fn parse(bytes: &'a [u8]) -> Result<Self, TraceError> {
-        let (header, codes) = bytes.split_at_checked(TRACE_HEADER_LEN).ok_or(TraceError::TruncatedHeader)?;
+        if bytes.len() < TRACE_HEADER_LEN {
+            return Err(TraceError::TruncatedHeader);
+        }
+        let header_len = match bytes.get(..4) {
+            Some(m) if m == TRACE_MAGIC => TRACE_HEADER_LEN,
+            Some(m) if m == TRACE_MAGIC_TRIGGERED => TRIGGERED_HEADER_LEN,
+            _ => return Err(TraceError::BadMagic),
+        };
+        let (header, codes) = bytes.split_at_checked(header_len).ok_or(TraceError::TruncatedHeader)?;
         let word = |at: usize| -> u32 {
             let mut w = [0u8; 4];
             if let Some(src) = header.get(at..at + 4) {
@@ -139,13 +205,16 @@ impl<'a> PackedTrace<'a> {
             }
             u32::from_le_bytes(w)
         };
-        if header.get(..4) != Some(&TRACE_MAGIC[..]) {
-            return Err(TraceError::BadMagic);
-        }
-        let frames = usize::try_from(word(4)).map_err(|_| TraceError::TooManyFrames)?;
+        let frame_count = word(4);
+        let frames = usize::try_from(frame_count).map_err(|_| TraceError::TooManyFrames)?;
         let sample_rate_hz = word(8);
         if sample_rate_hz == 0 {
             return Err(TraceError::SampleRate);
+        }
+        // an EMA1 header has no word at 12: trigger frame 0
+        let trigger_frame = word(12);
+        if trigger_frame > frame_count {
+            return Err(TraceError::TriggerFrame);
         }
         let n_codes = frames.checked_mul(3).ok_or(TraceError::TooManyFrames)?;
         let expected = packed_codes_len(n_codes).ok_or(TraceError::TooManyFrames)?;
@@ -162,7 +231,7 @@ impl<'a> PackedTrace<'a> {
                 return Err(TraceError::Padding);
             }
         }
-        Ok(Self { codes, frames, sample_rate_hz })
+        Ok(Self { codes, frames, sample_rate_hz, trigger_frame })
     }
 
     /// Number of frames (each frame: the three phase codes `ia, ib, ic`).
@@ -173,6 +242,17 @@ impl<'a> PackedTrace<'a> {
     /// Sample rate of the frames.
     pub const fn sample_rate_hz(&self) -> u32 {
         self.sample_rate_hz
+    }
+
+    /// Index of the manoeuvre's first frame: the number of pre-trigger frames before it (0 for
+    /// an `EMA1` trace).
+    pub const fn trigger_frame(&self) -> u32 {
+        self.trigger_frame
+    }
+
+    /// The header's rate and trigger frame.
+    pub const fn header(&self) -> TraceHeader {
+        TraceHeader::new(self.sample_rate_hz, self.trigger_frame)
     }
 
     /// `true` when the trace holds no frame.
@@ -204,24 +284,32 @@ impl<'a> PackedTrace<'a> {
     }
 }
 
-/// Packs `frames` (codes `[ia, ib, ic]`, each ≤ [`ADC_MAX`]) at `rate_hz` into `out`, without
-/// allocating. Returns the number of bytes written, [`packed_len`]`(frames.len())`.
+/// Packs `frames` (codes `[ia, ib, ic]`, each ≤ [`ADC_MAX`]) under `header` (its rate and
+/// trigger frame; a bare rate for a trace without pre-trigger) into `out`, without allocating:
+/// `EMA1` when the trigger frame is 0, `EMA2` otherwise. Returns the number of bytes written,
+/// [`TraceHeader::packed_len`]`(frames.len())`.
 ///
 /// Nothing is written past that length; on error the content of `out` is unspecified.
-pub fn pack(frames: &[[u16; 3]], rate_hz: u32, out: &mut [u8]) -> Result<usize, TraceError> {
+pub fn pack(frames: &[[u16; 3]], header: impl Into<TraceHeader>, out: &mut [u8]) -> Result<usize, TraceError> {
+    let header = header.into();
     let count = u32::try_from(frames.len()).map_err(|_| TraceError::TooManyFrames)?;
-    if rate_hz == 0 {
+    if header.rate_hz == 0 {
         return Err(TraceError::SampleRate);
     }
-    let len = packed_len(frames.len());
+    if header.trigger_frame > count {
+        return Err(TraceError::TriggerFrame);
+    }
+    let len = header.packed_len(frames.len());
     if len == usize::MAX {
         return Err(TraceError::TooManyFrames);
     }
     let out = out.get_mut(..len).ok_or(TraceError::OutputTooSmall)?;
-    let (header, body) = out.split_at_mut(TRACE_HEADER_LEN);
-    header[..4].copy_from_slice(&TRACE_MAGIC);
-    header[4..8].copy_from_slice(&count.to_le_bytes());
-    header[8..12].copy_from_slice(&rate_hz.to_le_bytes());
+    let (head, body) = out.split_at_mut(header.header_len());
+    let magic = if header.header_len() == TRACE_HEADER_LEN { TRACE_MAGIC } else { TRACE_MAGIC_TRIGGERED };
+    let words = [magic, count.to_le_bytes(), header.rate_hz.to_le_bytes(), header.trigger_frame.to_le_bytes()];
+    for (dst, src) in head.chunks_exact_mut(4).zip(words.iter()) {
+        dst.copy_from_slice(src);
+    }
     let mut codes = frames.iter().flat_map(|f| f.iter().copied());
     for chunk in body.chunks_exact_mut(3) {
         let x = codes.next().unwrap_or(0);
@@ -436,6 +524,88 @@ mod tests {
         assert_eq!(pack(&[], 10, &mut buf[..11]), Err(TraceError::OutputTooSmall));
         assert_eq!(pack(&[], 10, &mut buf), Ok(12));
         assert_eq!(PackedTrace::parse(&buf[..12]).map(|t| t.frames()), Ok(0));
+    }
+
+    fn packed_triggered(frames: &[[u16; 3]], header: TraceHeader) -> std::vec::Vec<u8> {
+        let mut buf = std::vec![0u8; header.packed_len(frames.len())];
+        let n = pack(frames, header, &mut buf).expect("packs");
+        assert_eq!(n, buf.len());
+        buf
+    }
+
+    #[test]
+    fn triggered_byte_layout() {
+        let buf = packed_triggered(&[[0x123, 0x456, 0x789], [1, 2, 3]], TraceHeader::new(10_000, 1));
+        assert_eq!(&buf[..4], b"EMA2");
+        assert_eq!(&buf[4..8], &2u32.to_le_bytes());
+        assert_eq!(&buf[8..12], &10_000u32.to_le_bytes());
+        assert_eq!(&buf[12..16], &1u32.to_le_bytes());
+        assert_eq!(&buf[16..22], &[0x23, 0x61, 0x45, 0x89, 0x17, 0x00]);
+        assert_eq!(buf.len(), packed_len(2) + 4);
+        // a trigger frame of 0 is the EMA1 trace, byte for byte
+        let frames = [[7, 8, 9], [10, 11, 12], [13, 14, 15]];
+        assert_eq!(packed_triggered(&frames, TraceHeader::new(10_000, 0)), packed(&frames, 10_000));
+        assert_eq!(TraceHeader::from(10_000), TraceHeader::new(10_000, 0));
+        assert_eq!((TraceHeader::new(1, 0).header_len(), TraceHeader::new(1, 5).header_len()), (12, 16));
+        assert_eq!(TraceHeader::new(1, 5).packed_len(usize::MAX), usize::MAX);
+    }
+
+    #[test]
+    fn triggered_round_trip_and_ema1_compatibility() {
+        let frames: std::vec::Vec<[u16; 3]> = (0..37u16).map(|i| [2048 + i, 2048 - i, (i * 97) % 4096]).collect();
+        for trigger in [1u32, 2, 17, 36, 37] {
+            let buf = packed_triggered(&frames, TraceHeader::new(10_000, trigger));
+            let t = PackedTrace::parse(&buf).expect("parses");
+            assert_eq!((t.frames(), t.sample_rate_hz(), t.trigger_frame()), (37, 10_000, trigger));
+            assert_eq!(t.header(), TraceHeader::new(10_000, trigger));
+            assert!(t.iter().eq(frames.iter().copied()), "trigger {trigger}");
+        }
+        // EMA1: trigger frame 0
+        let t = PackedTrace::parse(include_bytes!("../traces/standard.ematrace")).expect("EMA1 parses");
+        assert_eq!((t.trigger_frame(), t.header()), (0, TraceHeader::new(SAMPLE_RATE_HZ, 0)));
+        let buf = packed(&frames, 10_000);
+        assert_eq!(PackedTrace::parse(&buf).map(|t| t.trigger_frame()), Ok(0));
+    }
+
+    #[test]
+    fn corrupt_triggered_headers_are_errors() {
+        let frames = [[1, 2, 3], [4, 5, 6], [7, 8, 9]];
+        let good = packed_triggered(&frames, TraceHeader::new(10_000, 2));
+        for n in 12..16 {
+            assert_eq!(PackedTrace::parse(&good[..n]), Err(TraceError::TruncatedHeader), "{n} bytes");
+        }
+        let mut bad = good.clone();
+        bad[12..16].copy_from_slice(&4u32.to_le_bytes());
+        assert_eq!(PackedTrace::parse(&bad), Err(TraceError::TriggerFrame));
+        bad[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert_eq!(PackedTrace::parse(&bad), Err(TraceError::TriggerFrame));
+        // the trigger at the end: no frame of the manoeuvre, a valid header
+        bad[12..16].copy_from_slice(&3u32.to_le_bytes());
+        assert_eq!(PackedTrace::parse(&bad).map(|t| t.trigger_frame()), Ok(3));
+        // an EMA1 body read as EMA2 (or the reverse) no longer matches its length
+        let mut relabelled = good.clone();
+        relabelled[3] = b'1';
+        assert_eq!(PackedTrace::parse(&relabelled), Err(TraceError::Length));
+        let mut buf = [0u8; 64];
+        assert_eq!(pack(&frames, TraceHeader::new(10, 4), &mut buf), Err(TraceError::TriggerFrame));
+        assert_eq!(pack(&frames, TraceHeader::new(0, 1), &mut buf), Err(TraceError::SampleRate));
+        assert_eq!(pack(&frames, TraceHeader::new(10, 1), &mut buf[..30]), Err(TraceError::OutputTooSmall));
+        assert_eq!(pack(&frames, TraceHeader::new(10, 1), &mut buf[..31]), Ok(31));
+        // every truncation and byte flip of an EMA2 trace gives a value
+        let long = packed_triggered(&synthetic::placeholder_frames()[..50], TraceHeader::new(10_000, 20));
+        for n in 0..long.len() {
+            assert!(PackedTrace::parse(&long[..n]).is_err(), "truncated to {n}");
+        }
+        for at in 0..long.len() {
+            for flip in [0x01u8, 0x10, 0x80, 0xFF] {
+                let mut b = long.clone();
+                b[at] ^= flip;
+                if let Ok(t) = PackedTrace::parse(&b) {
+                    assert!(t.iter().count() == t.frames());
+                    assert!(t.trigger_frame() as usize <= t.frames());
+                }
+            }
+        }
     }
 
     #[test]

@@ -88,7 +88,7 @@ use embedded_hal::adc::{Channel, OneShot};
 
 pub use calibration::{AmpsFixed, Calibration, GainAmpsPerCount, OffsetCounts, PhaseCalibration};
 pub use limit::{manoeuvre_frames, FrameLimit};
-pub use replay::{ReplayAdc, ReplayError};
+pub use replay::{replay_config, ReplayAdc, ReplayError};
 pub use sampler::{Sample, Sampler, SamplerConfig, SamplerConsumer, SamplerProducer, SamplerState, SAMPLER_QUEUE};
 pub use self_calibration::{
     GainCheck, RestEstimator, SelfCalibrationConfig, SensorCheck, SensorFault, ZeroSource, MAX_GAIN_MISMATCH,

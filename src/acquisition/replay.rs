@@ -4,7 +4,7 @@ use core::fmt;
 
 use embedded_hal::adc::{Channel, OneShot};
 
-use super::{AdcError, AdcErrorKind, PhasePin};
+use super::{AcquisitionConfig, AdcError, AdcErrorKind, PhasePin};
 use crate::trace::PackedTrace;
 
 /// Why the replay could not give a code.
@@ -14,6 +14,17 @@ use crate::trace::PackedTrace;
 pub enum ReplayError {
     /// Every frame of the trace has been read.
     EndOfTrace,
+}
+
+/// The acquisition settings a replay of `trace` is read with: the defaults, with the sensors'
+/// zero points measured on the trace's frames before its trigger when it has any (an `EMA2`
+/// trace with a pre-trigger), the declared ones kept when it has none.
+pub fn replay_config(trace: &PackedTrace<'_>) -> AcquisitionConfig {
+    if trace.trigger_frame() > 0 {
+        AcquisitionConfig::SELF_CALIBRATED
+    } else {
+        AcquisitionConfig::DEFAULT
+    }
 }
 
 impl fmt::Display for ReplayError {

@@ -36,11 +36,18 @@
 //! [`amps_to_counts`], which gives back the recorded ADC code
 //! exactly for a quantized recording (the default), so packing the CSV of the built-in run
 //! reproduces `traces/standard.ematrace` byte for byte.
+//!
+//! A recording that opens before the manoeuvre (a bench's pre-trigger, `ema simulate
+//! --pre-trigger-ms`) keeps up to [`MAX_PRE_TRIGGER_FRAMES`] (100 ms) of it: the frames on the
+//! 10 kHz grid just before the aligned start ([`RecordingArgs::load_with_pre_trigger`]), packed
+//! in an `EMA2` trace whose trigger frame is their count, so that the firmware raises its trigger
+//! at the manoeuvre's first frame and its self-calibration can read the sensors' zero points from
+//! the frames before. Without such frames the trace is `EMA1`.
 
 use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
-use ema_monitor::trace::{amps_to_counts, pack, packed_len, PackedTrace, SAMPLE_RATE_HZ};
+use ema_monitor::trace::{amps_to_counts, pack, packed_len, PackedTrace, TraceHeader, SAMPLE_RATE_HZ};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, Effects, SimConfig};
 
@@ -49,6 +56,8 @@ use crate::output::{check_file, write_files, OutputArgs, Overwrite};
 use crate::params::ParamsArgs;
 use crate::recording::{Recording, RecordingArgs};
 use crate::runtime::recording::check_recording;
+
+pub use crate::runtime::firmware::MAX_PRE_TRIGGER_FRAMES;
 
 /// Fault vector of the built-in trace: friction `k1 = 0.25`, everything else healthy
 /// (`ecc_phase` and `gain` at their neutral 0.5).
@@ -66,7 +75,9 @@ pub struct FirmwareTraceArgs {
     /// `--out FILE` and `--force`.
     #[command(flatten)]
     pub output: OutputArgs,
-    /// Pack this recording CSV (10 kHz, standard profile, 8500 rows) instead of the built-in run.
+    /// Pack this recording CSV (10 kHz, standard profile, 8500 rows of the manoeuvre) instead of the
+    /// built-in run; up to 100 ms of rows before the manoeuvre are kept as pre-trigger frames (an
+    /// EMA2 trace whose trigger frame is the manoeuvre's first).
     #[arg(long, value_name = "RECORDING")]
     pub from: Option<PathBuf>,
     /// The actuator's parameters: the built-in run simulates it (pair the trace with the same
@@ -163,9 +174,16 @@ pub fn firmware_trace_bytes_for(params: &EmaParams, profile: BuiltInProfile) -> 
     Ok(bytes)
 }
 
-/// Packs a recording read from `path` (named in messages) into a firmware trace: checks the
-/// sample rate and the standard profile's command, requires [`FIRMWARE_TRACE_FRAMES`] rows.
-pub fn recording_trace_bytes(recording: &Recording, path: &Path, params: &EmaParams) -> Result<Vec<u8>, CliError> {
+/// Packs a recording read from `path` (named in messages) into a firmware trace, after the rows
+/// of `pre_trigger` (at most [`MAX_PRE_TRIGGER_FRAMES`]; none gives an `EMA1` trace): checks the
+/// sample rate and the standard profile's command, requires [`FIRMWARE_TRACE_FRAMES`] rows of the
+/// manoeuvre.
+pub fn recording_trace_bytes(
+    recording: &Recording,
+    pre_trigger: &Recording,
+    path: &Path,
+    params: &EmaParams,
+) -> Result<Vec<u8>, CliError> {
     check_recording(recording, path, &Profile::STANDARD, params)?;
     if recording.len() != FIRMWARE_TRACE_FRAMES {
         return Err(CliError::Input {
@@ -178,11 +196,24 @@ pub fn recording_trace_bytes(recording: &Recording, path: &Path, params: &EmaPar
             ),
         });
     }
-    let frames: Vec<[u16; 3]> = (0..recording.len())
-        .map(|k| [recording.ia_a[k], recording.ib_a[k], recording.ic_a[k]].map(|i| amps_to_counts(i as f32)))
+    if pre_trigger.len() > MAX_PRE_TRIGGER_FRAMES {
+        return Err(CliError::Input {
+            path: path.to_path_buf(),
+            message: format!(
+                "{} rows before the manoeuvre, but a firmware trace keeps at most {MAX_PRE_TRIGGER_FRAMES}",
+                pre_trigger.len()
+            ),
+        });
+    }
+    let codes = |r: &Recording, k: usize| [r.ia_a[k], r.ib_a[k], r.ic_a[k]].map(|i| amps_to_counts(i as f32));
+    let frames: Vec<[u16; 3]> = (0..pre_trigger.len())
+        .map(|k| codes(pre_trigger, k))
+        .chain((0..recording.len()).map(|k| codes(recording, k)))
         .collect();
-    let mut bytes = vec![0u8; packed_len(frames.len())];
-    let n = pack(&frames, SAMPLE_RATE_HZ, &mut bytes).map_err(|e| CliError::Input {
+    // at most MAX_PRE_TRIGGER_FRAMES: fits a u32
+    let header = TraceHeader::new(SAMPLE_RATE_HZ, pre_trigger.len() as u32);
+    let mut bytes = vec![0u8; header.packed_len(frames.len())];
+    let n = pack(&frames, header, &mut bytes).map_err(|e| CliError::Input {
         path: path.to_path_buf(),
         message: format!("the recording cannot be packed: {e}"),
     })?;
@@ -227,13 +258,17 @@ fn run_from(
     overwrite: Overwrite,
     params: &EmaParams,
 ) -> Result<String, CliError> {
-    let recording = how.load(from, Some(&Profile::STANDARD), params)?.recording;
-    let bytes = recording_trace_bytes(&recording, from, params)?;
+    let loaded = how.load_with_pre_trigger(from, Some(&Profile::STANDARD), params, MAX_PRE_TRIGGER_FRAMES)?;
+    let bytes = recording_trace_bytes(&loaded.recording, &loaded.pre_trigger, from, params)?;
     let trace = PackedTrace::parse(&bytes)
         .map_err(|e| CliError::Simulation(format!("the packed trace does not read back: {e}")))?;
     write_files(&[(out, &bytes)], overwrite)?;
+    let trigger = match trace.trigger_frame() {
+        0 => String::new(),
+        t => format!(", trigger at frame {t} after {} ms at rest", f64::from(t) * 1e3 / f64::from(SAMPLE_RATE_HZ)),
+    };
     Ok(format!(
-        "wrote {} frames at {} Hz ({} bytes) to {} from {}; run it on board: EMA_TRACE={} cargo run --release",
+        "wrote {} frames at {} Hz ({} bytes{trigger}) to {} from {}; run it on board: EMA_TRACE={} cargo run --release",
         trace.frames(),
         trace.sample_rate_hz(),
         bytes.len(),

@@ -41,6 +41,7 @@ pub mod progress;
 pub mod recording;
 pub mod runtime;
 pub mod schema;
+pub mod sensors_file;
 pub mod simulate;
 pub mod tolerances_file;
 pub mod unit_draw;

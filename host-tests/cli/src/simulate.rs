@@ -2,13 +2,20 @@
 //!
 //! ```text
 //! ema simulate --faults k1,…,k8 [--effect ID=S]… [--profile standard|FILE] [--params FILE.toml]
-//!              [--unit SEED [--tolerances FILE.toml]] [--temperature C] [--noise on|off] [--seed N] --out FILE.csv [--force]
+//!              [--unit SEED [--tolerances FILE.toml]] [--temperature C] [--sensors PRESET|FILE.toml]
+//!              [--pre-trigger-ms N] [--noise on|off] [--seed N] --out FILE.csv [--force]
 //! ```
 //!
 //! The actuator is `--params` (or the nominal set) at 20 °C; `--unit SEED` draws one unit of it
 //! from the tolerance table ([`crate::unit_draw`], `--tolerances` or
 //! [`Tolerances::TYPICAL`]); `--temperature C` runs the reference model with that unit's
 //! parameters at `C` ([`EmaParams::at_temperature`]) and adds the `temperature_C` column.
+//!
+//! `--sensors` is the phase currents' measurement chain ([`crate::sensors_file`],
+//! docs/sensors.md): a preset (`ideal`, the default; `nucleo-f446re`; `nucleo-f446re-oneshot`) or a
+//! sensor file. `--pre-trigger-ms N` opens the recording with `N` ms of the actuator at rest
+//! before the manoeuvre ([`SimConfig::pre_trigger_s`]): the time column starts at 0, the
+//! manoeuvre at `N` ms, as a bench logs before its trigger.
 //!
 //! `--out F.csv` gets a plain CSV (header and rows, [`crate::recording::write`]) and its metadata
 //! in the sidecar `F.json` ([`crate::recording::sidecar`]). Both are checked before the
@@ -25,9 +32,10 @@ use crate::error::CliError;
 use crate::output::{check_file, write_files, OutputArgs};
 use crate::params::ParamsArgs;
 use crate::profile_file::read_profile;
-use crate::recording::sidecar::{sidecar_path, Sidecar, SidecarUnit, SCHEMA_VERSION};
+use crate::recording::sidecar::{sidecar_path, Sidecar, SidecarSensors, SidecarUnit, SCHEMA_VERSION};
 use crate::recording::write::csv_bytes;
 use crate::recording::{Recording, HEADER, MAX_TEMPERATURE_C, MIN_TEMPERATURE_C, TEMPERATURE_HEADER};
+use crate::sensors_file::resolve_sensors;
 use crate::tolerances_file::read_tolerances;
 use crate::unit_draw::draw_unit;
 
@@ -85,7 +93,24 @@ pub struct SimulateArgs {
     /// no column].
     #[arg(long, value_name = "C", allow_hyphen_values = true)]
     pub temperature: Option<f64>,
+    /// The phase currents' measurement chain (docs/sensors.md): a preset, `ideal` (no error,
+    /// 20 kHz, the three phases at the frame instant, 12 bits over ±20 A), `nucleo-f446re` (the
+    /// board's Hall sensors: zero errors +0.15, -0.10, +0.12 A, gain errors +1.0, -0.8, +0.5 %,
+    /// 20 kHz, triple simultaneous ADC, 12 bits over ±20 A) or `nucleo-f446re-oneshot` (the same
+    /// sensors converted in sequence at 0, 5, 10 µs); or a sensor file (TOML: `preset = "NAME"`
+    /// to start from, then any of adc_bits, full_scale_a, and per phase [a, b, c] offset_a,
+    /// gain_error, bandwidth_hz, skew_us).
+    #[arg(long, value_name = "PRESET|FILE.toml", default_value = "ideal")]
+    pub sensors: String,
+    /// Milliseconds of the actuator at rest recorded before the manoeuvre (0 to 10000): the drive
+    /// off, the command at the profile's opening value, the currents the sensors' zero errors and
+    /// noise; the time column starts at 0 and the manoeuvre at N ms.
+    #[arg(long = "pre-trigger-ms", value_name = "N", default_value_t = 0)]
+    pub pre_trigger_ms: u32,
 }
+
+/// Longest `--pre-trigger-ms` ([`ema_reference::MAX_PRE_TRIGGER_S`]).
+pub const MAX_PRE_TRIGGER_MS: u32 = (ema_reference::MAX_PRE_TRIGGER_S * 1000.0) as u32;
 
 /// The simulated actuator: its parameters at 20 °C (the unit's under `--unit`), the unit drawn and
 /// the temperature.
@@ -236,13 +261,22 @@ pub fn config(args: &SimulateArgs) -> Result<SimConfig, CliError> {
 
 /// The simulation configuration of `actuator` under the other arguments.
 fn config_for(args: &SimulateArgs, actuator: &Actuator) -> Result<SimConfig, CliError> {
+    let params = actuator.simulated();
+    if args.pre_trigger_ms > MAX_PRE_TRIGGER_MS {
+        return Err(CliError::flag(
+            "--pre-trigger-ms",
+            format!("{} ms is longer than {MAX_PRE_TRIGGER_MS} ms", args.pre_trigger_ms),
+        ));
+    }
     Ok(SimConfig {
-        params: actuator.simulated(),
+        params,
         faults: parse_faults(&args.faults)?,
         effects: parse_effects(&args.effects)?,
         profile: resolve_profile(&args.profile)?,
         noise: args.noise == Noise::On,
         seed: args.seed,
+        sensors: resolve_sensors(&args.sensors, ema_reference::params::widen(params.control_period_s))?,
+        pre_trigger_s: f64::from(args.pre_trigger_ms) / 1000.0,
         ..SimConfig::default()
     })
 }
@@ -284,6 +318,8 @@ pub fn run(args: &SimulateArgs) -> Result<String, CliError> {
         seed: cfg.seed,
         unit: actuator.unit.clone(),
         temperature_c: actuator.temperature_c,
+        sensors: Some(SidecarSensors::of(&cfg.sensors, &args.sensors)),
+        pre_trigger_s: (result.trigger_index > 0).then_some(cfg.pre_trigger_s),
     };
     write_files(&[(out, &csv_bytes(&rec)), (&side, sidecar.to_json().as_bytes())], overwrite)?;
     let mut what = String::new();
@@ -292,6 +328,12 @@ pub fn run(args: &SimulateArgs) -> Result<String, CliError> {
     }
     if let Some(t) = actuator.temperature_c {
         what.push_str(&format!(" at {t} °C"));
+    }
+    if args.sensors != "ideal" {
+        what.push_str(&format!(" through the {} sensors", args.sensors));
+    }
+    if result.trigger_index > 0 {
+        what.push_str(&format!(", {} ms at rest before the manoeuvre", args.pre_trigger_ms));
     }
     Ok(format!(
         "wrote {} samples ({} s at {} Hz){what} to {} and its metadata to {}",

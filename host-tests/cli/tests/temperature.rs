@@ -7,8 +7,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{accepted, ema, refused, s, scratch};
-use ema_cli::params_file::template;
+use common::{accepted, ema, refused, s, scratch, unit_params_file};
 use ema_cli::recording::read_recording;
 use ema_cli::recording::sidecar::Sidecar;
 use ema_monitor::params::FIELDS;
@@ -27,19 +26,6 @@ fn unit_at(dir: &Path, name: &str, unit: &str, seed: &str, temperature: Option<&
         assert!(printed.contains(&format!("at {t} °C")), "{printed}");
     }
     out
-}
-
-/// The unit's parameter file (its parameters at 20 °C, from the recording's sidecar), beside it.
-fn unit_params_file(recording: &Path) -> PathBuf {
-    let side = Sidecar::for_recording(recording).expect("readable").expect("a sidecar");
-    let mut p = EmaParams::NOMINAL;
-    for f in FIELDS.iter() {
-        f.set(&mut p, side.params[f.name]);
-    }
-    assert_ne!(p, EmaParams::NOMINAL, "a drawn unit");
-    let path = recording.with_extension("toml");
-    std::fs::write(&path, template(&p)).expect("writes");
-    path
 }
 
 /// The recording without its last column (the temperature).

@@ -14,7 +14,8 @@
 //!   │                                                   ─► T_m = Σ k_j f_j i_j ─► Borello friction, gear N, backlash,
 //!   │                                                      hinge load K_h θ_u, end stops ─► θ_u
 //!   └── position transducer (lag, noise, 16 bit) ◄───────────────────────────────────────────┘
-//! recorded at t_k = k·T (10 kHz): time_s, command_rad, position_rad, i_a, i_b, i_c (20 kHz lag, noise, 12-bit ADC)
+//! recorded at t_k = k·T (10 kHz): time_s, command_rad, position_rad, i_a, i_b, i_c (the sensor chain: zero and
+//! gain errors, 20 kHz lag, skew, noise, 12-bit ADC; ideal by default)
 //! ```
 //!
 //! Use: [`simulate`]`(&`[`SimConfig`]`) -> Result<`[`Recording`]`, `[`ConfigError`]`>`; or step a
@@ -35,7 +36,8 @@
 //! * Rigid transmission: the hinge load is reflected to the motor even inside the gap (as in the
 //!   monitor model); the energy ledger shows the (small) consequence.
 //! * Hysteresis comparators see the sensor error of the `sensor_offset` effect (the drive regulates
-//!   the measured current) but not the sensor lag or noise.
+//!   the measured current) but not the recording's sensor chain ([`SensorChain`]: its zero and gain
+//!   errors, lag, conversion instants, noise and ADC act on the recorded currents only).
 //! * Parameters: the `f32` table is widened to the `f64` of its shortest decimal form
 //!   ([`params::widen`]: `0.13f32` → `0.13`).
 //! * Time base: `t_k = k·T` with `T` = 100 µs (written `k/10000` so the CSV holds exact decimals);
@@ -74,7 +76,8 @@ pub mod sim;
 
 pub use effects::{Effect, Effects, UnknownEffect, EFFECT_COUNT};
 pub use params::{BacklashModel, Plant};
+pub use sensors::{CurrentAdc, PhaseSensor, SensorChain, SensorChainError};
 pub use sim::{
     simulate, ConfigError, EnergyLedger, Recording, Sample, SimConfig, Simulator, Truth, DEFAULT_STEP_S,
-    MAX_DURATION_S, MAX_SAMPLES,
+    MAX_DURATION_S, MAX_PRE_TRIGGER_S, MAX_SAMPLES,
 };

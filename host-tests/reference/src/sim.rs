@@ -3,7 +3,20 @@
 //! Order of operations (docs/model.md). At every ACE instant `t_k = k·T` the sensors are sampled
 //! (noise, quantization), the PID computes `I_ref` (held until `t_{k+1}`) and the sample is recorded.
 //! Then `T/dt` integration steps follow, each: `θ_e, f_j, k_j, e_j` → Hall sector → inverter and
-//! currents → `T_m` → friction and mechanics → sensor lags.
+//! currents → `T_m` → friction and mechanics → sensor lags. A phase current the
+//! [`SensorChain`] converts after the frame instant (a skew) is taken during the steps that follow
+//! it ([`CurrentSensing`]).
+//!
+//! **Pre-trigger** ([`SimConfig::pre_trigger_s`]): the recording may open with the actuator at
+//! rest before the manoeuvre, as a bench logs before its trigger. Those samples carry the
+//! profile's opening command; the drive is off (every switch open, zero current, the ACE not yet
+//! running), the mechanism stands still at zero, and only the sensors run: the position reads its
+//! noise, the currents their chain's zero errors and noise. Their noise comes from a generator of
+//! its own (seeded from [`SimConfig::seed`] and [`PRE_TRIGGER_STREAM`]), so the manoeuvre that
+//! follows draws the same noise as without a pre-trigger, and since the current sensors rest at
+//! their zero errors either way, its samples are those of the run without one, bit for bit, `N`
+//! samples later (except with the `sensor_offset` effect, whose drive-sensor error has then settled
+//! through the lags before the manoeuvre instead of entering them at its start).
 
 use core::f64::consts::{PI, TAU};
 use core::fmt;
@@ -16,7 +29,7 @@ use crate::electrical::{emf_shapes, hall_sector, ElectricalInputs, Inverter};
 use crate::mechanics::{FrictionLaw, MechanicalInputs, Mechanics};
 use crate::params::{BacklashModel, Plant};
 use crate::rng::NoiseRng;
-use crate::sensors::{self, Lag};
+use crate::sensors::{self, CurrentSensing, Lag, SensorChain, SensorChainError};
 
 /// Default integration step, chosen by the convergence study kept in `tests/convergence.rs`.
 pub const DEFAULT_STEP_S: f64 = 2.5e-7;
@@ -30,6 +43,13 @@ pub const MAX_DURATION_S: f64 = 60.0;
 /// samples and truth). Also refused with [`ConfigError::Duration`]: a profile within
 /// [`MAX_DURATION_S`] under a control period shorter than the nominal one.
 pub const MAX_SAMPLES: usize = 600_000;
+
+/// Longest pre-trigger, s ([`SimConfig::pre_trigger_s`]); the pre-trigger and the profile
+/// together stay within [`MAX_DURATION_S`].
+pub const MAX_PRE_TRIGGER_S: f64 = 10.0;
+
+/// Mixed into [`SimConfig::seed`] to seed the pre-trigger's own noise generator.
+pub const PRE_TRIGGER_STREAM: u64 = 0x5052_4554_5249_4747; // "PRETRIGG"
 
 /// What to simulate.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -53,6 +73,11 @@ pub struct SimConfig {
     pub step_s: f64,
     /// Backlash model of the rigid transmission.
     pub backlash_model: BacklashModel,
+    /// The phase-current measurement chain ([`SensorChain::IDEAL`] by default).
+    pub sensors: SensorChain,
+    /// Time at rest recorded before the manoeuvre, s (0 by default; rounded to whole control
+    /// periods, at most [`MAX_PRE_TRIGGER_S`]; the module documentation says what it holds).
+    pub pre_trigger_s: f64,
 }
 
 impl Default for SimConfig {
@@ -67,6 +92,8 @@ impl Default for SimConfig {
             quantization: true,
             step_s: DEFAULT_STEP_S,
             backlash_model: BacklashModel::Play,
+            sensors: SensorChain::IDEAL,
+            pre_trigger_s: 0.0,
         }
     }
 }
@@ -86,6 +113,10 @@ pub enum ConfigError {
     /// The profile lasts longer than [`MAX_DURATION_S`] or needs more than [`MAX_SAMPLES`]
     /// samples (its duration, s).
     Duration(f64),
+    /// The pre-trigger is negative, not finite or longer than [`MAX_PRE_TRIGGER_S`] (s).
+    PreTrigger(f64),
+    /// The sensor chain has a value outside its range.
+    Sensors(SensorChainError),
 }
 
 impl fmt::Display for ConfigError {
@@ -101,6 +132,8 @@ impl fmt::Display for ConfigError {
                 f,
                 "profile duration {d} s is beyond the reference model's limit ({MAX_DURATION_S} s, {MAX_SAMPLES} samples)"
             ),
+            ConfigError::PreTrigger(s) => write!(f, "pre-trigger {s} s must be between 0 and {MAX_PRE_TRIGGER_S} s"),
+            ConfigError::Sensors(e) => write!(f, "sensor chain: {e}"),
         }
     }
 }
@@ -110,15 +143,18 @@ impl std::error::Error for ConfigError {}
 /// One recorded sample at an ACE instant: what the sensors deliver.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample {
-    /// `t_k = k·T`.
+    /// `t_k = k·T` (pre-trigger samples included: the manoeuvre starts at the first sample after
+    /// them).
     pub time_s: f64,
-    /// `θ_cmd(t_k)` (the `f32` profile value, widened).
+    /// `θ_cmd(t_k)` (the `f32` profile value, widened; the profile's opening value before the
+    /// trigger).
     pub command_rad: f64,
     /// Measured surface position (lag, noise, 16-bit code).
     pub position_rad: f64,
-    /// Measured phase currents `a, b, c` (`counts_to_amps` of the ADC codes).
+    /// Measured phase currents `a, b, c`, each taken at `t_k` plus its skew: the chain's ADC
+    /// codes back in amperes (`counts_to_amps` of them for the 12-bit ±20 A ADC).
     pub phase_current_a: [f64; 3],
-    /// Raw 12-bit ADC codes of the phase currents.
+    /// Raw codes of the chain's ADC (12 bits for the ideal chain and the presets).
     pub adc_counts: [u16; 3],
 }
 
@@ -217,8 +253,10 @@ pub struct Recording {
     pub samples: Vec<Sample>,
     /// Truth at the same instants.
     pub truth: Vec<Truth>,
-    /// Energy ledger from `t_0` to the last sample.
+    /// Energy ledger from `t_0` to the last sample (to its last conversion under a skewed chain).
     pub energy: EnergyLedger,
+    /// Samples before the manoeuvre's first, at rest ([`SimConfig::pre_trigger_s`]).
+    pub trigger_index: usize,
     /// ACE / sample period `T`.
     pub sample_period_s: f64,
     /// Integration step actually used.
@@ -244,9 +282,17 @@ pub struct Simulator {
     ace: Ace,
     current_ref_a: f64,
     position_lag: Lag,
-    current_lags: [Lag; 3],
+    currents: CurrentSensing,
     bus_current: Lag,
     rng: Option<NoiseRng>,
+    /// The pre-trigger's noise generator.
+    rest_rng: Option<NoiseRng>,
+    /// Samples before the manoeuvre's first.
+    pre_trigger_samples: u64,
+    /// The period being integrated is before the manoeuvre: the drive is off.
+    resting: bool,
+    /// Steps of the current period already integrated by [`Simulator::sample`] (under a skew).
+    steps_done: u32,
     quantization: bool,
     /// Code grid of the position transducer (`EmaParams::position_resolution_rad` over the travel).
     position_grid: sensors::PositionGrid,
@@ -271,10 +317,16 @@ impl Simulator {
         check_params(&cfg.params)?;
         let period = crate::params::widen(cfg.params.control_period_s);
         let duration = crate::params::widen(cfg.profile.duration_s());
-        let samples = (duration / period).round();
-        if !(duration > 0.0 && duration <= MAX_DURATION_S && samples <= MAX_SAMPLES as f64) {
-            return Err(ConfigError::Duration(duration));
+        let pre = cfg.pre_trigger_s;
+        if !(pre.is_finite() && (0.0..=MAX_PRE_TRIGGER_S).contains(&pre)) {
+            return Err(ConfigError::PreTrigger(pre));
         }
+        let pre_samples = (pre / period).round();
+        let samples = (duration / period).round() + pre_samples;
+        if !(duration > 0.0 && duration + pre <= MAX_DURATION_S && samples <= MAX_SAMPLES as f64) {
+            return Err(ConfigError::Duration(duration + pre));
+        }
+        cfg.sensors.check(period).map_err(ConfigError::Sensors)?;
         if !(cfg.step_s.is_finite() && cfg.step_s > 0.0 && cfg.step_s <= period) {
             return Err(ConfigError::Step(cfg.step_s));
         }
@@ -285,7 +337,6 @@ impl Simulator {
         }
         let dt = period / steps;
         let plant = Plant::new(&cfg.params, &cfg.faults, &cfg.effects, cfg.backlash_model);
-        let tau_i = 1.0 / (TAU * sensors::CURRENT_BANDWIDTH_HZ);
         Ok(Self {
             friction: FrictionLaw::of(&plant),
             ace: Ace::new(
@@ -308,9 +359,18 @@ impl Simulator {
             mech: Mechanics::new(),
             current_ref_a: 0.0,
             position_lag: Lag::new(crate::params::widen(cfg.params.position_lag_s), dt),
-            current_lags: [Lag::new(tau_i, dt); 3],
+            currents: CurrentSensing::new(
+                &cfg.sensors,
+                plant.current_sensor_offset_a,
+                plant.current_sensor_gain_error,
+                dt,
+            ),
             bus_current: Lag::new(maxima::BUS_FILTER_S, dt),
             rng: cfg.noise.then(|| NoiseRng::new(cfg.seed)),
+            rest_rng: cfg.noise.then(|| NoiseRng::new(cfg.seed ^ PRE_TRIGGER_STREAM)),
+            pre_trigger_samples: pre_samples as u64,
+            resting: pre_samples > 0.0,
+            steps_done: 0,
             quantization: cfg.quantization,
             position_grid: sensors::PositionGrid::of(
                 crate::params::widen(cfg.params.position_resolution_rad),
@@ -356,21 +416,34 @@ impl Simulator {
         &self.ledger
     }
 
-    /// Number of samples of the profile: `round(duration/T)`, instants `t_k = k·T`, `k = 0..n`.
+    /// Number of samples: the pre-trigger's and the profile's `round(duration/T)`, instants
+    /// `t_k = k·T`, `k = 0..n`.
     pub fn sample_count(&self) -> usize {
-        (crate::params::widen(self.profile.duration_s()) / self.period).round() as usize
+        self.pre_trigger_samples as usize
+            + (crate::params::widen(self.profile.duration_s()) / self.period).round() as usize
+    }
+
+    /// Samples before the manoeuvre's first.
+    pub fn trigger_index(&self) -> usize {
+        self.pre_trigger_samples as usize
     }
 
     /// Samples the sensors at the current ACE instant, runs the ACE and returns the record.
-    /// Call once per ACE period, before [`Simulator::advance_period`].
+    /// Call once per ACE period, before [`Simulator::advance_period`]. Under a chain with skew
+    /// it also integrates the period's first steps, up to its last conversion; `advance_period`
+    /// integrates the rest.
     pub fn sample(&mut self) -> (Sample, Truth) {
         let k = self.sample_index;
+        self.resting = k < self.pre_trigger_samples;
+        // the manoeuvre's sample index (0 at the trigger)
+        let m = k.saturating_sub(self.pre_trigger_samples);
         // t_k = k·T, computed as k/f_s when the rate is a whole number of hertz (exact decimals in files).
         let rate = 1.0 / self.period;
         let time_s =
             if (rate - rate.round()).abs() < 1e-9 * rate { k as f64 / rate.round() } else { k as f64 * self.period };
         let (current_noise_a, position_noise_rad) = (self.current_noise_a, self.position_noise_rad);
-        let (pos_noise, cur_noise) = match self.rng.as_mut() {
+        let rng = if self.resting { self.rest_rng.as_mut() } else { self.rng.as_mut() };
+        let (pos_noise, cur_noise) = match rng {
             Some(r) => (
                 position_noise_rad * r.gaussian(),
                 [r.gaussian(), r.gaussian(), r.gaussian()].map(|z| current_noise_a * z),
@@ -379,17 +452,14 @@ impl Simulator {
         };
         let raw_position = self.position_lag.value + pos_noise;
         let position_rad = if self.quantization { self.position_grid.quantize(raw_position) } else { raw_position };
-        let mut phase_current_a = [0.0; 3];
-        let mut adc_counts = [0u16; 3];
-        for j in 0..3 {
-            let raw = self.current_lags[j].value + cur_noise[j];
-            let (c, a) = sensors::adc_current(raw);
-            adc_counts[j] = c;
-            phase_current_a[j] = if self.quantization { a } else { raw };
+        self.currents.start_frame(cur_noise);
+        // The command is a digital f32 signal on the f32 clock of the monitor: m as f32 · T_f32
+        // (before the trigger, the profile's opening value, and the ACE does not run).
+        let command_rad = f64::from(self.profile.command_rad(m as f32 * self.period_f32));
+        if !self.resting {
+            self.current_ref_a = self.ace.update(command_rad, position_rad);
         }
-        // The command is a digital f32 signal on the f32 clock of the monitor: k as f32 · T_f32.
-        let command_rad = f64::from(self.profile.command_rad(k as f32 * self.period_f32));
-        self.current_ref_a = self.ace.update(command_rad, position_rad);
+        let first = self.resting || m == 0;
 
         let p = &self.plant;
         let theta_e = (p.pole_pairs * self.mech.motor_angle_rad).rem_euclid(TAU);
@@ -407,27 +477,41 @@ impl Simulator {
             phase_current_a: i,
             motor_torque_n_m: self.motor_torque_n_m,
             equivalent_current_a: 0.5 * (f[0] * i[0] + f[1] * i[1] + f[2] * i[2]),
-            electrical_power_w: if k == 0 { 0.0 } else { self.interval_energy_j / self.period },
-            mean_equivalent_current_a: if k == 0 { 0.0 } else { self.interval_current_a / n_steps },
-            mean_motor_torque_n_m: if k == 0 { 0.0 } else { self.interval_torque_n_m / n_steps },
+            electrical_power_w: if first { 0.0 } else { self.interval_energy_j / self.period },
+            mean_equivalent_current_a: if first { 0.0 } else { self.interval_current_a / n_steps },
+            mean_motor_torque_n_m: if first { 0.0 } else { self.interval_torque_n_m / n_steps },
             bus_voltage_v: self.supply_v,
         };
         self.interval_energy_j = 0.0;
         self.interval_current_a = 0.0;
         self.interval_torque_n_m = 0.0;
         self.sample_index += 1;
+        // the conversions after the frame instant
+        self.steps_done = 0;
+        while !self.currents.frame_complete() && self.steps_done < self.steps_per_sample {
+            self.step();
+            self.steps_done += 1;
+        }
+        let (adc_counts, phase_current_a) = self.currents.frame(self.quantization);
         (Sample { time_s, command_rad, position_rad, phase_current_a, adc_counts }, truth)
     }
 
-    /// Runs the integration steps of one ACE period.
+    /// Runs the integration steps of one ACE period: after [`Simulator::sample`], those it has not.
     pub fn advance_period(&mut self) {
-        for _ in 0..self.steps_per_sample {
+        for _ in self.steps_done..self.steps_per_sample {
             self.step();
         }
+        self.steps_done = 0;
     }
 
-    /// One integration step `dt` with the held current reference.
+    /// One integration step `dt` with the held current reference; before the trigger, only the
+    /// sensors run (the drive is off, the mechanism at rest).
     pub fn step(&mut self) {
+        if self.resting {
+            self.position_lag.update(self.mech.surface_angle_rad);
+            self.currents.update(self.inverter.current_a);
+            return;
+        }
         let p = &self.plant;
         let dt = self.dt;
         let theta_m = self.mech.motor_angle_rad;
@@ -507,9 +591,7 @@ impl Simulator {
         };
 
         self.position_lag.update(self.mech.surface_angle_rad);
-        for (j, lag) in self.current_lags.iter_mut().enumerate() {
-            lag.update((1.0 + p.current_sensor_gain_error[j]) * i[j] + p.current_sensor_offset_a[j]);
-        }
+        self.currents.update(i);
         if p.bus_resistance_ohm > 0.0 {
             let i_dc = self.inverter.dc_current_a(self.supply_v);
             self.bus_current.update(i_dc);
@@ -562,7 +644,8 @@ fn check_params(p: &EmaParams) -> Result<(), ConfigError> {
     Ok(())
 }
 
-/// Simulates the whole profile: `n = round(duration/T)` samples at `t_k = k·T`.
+/// Simulates the pre-trigger and the whole profile: `n` samples at `t_k = k·T`
+/// ([`Simulator::sample_count`]).
 pub fn simulate(cfg: &SimConfig) -> Result<Recording, ConfigError> {
     let mut sim = Simulator::new(cfg)?;
     let n = sim.sample_count();
@@ -576,5 +659,12 @@ pub fn simulate(cfg: &SimConfig) -> Result<Recording, ConfigError> {
             sim.advance_period();
         }
     }
-    Ok(Recording { samples, truth, energy: sim.ledger, sample_period_s: sim.period, step_s: sim.dt })
+    Ok(Recording {
+        samples,
+        truth,
+        energy: sim.ledger,
+        trigger_index: sim.trigger_index(),
+        sample_period_s: sim.period,
+        step_s: sim.dt,
+    })
 }

@@ -38,6 +38,10 @@ pub struct RecordingArgs {
 pub struct Loaded {
     /// The manoeuvre on the monitor's grid: time 0 at its start, the control period's step.
     pub recording: Recording,
+    /// The rows before the manoeuvre on the same grid (negative times; under a profile the
+    /// command is its opening value), as many as [`RecordingArgs::load_with_pre_trigger`] was
+    /// asked for and the file holds; [`RecordingArgs::load`] asks for [`MAX_REST_ROWS`].
+    pub pre_trigger: Recording,
     /// What was done.
     pub summary: LoadSummary,
 }
@@ -127,6 +131,20 @@ impl RecordingArgs {
     /// [`align::COMMAND_TOLERANCE_RAD`]); without one, the recorded command linearly interpolated.
     /// A temperature column comes along: cut with the rows, or linearly interpolated.
     pub fn load(&self, path: &Path, profile: Option<&Profile>, params: &EmaParams) -> Result<Loaded, CliError> {
+        self.load_with_pre_trigger(path, profile, params, MAX_REST_ROWS)
+    }
+
+    /// [`RecordingArgs::load`], and up to `pre_rows` rows of the file before the manoeuvre's start
+    /// on the same grid ([`Loaded::pre_trigger`]): cut from a file at the monitor's rate,
+    /// resampled from any other, each grid time `start − k·T`, so that the manoeuvre's rows are
+    /// those `load` gives, bit for bit.
+    pub fn load_with_pre_trigger(
+        &self,
+        path: &Path,
+        profile: Option<&Profile>,
+        params: &EmaParams,
+        pre_rows: usize,
+    ) -> Result<Loaded, CliError> {
         let flag = |m: String| CliError::from(RecordingError::file(path, RecordingErrorKind::Flag(m)));
         let options = self.options().map_err(flag)?;
         let parsed = read_file(path, &options)?;
@@ -150,64 +168,79 @@ impl RecordingArgs {
             (None, Some(p)) => (align::find_start(raw, &grid, p, at_rate, path, command_column)?, "aligned"),
             (None, None) => (t_first, "first row"),
         };
-        let (recording, start) = if at_rate {
+        let (recording, mut pre_trigger, start) = if at_rate {
             let i0 = ((start - t_first) / grid.period_s).round().max(0.0) as usize;
             let start = grid.time_s(i0);
             let mut n = raw.len() - i0;
             if let Some(p) = profile {
                 n = n.min((f64::from(p.duration_s()) / out_period).round() as usize);
             }
-            let cut = |x: &Vec<f64>| x[i0..i0 + n].to_vec();
             let t0 = raw.time_s[i0];
-            let rec = Recording {
-                comments: raw.comments.clone(),
-                time_s: raw.time_s[i0..i0 + n].iter().map(|t| t - t0).collect(),
-                command_rad: cut(&raw.command_rad),
-                position_rad: cut(&raw.position_rad),
-                ia_a: cut(&raw.ia_a),
-                ib_a: cut(&raw.ib_a),
-                ic_a: cut(&raw.ic_a),
-                row_line: raw.row_line[i0..i0 + n].to_vec(),
-                rest_currents_a: rest_rows(raw, i0),
-                temperature_c: raw.temperature_c.as_ref().map(cut),
+            let rows = |from: usize, to: usize| {
+                let cut = |x: &Vec<f64>| x[from..to].to_vec();
+                Recording {
+                    comments: raw.comments.clone(),
+                    time_s: raw.time_s[from..to].iter().map(|t| t - t0).collect(),
+                    command_rad: cut(&raw.command_rad),
+                    position_rad: cut(&raw.position_rad),
+                    ia_a: cut(&raw.ia_a),
+                    ib_a: cut(&raw.ib_a),
+                    ic_a: cut(&raw.ic_a),
+                    row_line: raw.row_line[from..to].to_vec(),
+                    rest_currents_a: Vec::new(),
+                    temperature_c: raw.temperature_c.as_ref().map(cut),
+                }
             };
-            (rec, start)
+            (rows(i0, i0 + n), rows(i0 - pre_rows.min(i0), i0), start)
         } else {
             let available = ((t_last + 0.5 * grid.period_s - start) / out_period + 1e-9).floor() as usize + 1;
             let n = match profile {
                 Some(p) => available.min((f64::from(p.duration_s()) / out_period).round() as usize),
                 None => available,
             };
-            let channels = [&raw.position_rad[..], &raw.ia_a[..], &raw.ib_a[..], &raw.ic_a[..]];
-            let mut out = resample::resample(&channels, &grid, start, out_period, n).into_iter();
-            let mut next = || out.next().unwrap_or_default();
-            let times: Vec<f64> = (0..n).map(|k| start + k as f64 * out_period).collect();
-            let nearest = |u: f64| ((u - t_first) / grid.period_s).round().clamp(0.0, (raw.len() - 1) as f64) as usize;
-            let rec = Recording {
-                comments: raw.comments.clone(),
-                time_s: (0..n).map(|k| k as f64 * out_period).collect(),
-                command_rad: times.iter().map(|&u| resample::linear(&raw.command_rad, &grid, u)).collect(),
-                position_rad: next(),
-                ia_a: next(),
-                ib_a: next(),
-                ic_a: next(),
-                row_line: times.iter().map(|&u| raw.row_line[nearest(u)]).collect(),
-                // the rows wholly before the start: their time below it by half a period
-                rest_currents_a: rest_rows(raw, raw.time_s.partition_point(|&t| t < start - 0.5 * grid.period_s)),
-                // a slow quantity: linear between neighbours, which stays within the file's values
-                temperature_c: raw
-                    .temperature_c
-                    .as_ref()
-                    .map(|t| times.iter().map(|&u| resample::linear(t, &grid, u)).collect()),
+            // rows at start + k·T, k from `first` (negative before the start) for n rows
+            let rows = |first: isize, n: usize| {
+                let at = |k: usize| (first + k as isize) as f64 * out_period;
+                let channels = [&raw.position_rad[..], &raw.ia_a[..], &raw.ib_a[..], &raw.ic_a[..]];
+                let mut out = resample::resample(&channels, &grid, start + at(0), out_period, n).into_iter();
+                let mut next = || out.next().unwrap_or_default();
+                let times: Vec<f64> = (0..n).map(|k| start + at(k)).collect();
+                let nearest =
+                    |u: f64| ((u - t_first) / grid.period_s).round().clamp(0.0, (raw.len() - 1) as f64) as usize;
+                Recording {
+                    comments: raw.comments.clone(),
+                    time_s: (0..n).map(at).collect(),
+                    command_rad: times.iter().map(|&u| resample::linear(&raw.command_rad, &grid, u)).collect(),
+                    position_rad: next(),
+                    ia_a: next(),
+                    ib_a: next(),
+                    ic_a: next(),
+                    row_line: times.iter().map(|&u| raw.row_line[nearest(u)]).collect(),
+                    rest_currents_a: Vec::new(),
+                    // a slow quantity: linear between neighbours, which stays within the file's values
+                    temperature_c: raw
+                        .temperature_c
+                        .as_ref()
+                        .map(|t| times.iter().map(|&u| resample::linear(t, &grid, u)).collect()),
+                }
             };
-            (rec, start)
+            // grid times before the start that lie within the file (to half an input period)
+            let before = ((start - t_first + 0.5 * grid.period_s) / out_period + 1e-9).floor().max(0.0) as usize;
+            let pre = pre_rows.min(before);
+            (rows(0, n), rows(-(pre as isize), pre), start)
         };
         let mut recording = recording;
+        // the sensors' zero points come from the last rows before the start (`RecordingSource`)
+        let skip = pre_trigger.len().saturating_sub(MAX_REST_ROWS);
+        recording.rest_currents_a = (skip..pre_trigger.len())
+            .map(|k| [pre_trigger.ia_a[k], pre_trigger.ib_a[k], pre_trigger.ic_a[k]])
+            .collect();
         if let Some(p) = profile {
             align::check_command(raw, &grid, p, start, out_period, path, command_column)?;
             for (k, c) in recording.command_rad.iter_mut().enumerate() {
                 *c = f64::from(p.command_rad(k as f32 * period_f32));
             }
+            pre_trigger.command_rad.fill(f64::from(p.command_rad(0.0)));
         }
         let end = start + recording.len() as f64 * out_period;
         let summary = LoadSummary {
@@ -220,12 +253,6 @@ impl RecordingArgs {
             trimmed_after_s: (t_last + grid.period_s - end).max(0.0),
             rows: recording.len(),
         };
-        Ok(Loaded { recording, summary })
+        Ok(Loaded { recording, pre_trigger, summary })
     }
-}
-
-/// The phase currents of `raw`'s rows before row `start` (at most the last [`MAX_REST_ROWS`]).
-fn rest_rows(raw: &Recording, start: usize) -> Vec<[f64; 3]> {
-    let start = start.min(raw.len());
-    (start.saturating_sub(MAX_REST_ROWS)..start).map(|k| [raw.ia_a[k], raw.ib_a[k], raw.ic_a[k]]).collect()
 }

@@ -3,8 +3,8 @@
 //!
 //! The CSV stays plain (a header and rows: pandas, polars and a spreadsheet load it with default
 //! options); what made it — fault vector, unmodelled effects, profile, actuator parameters, the
-//! unit drawn from its tolerances and the temperature (when given), noise and seed, sample rate —
-//! is in [`Sidecar`], with [`SCHEMA_VERSION`] and the tool's version. No command needs it
+//! unit drawn from its tolerances and the temperature (when given), the current sensors' chain,
+//! the pre-trigger (when given), noise and seed, sample rate — is in [`Sidecar`], with [`SCHEMA_VERSION`] and the tool's version. No command needs it
 //! to identify a recording: it tells the user (and the tests) what the file holds.
 
 use std::collections::BTreeMap;
@@ -39,7 +39,7 @@ pub struct Sidecar {
     pub columns: Vec<String>,
     /// Sample rate, in Hz.
     pub sample_rate_hz: u32,
-    /// Data rows.
+    /// Data rows (the pre-trigger's included).
     pub rows: usize,
     /// Duration of the manoeuvre, in seconds.
     pub duration_s: f64,
@@ -67,6 +67,50 @@ pub struct Sidecar {
     /// `temperature_C` column); absent without one (20 °C, no column).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub temperature_c: Option<f64>,
+    /// The phase-current sensor chain (`--sensors`); absent in files written before it was
+    /// recorded (the ideal chain).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensors: Option<SidecarSensors>,
+    /// Seconds at rest before the manoeuvre (`--pre-trigger-ms`): the manoeuvre starts at this time
+    /// in the file; absent without a pre-trigger.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pre_trigger_s: Option<f64>,
+}
+
+/// The current sensors' chain of a recording ([`ema_reference::SensorChain`], docs/sensors.md):
+/// where it comes from and its values, per-phase ones as `[a, b, c]` in a sensor file's units.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SidecarSensors {
+    /// The preset's name (`ideal`, `nucleo-f446re`, …) or the sensor file as given.
+    pub source: String,
+    /// ADC resolution, bits.
+    pub adc_bits: u32,
+    /// The ADC spans `±full_scale_a`, A.
+    pub full_scale_a: f64,
+    /// Zero errors, A.
+    pub offset_a: [f64; 3],
+    /// Gain errors (relative).
+    pub gain_error: [f64; 3],
+    /// First-order bandwidths, Hz.
+    pub bandwidth_hz: [f64; 3],
+    /// Conversion instants after the frame instant, µs.
+    pub skew_us: [f64; 3],
+}
+
+impl SidecarSensors {
+    /// The record of `chain`, from `source`.
+    pub fn of(chain: &ema_reference::SensorChain, source: &str) -> Self {
+        let p = &chain.phases;
+        Self {
+            source: source.to_owned(),
+            adc_bits: chain.adc.bits,
+            full_scale_a: chain.adc.full_scale_a,
+            offset_a: p.map(|s| s.offset_a),
+            gain_error: p.map(|s| s.gain_error),
+            bandwidth_hz: p.map(|s| s.bandwidth_hz),
+            skew_us: p.map(|s| s.skew_s * 1e6),
+        }
+    }
 }
 
 /// The unit of a recording (`ema simulate --unit SEED`, [`crate::unit_draw`]).

@@ -6,21 +6,30 @@ use std::fmt::{Debug, Display};
 use std::fs::File;
 use std::path::Path;
 
-use ema_monitor::acquisition::{AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
+use ema_monitor::acquisition::{
+    replay_config, AcquisitionError, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, PhaseCurrents, ReplayAdc,
+};
 use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
 use ema_monitor::health::{Abstain, HealthReport, Status};
 use ema_monitor::monitor::{self, IdentifyConfig, ONBOARD_WINDOW};
-use ema_monitor::trace::{packed_len, PackedTrace};
+use ema_monitor::trace::{PackedTrace, TraceHeader};
 use ema_monitor::{Command, EmaParams, Profile};
 
 use super::identification::{run_identification, Outcome};
 use crate::error::CliError;
 use crate::input;
 
-/// Largest packed trace the on-board window takes, in bytes: [`ONBOARD_WINDOW`] blocks of
-/// [`DECIMATION`] frames and a trailing partial block (which conditioning drops); a longer one
-/// would stop acquisition with a full window anyway, so a larger file is refused unread.
-pub const MAX_FIRMWARE_TRACE_BYTES: usize = packed_len(ONBOARD_WINDOW * DECIMATION + DECIMATION - 1);
+/// Most pre-trigger frames of a packed trace `ema firmware-trace --from` writes: 100 ms at
+/// 10 kHz, half the 200 ms the firmware waits for its trigger (`TRIGGER_TIMEOUT_FRAMES` in
+/// `src/main.rs`).
+pub const MAX_PRE_TRIGGER_FRAMES: usize = 1000;
+
+/// Largest packed trace the on-board window takes, in bytes: an `EMA2` header,
+/// [`MAX_PRE_TRIGGER_FRAMES`], then [`ONBOARD_WINDOW`] blocks of [`DECIMATION`] frames and a
+/// trailing partial block (which conditioning drops); a longer one would stop acquisition with a
+/// full window anyway, so a larger file is refused unread.
+pub const MAX_FIRMWARE_TRACE_BYTES: usize =
+    TraceHeader::new(1, 1).packed_len(MAX_PRE_TRIGGER_FRAMES + ONBOARD_WINDOW * DECIMATION + DECIMATION - 1);
 
 /// Why the firmware's path refused a packed trace, named as the firmware names it in its summary
 /// line (`src/main.rs`, `refuse`).
@@ -54,8 +63,9 @@ pub fn read_firmware_trace(path: &Path) -> Result<Vec<u8>, CliError> {
 }
 
 /// The firmware's path on the bytes of a packed trace, step for step as `src/main.rs`: parse,
-/// replay ADC and `OneShot` reader (nominal calibration, default checks), [`monitor::acquire`]
-/// into the on-board window, the identification under `config` (the firmware's is
+/// replay ADC and `OneShot` reader (nominal calibration, default checks), the frames before the
+/// trace's trigger frame read and dropped (as the firmware's sampler drops them while it waits
+/// for the trigger), [`monitor::acquire`] into the on-board window, the identification under `config` (the firmware's is
 /// `IdentifyConfig::onboard()` with its model effects) of the actuator `params` (the firmware's
 /// are `EMA_PARAMS`'), the acquisition's verdict, then
 /// `INCONCLUSIVE (rate mismatch)` when the header's rate is not 10 kHz. A step that refuses the
@@ -76,8 +86,15 @@ pub fn firmware_trace_outcome_for(
     let rate_ok = monitor::rate_matches(packed.sample_rate_hz() as f32, params);
     let adc = ReplayAdc::new(packed);
     let mut reader =
-        PhaseCurrentReader::new(adc, (PhaseA, PhaseB, PhaseC), Calibration::NOMINAL, AcquisitionConfig::DEFAULT)
+        PhaseCurrentReader::new(adc, (PhaseA, PhaseB, PhaseC), Calibration::NOMINAL, replay_config(&packed))
             .map_err(|e| Refusal::new("reader", e))?;
+    // the frames before the trigger as the firmware's sampler reads them: the zero points' rest
+    for _ in 0..packed.trigger_frame() {
+        if matches!(reader.read_rest_frame(), Err(AcquisitionError::EndOfData)) {
+            break;
+        }
+    }
+    reader.start_recording();
     let mut trace = Box::new(MeasuredTrace::<ONBOARD_WINDOW>::new());
     let acquired = monitor::acquire(&mut reader, &mut trace).map_err(|e| Refusal::new("acquisition", e))?;
     let outcome = run_identification(&trace, params, Command::Profile(*profile), config)

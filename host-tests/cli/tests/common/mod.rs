@@ -4,6 +4,11 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use ema_cli::params_file::template;
+use ema_cli::recording::sidecar::Sidecar;
+use ema_monitor::params::FIELDS;
+use ema_monitor::EmaParams;
+
 /// A fresh scratch directory for one test of the test crate `prefix`.
 pub fn scratch(prefix: &str, name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("ema-{prefix}-{}-{name}", std::process::id()));
@@ -68,4 +73,17 @@ pub fn with_pretrigger(text: &str, rest_rows: usize, offsets_a: [f64; 3]) -> Str
         out.push_str(&format!("{t},{},{},{a},{b},{c}\n", r[1], r[2]));
     }
     out
+}
+
+/// The unit's parameter file (its parameters at 20 °C, from the recording's sidecar), beside it.
+pub fn unit_params_file(recording: &Path) -> PathBuf {
+    let side = Sidecar::for_recording(recording).expect("readable").expect("a sidecar");
+    let mut p = EmaParams::NOMINAL;
+    for f in FIELDS.iter() {
+        f.set(&mut p, side.params[f.name]);
+    }
+    assert_ne!(p, EmaParams::NOMINAL, "a drawn unit");
+    let path = recording.with_extension("toml");
+    std::fs::write(&path, template(&p)).expect("writes");
+    path
 }
