@@ -17,6 +17,8 @@
 
 pub mod erase_guard;
 pub mod flash;
+#[cfg(test)]
+mod power_loss_tests;
 pub mod record;
 pub mod store;
 #[cfg(test)]
