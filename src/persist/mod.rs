@@ -17,6 +17,7 @@
 
 pub mod erase_guard;
 pub mod flash;
+pub mod pages;
 #[cfg(test)]
 mod power_loss_tests;
 pub mod record;

@@ -16,7 +16,7 @@ fn report(k: [f32; 8]) -> HealthReport {
 }
 
 /// A record after `flights` flights of slowly growing friction and backlash.
-fn record_after(flights: u32) -> HealthRecord {
+pub(super) fn record_after(flights: u32) -> HealthRecord {
     let mut r = HealthRecord::new();
     for f in 0..flights {
         let x = 0.01 * f as f32;
@@ -39,7 +39,8 @@ fn flash_with(n: u32) -> Flash {
     s.into_flash()
 }
 
-fn is(loaded: &Result<Option<HealthRecord>, StoreError>, expected: Option<&HealthRecord>) -> bool {
+/// `loaded` is `expected`, bit for bit (`None`: nothing stored).
+pub(super) fn is(loaded: &Result<Option<HealthRecord>, StoreError>, expected: Option<&HealthRecord>) -> bool {
     match (loaded, expected) {
         (Ok(Some(a)), Some(b)) => a.same_bits(b),
         (Ok(None), None) => true,
