@@ -213,9 +213,13 @@ impl<F: NorFlash> HealthStore<F> {
     /// `temperature_c`), replacing what the slot held, as [`WINDOW_CHUNKS`] items of at most
     /// [`WINDOW_CHUNK_LEN`] bytes. `buffer` holds the whole encoding
     /// ([`super::window_encoded_len`] of the window's samples) for this call: it lives in the
-    /// caller's frame, not in the store, since a window is kept only while commissioning. A cut
-    /// in the middle leaves a slot whose chunks disagree: its load fails, never misreads
-    /// ([`super::window`]'s header and length checks).
+    /// caller's frame, not in the store, since a window is kept only while commissioning.
+    ///
+    /// The slot's first chunk, which holds the window's header, is replaced by an empty item
+    /// before the others are written and written last, so that a cut in the middle leaves a slot
+    /// that reads as empty ([`HealthStore::load_window`] gives `Ok(None)`), never as the chunks of
+    /// two windows of the same length spliced together: a slot is kept again after a cut that
+    /// came before its flight's record was saved.
     pub fn keep_window<const W: usize>(
         &mut self,
         slot: u8,
@@ -229,16 +233,24 @@ impl<F: NorFlash> HealthStore<F> {
         self.check()?;
         let len = encode_window(window, temperature_c, buffer).map_err(StoreError::Window)?;
         let encoded = buffer.get(..len).ok_or(StoreError::Window(WindowError::BufferTooSmall))?;
-        for (c, chunk) in (0..WINDOW_CHUNKS).zip(encoded.chunks(WINDOW_CHUNK_LEN)) {
-            let key = WINDOW_KEY_BASE + slot * WINDOW_CHUNKS + c;
-            let stored = block_on(self.map.store_item(&mut self.buf.0, &key, &chunk)).ok_or(StoreError::Stalled)?;
-            stored.map_err(store_error)?;
+        let first = WINDOW_KEY_BASE + slot * WINDOW_CHUNKS;
+        if encoded.len() > WINDOW_CHUNK_LEN {
+            self.store_chunk(first, &[])?;
         }
-        Ok(())
+        for (c, chunk) in (0..WINDOW_CHUNKS).zip(encoded.chunks(WINDOW_CHUNK_LEN)).skip(1) {
+            self.store_chunk(first + c, chunk)?;
+        }
+        self.store_chunk(first, encoded.get(..WINDOW_CHUNK_LEN.min(len)).unwrap_or_default())
+    }
+
+    fn store_chunk(&mut self, key: u8, chunk: &[u8]) -> Result<(), StoreError> {
+        let stored = block_on(self.map.store_item(&mut self.buf.0, &key, &chunk)).ok_or(StoreError::Stalled)?;
+        stored.map_err(store_error)
     }
 
     /// Commissioning window `slot` rebuilt into `out` ([`HealthStore::keep_window`]; `buffer` as
-    /// there): `Ok(Some(temperature))` when the slot holds one, `Ok(None)` when it does not.
+    /// there): `Ok(Some(temperature))` when the slot holds one, `Ok(None)` when it does not (never
+    /// kept, or a keep cut in the middle).
     pub fn load_window<const W: usize>(
         &mut self,
         slot: u8,
@@ -260,6 +272,9 @@ impl<F: NorFlash> HealthStore<F> {
             let Some(chunk) = fetched.map_err(store_error)? else {
                 return if c == 0 { Ok(None) } else { Err(StoreError::Window(WindowError::Length)) };
             };
+            if c == 0 && chunk.is_empty() {
+                return Ok(None);
+            }
             let dst =
                 buffer.get_mut(filled..filled + chunk.len()).ok_or(StoreError::Window(WindowError::BufferTooSmall))?;
             dst.copy_from_slice(chunk);
