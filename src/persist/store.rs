@@ -12,7 +12,8 @@
 //!   whose CRC fails. A cut erase leaves an undefined page, which the crate alone mistakes for
 //!   an open, partially open or closed one: the store's first operation after power-up checks
 //!   the pages and erases or closes such remains ([`super::pages`]), and the crate's repair does
-//!   the rest.
+//!   the rest. A save, reset, archive or window keep cut at any point leaves the old or the new
+//!   value, and the next operation works (`docs/persistence.md`, "Power loss").
 //! - **Wear.** Pages are filled in turn and erased cyclically, so N saves spread their erases
 //!   evenly over the pages of the range.
 //!
