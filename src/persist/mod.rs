@@ -24,6 +24,8 @@ pub mod record;
 pub mod store;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod watchdog_tests;
 pub mod window;
 
 pub use erase_guard::{EraseGuard, EraseGuarded};
