@@ -3,6 +3,15 @@
 //! with erase counters and power-loss and bit-flip injection (QEMU's `mps2-an386` has no writable
 //! flash model, and the tests need a flash that can fail on purpose).
 //!
+//! **Power-loss model.** A cut planned with [`RamFlash::cut_power_after`] stops the operation at
+//! a byte. By default the cut is clean: the bytes before it are done, the rest untouched. With
+//! [`RamFlash::set_tearing`] the cut is what a NOR flash whose supply fails leaves: the word being
+//! programmed holds a random subset of the bits its write was clearing (programming only clears
+//! bits, and a cell cut mid-pulse may or may not have flipped), and the page being erased is
+//! undefined: each byte is its old value, `0xFF`, its old value with random bits set (a cell
+//! part-way erased) or a random byte, in shares that follow how far the erase had got. The
+//! patterns come from the seed, so a failing cut replays.
+//!
 //! **Why an adapter and a hand-written executor.** Flash HALs implement the blocking
 //! `embedded_storage::nor_flash::NorFlash` (stm32f4xx-hal's `UnlockedFlash` does);
 //! `sequential-storage` drives the async `embedded_storage_async::nor_flash::NorFlash`. [`Blocking`]
@@ -18,6 +27,8 @@ use core::task::{Context, Poll, Waker};
 
 use embedded_storage::nor_flash as blocking;
 use embedded_storage_async::nor_flash as nor;
+
+use crate::optimizer::rng::splitmix64;
 
 /// Polls [`block_on`] makes before it gives up. With a [`Blocking`] flash the first poll completes.
 pub const POLL_LIMIT: u32 = 16;
@@ -122,9 +133,11 @@ impl blocking::NorFlashError for RamFlashError {
 ///
 /// Fault injection, for the power-loss and corruption tests: [`RamFlash::cut_power_after`] lets
 /// the next `n` bytes of writes and erases through (each erased or written byte counts one) and
-/// then cuts the power, so an operation stops midway with the bytes done so far in place, as on a
-/// real flash whose supply fails; [`RamFlash::flip`] changes stored bits behind the store's back.
-/// [`RamFlash::erase_counts`] gives the erases per page, for the wear figures.
+/// then cuts the power, so an operation stops midway; the cut is clean (the bytes done so far in
+/// place, the rest untouched) or, after [`RamFlash::set_tearing`], tears the word being written
+/// and leaves the page being erased undefined (the module's power-loss model).
+/// [`RamFlash::flip`] changes stored bits behind the store's back. [`RamFlash::erase_counts`]
+/// gives the erases per page, for the wear figures.
 #[derive(Clone, Debug)]
 pub struct RamFlash<const PAGES: usize, const PAGE: usize> {
     pages: [[u8; PAGE]; PAGES],
@@ -134,6 +147,8 @@ pub struct RamFlash<const PAGES: usize, const PAGE: usize> {
     powered: bool,
     /// Bytes written or erased since creation (the cut points of a power-loss sweep).
     touched: u32,
+    /// SplitMix64 state of the torn patterns; `None` = clean cuts.
+    tearing: Option<u64>,
 }
 
 impl<const PAGES: usize, const PAGE: usize> Default for RamFlash<PAGES, PAGE> {
@@ -148,12 +163,26 @@ impl<const PAGES: usize, const PAGE: usize> RamFlash<PAGES, PAGE> {
 
     /// A fully erased flash, powered, with no cut planned.
     pub const fn new() -> Self {
-        Self { pages: [[0xFF; PAGE]; PAGES], erases: [0; PAGES], budget: None, powered: true, touched: 0 }
+        Self {
+            pages: [[0xFF; PAGE]; PAGES],
+            erases: [0; PAGES],
+            budget: None,
+            powered: true,
+            touched: 0,
+            tearing: None,
+        }
     }
 
     /// Cuts the power after the next `bytes` written or erased bytes.
     pub fn cut_power_after(&mut self, bytes: u32) {
         self.budget = Some(bytes);
+    }
+
+    /// `Some(seed)`: from now on a power cut tears the word being written and leaves the page
+    /// being erased undefined, in patterns drawn from `seed` (the module's power-loss model);
+    /// `None`: clean cuts at a byte, the default.
+    pub fn set_tearing(&mut self, seed: Option<u64>) {
+        self.tearing = seed;
     }
 
     /// Restores the power (the contents stay as the cut left them) and cancels a planned cut.
@@ -221,6 +250,55 @@ impl<const PAGES: usize, const PAGE: usize> RamFlash<PAGES, PAGE> {
         }
     }
 
+    /// The next torn pattern: 64 random bits from the tearing seed's stream.
+    fn draw(&mut self) -> u64 {
+        match self.tearing.as_mut() {
+            Some(state) => splitmix64(state),
+            None => 0,
+        }
+    }
+
+    /// The word at `at` as a write of `new` cut mid-pulse leaves it: each bit the write was
+    /// clearing is cleared or not, at random; `old` is the word before the write.
+    fn tear_word(&mut self, at: usize, old: &[u8], new: &[u8]) {
+        let bits = self.draw().to_le_bytes();
+        for (i, ((&o, &n), &r)) in old.iter().zip(new).zip(bits.iter()).enumerate() {
+            if let Some(b) = self.byte_mut(at + i) {
+                *b = o & !(o & !n & r);
+            }
+        }
+    }
+
+    /// Page `page` as an erase cut after `done` of its bytes leaves it: each byte its old value,
+    /// `0xFF`, its old value with random bits set, or a random byte. The erased share is the
+    /// erase's progress; the half-erased and random shares are drawn for each cut, so that some
+    /// cuts leave a page of old bytes with a few changed, others a page nearly erased with a few
+    /// old or random bytes left, others an even mix.
+    fn undefine_page(&mut self, page: usize, done: usize) {
+        const ONE: u64 = 1 << 16;
+        let erased = (done as u64).saturating_mul(ONE) / (PAGE.max(1) as u64);
+        let shares = self.draw();
+        let rest = ONE.saturating_sub(erased);
+        let half = (shares & 0xFFFF) * (rest / 2) / ONE;
+        let random = ((shares >> 16) & 0xFFFF) * (rest / 2) / ONE;
+        for i in 0..PAGE {
+            let x = self.draw();
+            let u = x & 0xFFFF;
+            let r = (x >> 16) as u8;
+            if let Some(b) = self.pages.get_mut(page).and_then(|p| p.get_mut(i)) {
+                *b = if u < erased {
+                    0xFF
+                } else if u < erased + half {
+                    *b | r
+                } else if u < erased + half + random {
+                    r
+                } else {
+                    *b
+                };
+            }
+        }
+    }
+
     fn range(offset: u32, len: usize, align: usize) -> Result<(usize, usize), RamFlashError> {
         let start = offset as usize;
         if !start.is_multiple_of(align) || !len.is_multiple_of(align) {
@@ -266,10 +344,30 @@ impl<const PAGES: usize, const PAGE: usize> blocking::NorFlash for RamFlash<PAGE
             if let Some(count) = self.erases.get_mut(page) {
                 *count = count.saturating_add(1);
             }
-            for offset in page_start..page_start + PAGE {
-                self.spend()?;
-                if let Some(b) = self.byte_mut(offset) {
-                    *b = 0xFF;
+            let was_on = self.powered;
+            let mut done = 0;
+            let cut = loop {
+                if done == PAGE {
+                    break None;
+                }
+                if let Err(e) = self.spend() {
+                    break Some(e);
+                }
+                done += 1;
+            };
+            match cut {
+                None => {
+                    if let Some(p) = self.pages.get_mut(page) {
+                        p.fill(0xFF);
+                    }
+                }
+                Some(e) => {
+                    if was_on && self.tearing.is_some() {
+                        self.undefine_page(page, done);
+                    } else if let Some(p) = self.pages.get_mut(page) {
+                        p.iter_mut().take(done).for_each(|b| *b = 0xFF);
+                    }
+                    return Err(e);
                 }
             }
             page_start += PAGE;
@@ -279,10 +377,23 @@ impl<const PAGES: usize, const PAGE: usize> blocking::NorFlash for RamFlash<PAGE
 
     fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
         let (start, _) = Self::range(offset, bytes.len(), RAM_FLASH_WORD)?;
-        for (i, &new) in bytes.iter().enumerate() {
-            self.spend()?;
-            if let Some(b) = self.byte_mut(start + i) {
-                *b &= new;
+        for (w, word) in bytes.chunks(RAM_FLASH_WORD).enumerate() {
+            let at = start + w * RAM_FLASH_WORD;
+            let mut old = [0xFF; RAM_FLASH_WORD];
+            for (i, o) in old.iter_mut().enumerate() {
+                *o = self.byte(at + i).unwrap_or(0xFF);
+            }
+            for (i, &new) in word.iter().enumerate() {
+                let was_on = self.powered;
+                if let Err(e) = self.spend() {
+                    if was_on && self.tearing.is_some() {
+                        self.tear_word(at, &old, word);
+                    }
+                    return Err(e);
+                }
+                if let Some(b) = self.byte_mut(at + i) {
+                    *b &= new;
+                }
             }
         }
         Ok(())

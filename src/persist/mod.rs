@@ -17,10 +17,15 @@
 
 pub mod erase_guard;
 pub mod flash;
+pub mod pages;
+#[cfg(test)]
+mod power_loss_tests;
 pub mod record;
 pub mod store;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod watchdog_tests;
 pub mod window;
 
 pub use erase_guard::{EraseGuard, EraseGuarded};

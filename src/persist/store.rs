@@ -8,8 +8,12 @@
 //!   nothing), never the damaged bytes. A CRC-32 detects every error burst of up to 32 bits, so
 //!   any single corrupted byte is caught; no record-level CRC is added on top.
 //! - **Power loss.** A save only appends; the previous copy is left in place until its page is
-//!   recycled, which happens only after a newer copy is complete. A save cut at any byte leaves
-//!   the old record readable, and the next operation repairs a half-written or half-erased page.
+//!   recycled, which happens only after a newer copy is complete. A cut write leaves a torn item
+//!   whose CRC fails. A cut erase leaves an undefined page, which the crate alone mistakes for
+//!   an open, partially open or closed one: the store's first operation after power-up checks
+//!   the pages and erases or closes such remains ([`super::pages`]), and the crate's repair does
+//!   the rest. A save, reset, archive or window keep cut at any point leaves the old or the new
+//!   value, and the next operation works (`docs/persistence.md`, "Power loss").
 //! - **Wear.** Pages are filled in turn and erased cyclically, so N saves spread their erases
 //!   evenly over the pages of the range.
 //!
@@ -24,6 +28,7 @@ use sequential_storage::map::{MapConfig, MapStorage, SerializationError, Value};
 use sequential_storage::Error as SsError;
 
 use super::flash::{block_on, Blocking};
+use super::pages::{check_pages, MAX_PAGES};
 use super::record::{HealthRecord, RecordError};
 use super::window::{decode_window_into, encode_window, encoded_len_of, WindowError, WINDOW_HEADER_LEN};
 use crate::conditioning::MeasuredTrace;
@@ -63,7 +68,7 @@ pub const BUFFER_LEN: usize = (1 + HealthRecord::ENCODED_LEN).div_ceil(32) * 32;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum StoreError {
     /// The flash range does not start and end on erase-page boundaries, spans fewer than two
-    /// pages, or its pages cannot hold the record.
+    /// pages or more than [`super::pages::MAX_PAGES`], or its pages cannot hold the record.
     Range,
     /// The flash driver failed (for the fakes: a power cut, [`super::RamFlashError::PowerLoss`],
     /// reads as `Other`).
@@ -139,22 +144,42 @@ impl<'a> Value<'a> for Encoded<'_> {
 pub struct HealthStore<F: NorFlash> {
     map: MapStorage<u8, Blocking<F>, Cache<Uncached, Uncached, Uncached, u8>>,
     buf: AlignedBuf,
+    /// The pages are checked for the remains of an interrupted erase ([`check_pages`]).
+    checked: bool,
 }
 
 impl<F: NorFlash> HealthStore<F> {
     /// The store over `range` of `flash` (offsets in the flash's own address space). The range
-    /// must start and end on erase-page boundaries and span at least two pages, each large enough
-    /// for one record ([`StoreError::Range`] otherwise). Nothing is read or written yet.
+    /// must start and end on erase-page boundaries and span two to [`super::pages::MAX_PAGES`]
+    /// pages, each large enough for one record ([`StoreError::Range`] otherwise). Nothing is read
+    /// or written yet: the first operation checks the pages ([`super::pages`]).
     pub fn new(flash: F, range: Range<u32>) -> Result<Self, StoreError> {
         let item = 8 + BUFFER_LEN;
         if F::ERASE_SIZE < item + 2 * F::WRITE_SIZE.max(F::READ_SIZE) {
+            return Err(StoreError::Range);
+        }
+        let pages = (range.end.saturating_sub(range.start) as usize) / F::ERASE_SIZE.max(1);
+        if pages > MAX_PAGES {
             return Err(StoreError::Range);
         }
         let config = MapConfig::<Blocking<F>>::try_new(range).map_err(|_| StoreError::Range)?;
         Ok(Self {
             map: MapStorage::new(Blocking(flash), config, Cache::new_uncached()),
             buf: AlignedBuf([0; BUFFER_LEN]),
+            checked: false,
         })
+    }
+
+    /// Before the store's first operation: the pages checked for the remains of an erase cut
+    /// by a power loss, which are erased or closed ([`check_pages`]). Only a power loss leaves
+    /// such remains, and a store does not outlive one, so the check runs once per store.
+    fn check(&mut self) -> Result<(), StoreError> {
+        if !self.checked {
+            let range = self.map.flash_range();
+            check_pages(self.map.flash().inner_mut(), range).map_err(|e| StoreError::Flash(e.kind().into()))?;
+            self.checked = true;
+        }
+        Ok(())
     }
 
     /// The newest intact record: `Ok(None)` when none is stored (a fresh or reset range, or every
@@ -189,9 +214,13 @@ impl<F: NorFlash> HealthStore<F> {
     /// `temperature_c`), replacing what the slot held, as [`WINDOW_CHUNKS`] items of at most
     /// [`WINDOW_CHUNK_LEN`] bytes. `buffer` holds the whole encoding
     /// ([`super::window_encoded_len`] of the window's samples) for this call: it lives in the
-    /// caller's frame, not in the store, since a window is kept only while commissioning. A cut
-    /// in the middle leaves a slot whose chunks disagree: its load fails, never misreads
-    /// ([`super::window`]'s header and length checks).
+    /// caller's frame, not in the store, since a window is kept only while commissioning.
+    ///
+    /// The slot's first chunk, which holds the window's header, is replaced by an empty item
+    /// before the others are written and written last, so that a cut in the middle leaves a slot
+    /// that reads as empty ([`HealthStore::load_window`] gives `Ok(None)`), never as the chunks of
+    /// two windows of the same length spliced together: a slot is kept again after a cut that
+    /// came before its flight's record was saved.
     pub fn keep_window<const W: usize>(
         &mut self,
         slot: u8,
@@ -202,18 +231,27 @@ impl<F: NorFlash> HealthStore<F> {
         if slot >= WINDOW_SLOTS || window.len() > MAX_KEPT_SAMPLES {
             return Err(StoreError::Window(WindowError::NotKeepable));
         }
+        self.check()?;
         let len = encode_window(window, temperature_c, buffer).map_err(StoreError::Window)?;
         let encoded = buffer.get(..len).ok_or(StoreError::Window(WindowError::BufferTooSmall))?;
-        for (c, chunk) in (0..WINDOW_CHUNKS).zip(encoded.chunks(WINDOW_CHUNK_LEN)) {
-            let key = WINDOW_KEY_BASE + slot * WINDOW_CHUNKS + c;
-            let stored = block_on(self.map.store_item(&mut self.buf.0, &key, &chunk)).ok_or(StoreError::Stalled)?;
-            stored.map_err(store_error)?;
+        let first = WINDOW_KEY_BASE + slot * WINDOW_CHUNKS;
+        if encoded.len() > WINDOW_CHUNK_LEN {
+            self.store_chunk(first, &[])?;
         }
-        Ok(())
+        for (c, chunk) in (0..WINDOW_CHUNKS).zip(encoded.chunks(WINDOW_CHUNK_LEN)).skip(1) {
+            self.store_chunk(first + c, chunk)?;
+        }
+        self.store_chunk(first, encoded.get(..WINDOW_CHUNK_LEN.min(len)).unwrap_or_default())
+    }
+
+    fn store_chunk(&mut self, key: u8, chunk: &[u8]) -> Result<(), StoreError> {
+        let stored = block_on(self.map.store_item(&mut self.buf.0, &key, &chunk)).ok_or(StoreError::Stalled)?;
+        stored.map_err(store_error)
     }
 
     /// Commissioning window `slot` rebuilt into `out` ([`HealthStore::keep_window`]; `buffer` as
-    /// there): `Ok(Some(temperature))` when the slot holds one, `Ok(None)` when it does not.
+    /// there): `Ok(Some(temperature))` when the slot holds one, `Ok(None)` when it does not (never
+    /// kept, or a keep cut in the middle).
     pub fn load_window<const W: usize>(
         &mut self,
         slot: u8,
@@ -223,6 +261,7 @@ impl<F: NorFlash> HealthStore<F> {
         if slot >= WINDOW_SLOTS {
             return Err(StoreError::Window(WindowError::NotKeepable));
         }
+        self.check()?;
         let mut len = usize::MAX;
         let mut filled = 0;
         for c in 0..WINDOW_CHUNKS {
@@ -234,6 +273,9 @@ impl<F: NorFlash> HealthStore<F> {
             let Some(chunk) = fetched.map_err(store_error)? else {
                 return if c == 0 { Ok(None) } else { Err(StoreError::Window(WindowError::Length)) };
             };
+            if c == 0 && chunk.is_empty() {
+                return Ok(None);
+            }
             let dst =
                 buffer.get_mut(filled..filled + chunk.len()).ok_or(StoreError::Window(WindowError::BufferTooSmall))?;
             dst.copy_from_slice(chunk);
@@ -248,6 +290,7 @@ impl<F: NorFlash> HealthStore<F> {
     }
 
     fn load_key(&mut self, key: u8) -> Result<Option<HealthRecord>, StoreError> {
+        self.check()?;
         let fetched = block_on(self.map.fetch_item::<&[u8]>(&mut self.buf.0, &key)).ok_or(StoreError::Stalled)?;
         match fetched.map_err(store_error)? {
             None => Ok(None),
@@ -256,6 +299,7 @@ impl<F: NorFlash> HealthStore<F> {
     }
 
     fn save_key(&mut self, key: u8, record: &HealthRecord) -> Result<(), StoreError> {
+        self.check()?;
         let stored =
             block_on(self.map.store_item(&mut self.buf.0, &key, &Encoded(record))).ok_or(StoreError::Stalled)?;
         stored.map_err(store_error)
@@ -264,7 +308,9 @@ impl<F: NorFlash> HealthStore<F> {
     /// Maintenance reset: erases the whole range, so the next load gives `Ok(None)` and the next
     /// flight runs cold. Only an explicit maintenance command calls it.
     pub fn reset(&mut self) -> Result<(), StoreError> {
-        block_on(self.map.erase_all()).ok_or(StoreError::Stalled)?.map_err(store_error)
+        block_on(self.map.erase_all()).ok_or(StoreError::Stalled)?.map_err(store_error)?;
+        self.checked = true;
+        Ok(())
     }
 
     /// Gives the flash back (a test's power cycle: a new store over the same flash).

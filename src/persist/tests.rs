@@ -16,7 +16,7 @@ fn report(k: [f32; 8]) -> HealthReport {
 }
 
 /// A record after `flights` flights of slowly growing friction and backlash.
-fn record_after(flights: u32) -> HealthRecord {
+pub(super) fn record_after(flights: u32) -> HealthRecord {
     let mut r = HealthRecord::new();
     for f in 0..flights {
         let x = 0.01 * f as f32;
@@ -39,7 +39,8 @@ fn flash_with(n: u32) -> Flash {
     s.into_flash()
 }
 
-fn is(loaded: &Result<Option<HealthRecord>, StoreError>, expected: Option<&HealthRecord>) -> bool {
+/// `loaded` is `expected`, bit for bit (`None`: nothing stored).
+pub(super) fn is(loaded: &Result<Option<HealthRecord>, StoreError>, expected: Option<&HealthRecord>) -> bool {
     match (loaded, expected) {
         (Ok(Some(a)), Some(b)) => a.same_bits(b),
         (Ok(None), None) => true,
@@ -452,4 +453,51 @@ fn commissioning_windows_are_kept_beside_the_record() {
     s.keep_window(1, &window(3.0), 5.0, &mut buffer).unwrap();
     assert_eq!(s.load_window(1, &mut out, &mut buffer), Ok(Some(5.0)));
     assert!(out.current_a().iter().zip(window(3.0).current_a()).all(|(a, b)| a.to_bits() == b.to_bits()));
+}
+
+/// A slot kept again with a window of the same length, the power cut every 61 bytes of the keep
+/// (clean cuts): the slot reads as the old window, as empty, or as the new one once complete,
+/// never as chunks of both.
+#[test]
+fn a_window_kept_again_and_cut_never_reads_as_two_windows_spliced() {
+    use crate::conditioning::MeasuredTrace;
+    let window = |phase: f32| {
+        MeasuredTrace::<600>::from_samples((0..600).map(|j| 4.0 * libm::sinf(0.01 * j as f32 + phase))).unwrap()
+    };
+    let same = |a: &MeasuredTrace<600>, b: &MeasuredTrace<600>| {
+        a.len() == b.len() && a.current_a().iter().zip(b.current_a()).all(|(x, y)| x.to_bits() == y.to_bits())
+    };
+    let mut buffer = [0u8; window::window_encoded_len(600)];
+    let mut s = HealthStore::new(RamFlash::<8, 2048>::new(), 0..16_384).unwrap();
+    s.save(&record_after(2)).unwrap();
+    s.keep_window(1, &window(0.0), -5.0, &mut buffer).unwrap();
+    let base = s.into_flash();
+    let (mut outcomes, mut cut) = ([0u32; 3], 0);
+    loop {
+        let mut flash = base.clone();
+        flash.cut_power_after(cut);
+        let mut s = HealthStore::new(flash, 0..16_384).unwrap();
+        let done = s.keep_window(1, &window(2.0), 7.0, &mut buffer).is_ok();
+        let mut flash = s.into_flash();
+        flash.power_on();
+        let mut s = HealthStore::new(flash, 0..16_384).unwrap();
+        let mut out = MeasuredTrace::<600>::new();
+        match s.load_window(1, &mut out, &mut buffer) {
+            Ok(Some(t)) if t == -5.0 => assert!(same(&out, &window(0.0)), "cut {cut}"),
+            Ok(Some(t)) => assert!(t == 7.0 && same(&out, &window(2.0)), "cut {cut}: {t}"),
+            Ok(None) => {}
+            Err(e) => panic!("cut {cut}: {e:?}"),
+        }
+        let k = match s.load_window(1, &mut out, &mut buffer) {
+            Ok(Some(t)) if t == -5.0 => 0,
+            Ok(None) => 1,
+            _ => 2,
+        };
+        outcomes[k] += 1;
+        if done {
+            break;
+        }
+        cut += 61;
+    }
+    assert!(outcomes[0] > 0 && outcomes[1] > 10 && outcomes[2] > 0, "old, empty, new: {outcomes:?}");
 }
