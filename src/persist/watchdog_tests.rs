@@ -28,9 +28,10 @@ const SECTOR_ERASE_MAX_US: u64 = 4_000_000;
 const BYTE_PROGRAM_MAX_US: u64 = 100;
 
 /// The watchdog's timeout while the board's flash operations run, the erase split into pages and
-/// the watchdog fed around each: one sector erase at its maximum with a margin of 2, which also
-/// covers the LSI running up to 47/32 = 1.47 times fast.
-const FLASH_WATCHDOG_US: u64 = 2 * SECTOR_ERASE_MAX_US;
+/// the watchdog fed around each: `FLASH_WATCHDOG_MS` of `boards/nucleo-f446re/src/health_flash.rs`,
+/// 10 s, one sector erase at its maximum with a margin of 2.5, which also covers the LSI running
+/// up to 47/32 = 1.47 times fast (1.7).
+const FLASH_WATCHDOG_US: u64 = 10_000_000;
 
 /// The LSI clock the watchdog counts, nominal and at its datasheet maximum (DS10693, LSI
 /// oscillator characteristics: 32 kHz typical, 47 kHz max): a fast LSI expires the timeout early.
@@ -257,8 +258,8 @@ fn flown(saves: u32) -> Box<BoardFlash> {
     flash
 }
 
-/// With the board's wiring and flash timeout (8 s, nominal and with the LSI at its fastest, which
-/// expires it after 5.4 s), the maintenance reset completes in one boot whatever the flash held
+/// With the board's wiring and flash timeout (10 s, nominal and with the LSI at its fastest, which
+/// expires it after 6.8 s), the maintenance reset completes in one boot whatever the flash held
 /// (nothing, a few records, a page and a half of them): the longest time between two feeds is one
 /// sector's erase, and the next start loads the record the boot saved.
 #[test]
@@ -341,8 +342,8 @@ fn assert_reset_loop(wiring: Wiring, timeout_us: u64, lsi: u64, erased_before_re
     }
 }
 
-/// The harness has teeth: the same 8 s timeout with the range erased in one call (two sectors,
-/// 8 s at their maximum) and the LSI at its fastest (the watchdog expires after 5.4 s) resets the
+/// The harness has teeth: the same 10 s timeout with the range erased in one call (two sectors,
+/// 8 s at their maximum) and the LSI at its fastest (the watchdog expires after 6.8 s) resets the
 /// chip in the second sector's erase on every boot; the maintenance reset never completes.
 #[test]
 fn an_unsplit_erase_of_the_range_resets_the_chip_on_every_boot() {
