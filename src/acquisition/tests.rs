@@ -1,7 +1,7 @@
 //! Host tests of the acquisition stage: conversions, each check, the replay driver.
 
 use super::*;
-use crate::trace::{self, pack, packed_len, synthetic, PackedTrace, ADC_MIDSCALE, AMPS_PER_COUNT};
+use crate::trace::{self, pack, packed_len, synthetic, PackedTrace, ADC_MAX, ADC_MIDSCALE, AMPS_PER_COUNT};
 
 fn packed(frames: &[[u16; 3]]) -> std::vec::Vec<u8> {
     let mut buf = std::vec![0u8; packed_len(frames.len())];
