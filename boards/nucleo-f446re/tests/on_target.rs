@@ -483,9 +483,9 @@ mod tests {
         drop(unlocked); // locks the flash again
         let longest_ms = timed.longest_cycles / (SYSCLK_HZ / 1000);
         defmt::info!(
-            "watchdog: {=u32} sectors erased at {}, the longest in {=u32} ms (flight timeout {=u32} ms); timeout in force before each: {}",
-            timed.sectors,
+            "watchdog at {=u32} ms: {=u32} sectors erased, the longest in {=u32} ms (flight timeout {=u32} ms); in force before each: {}",
             FLASH_WATCHDOG_MS,
+            timed.sectors,
             longest_ms,
             WATCHDOG_MS,
             timed.in_force
