@@ -44,6 +44,13 @@ pub struct FeedAndFlush<'a> {
     watchdog: &'a Watchdog,
 }
 
+impl<'a> FeedAndFlush<'a> {
+    /// The guard that feeds `watchdog` around each sector.
+    pub const fn new(watchdog: &'a Watchdog) -> Self {
+        Self { watchdog }
+    }
+}
+
 impl EraseGuard for FeedAndFlush<'_> {
     fn before_page_erase(&mut self, _offset: u32) {
         self.watchdog.feed();
@@ -56,13 +63,14 @@ impl EraseGuard for FeedAndFlush<'_> {
 }
 
 /// The store over the record's sectors, each erase guarded.
-type Store<'a> = HealthStore<EraseGuarded<UnlockedFlash<'a>, FeedAndFlush<'a>>>;
+pub type Store<'a> = HealthStore<EraseGuarded<UnlockedFlash<'a>, FeedAndFlush<'a>>>;
 
 /// Runs `op` on the store with the watchdog at [`FLASH_WATCHDOG_MS`], then sets back the timeout
 /// it found (the commissioning's own, during its fit). When the watchdog cannot be raised, the
 /// flash is left untouched (logged) and `op` fails as a flash fault: an erase under the short
-/// timeout would reset the chip.
-fn with_store<T>(
+/// timeout would reset the chip. Each call is a new store, so its first operation checks the
+/// pages for an interrupted erase's remains (the core's `persist::pages`).
+pub fn with_store<T>(
     flash: &mut LockedFlash,
     watchdog: &Watchdog,
     op: impl FnOnce(&mut Store<'_>) -> Result<T, StoreError>,
@@ -72,7 +80,7 @@ fn with_store<T>(
         defmt::error!("health record: watchdog not raised for the flash ({}), flash left untouched", e);
         return Err(StoreError::Flash(FlashFault::Other));
     }
-    let guarded = EraseGuarded::new(flash.unlocked(), FeedAndFlush { watchdog });
+    let guarded = EraseGuarded::new(flash.unlocked(), FeedAndFlush::new(watchdog));
     let result = HealthStore::new(guarded, RECORD_RANGE).and_then(|mut store| op(&mut store));
     if let Err(e) = watchdog.set_timeout_ms(previous_ms) {
         defmt::error!("watchdog timeout not set back to {=u32} ms: {}", previous_ms, e);

@@ -1,25 +1,28 @@
 //! ema-monitor on a NUCLEO-F446RE (STM32F446RE, Cortex-M4F at 180 MHz): the phase currents from
 //! three ADC pins at the control rate, flight after flight through the core's [`HealthMonitor`]
 //! (the QEMU firmware's flight policy), each report over defmt-rtt (`cargo run --release` in this
-//! folder runs it through `probe-rs run`) and as one line on USART2. Wiring only:
-//! 1. the independent watchdog first ([`WATCHDOG_MS`], `watchdog.rs`, `safe_state.rs`), so that
+//! folder runs it through `probe-rs run`) and as one line on USART2. Wiring only, of the board
+//! library's modules and settings (`lib.rs`, which the on-target tests share):
+//! 1. the independent watchdog first (`WATCHDOG_MS`, `watchdog.rs`, `safe_state.rs`), so that
 //!    every later hang resets; the debug connection kept through `wfi` (`dbgmcu.rs`); clocks at
 //!    180 MHz from the ST-LINK's 8 MHz, or from the HSI when it does not come (`rcc.rs`); the
 //!    log's timestamps (`timestamp.rs`); the brown-out reset at level 3 (`flash_control.rs`);
 //! 2. the health record from flash sectors 6–7 (`health_flash.rs`), erased first when the user
 //!    button B1 (PC13) is held at start-up; a new record (the first start, or after that
-//!    maintenance reset) commissions the unit over its first [`COMMISSIONING_FLIGHTS`] flights;
+//!    maintenance reset) commissions the unit over its first `COMMISSIONING_FLIGHTS` flights;
 //! 3. ADC1–3 sampling PA0, PA1, PC0 (phases A, B, C) at one instant on TIM2's trigger every
-//!    [`FRAME_PERIOD_US`], DMA2 reading them and its interrupt ticking the sampler with the start
+//!    `FRAME_PERIOD_US`, DMA2 reading them and its interrupt ticking the sampler with the start
 //!    trigger on PA10 (`triple_adc.rs`, `dma_sampling.rs`), the sensors' zero points measured
 //!    before each trigger; the actuator's temperature on PB0; the report line on PA2
 //!    (`report_uart.rs`);
 //! 4. the flights (`flights.rs`): each acquired after the trigger (at most
-//!    [`TRIGGER_TIMEOUT_FRAMES`] ticks away, else re-armed), identified with the watchdog fed
+//!    `TRIGGER_TIMEOUT_FRAMES` ticks away, else re-armed), identified with the watchdog fed
 //!    before each step, reported, recorded and saved; then the sampler re-armed.
 //!
 //! A panic or fault ends in the safe state: logged `FAILSAFE`, parked without feeding the
-//! watchdog, which resets the chip (docs/board.md).
+//! watchdog, which resets the chip (docs/board.md). The panic handler (panic-probe) and the
+//! global logger (defmt-rtt) are chosen here, not in the library, which the tests link with
+//! their own.
 #![no_std]
 #![no_main]
 
@@ -29,58 +32,25 @@ use panic_probe as _; // panic → defmt message → `udf` → HardFault → par
 use cortex_m_rt::entry;
 use ema_monitor::acquisition::SamplerConfig;
 use ema_monitor::flight::HealthMonitor;
-use ema_monitor::{EmaParams, ModelEffects, Profile, Tolerances};
+use ema_monitor::{ModelEffects, Profile, Tolerances};
 use stm32f4xx_hal::flash::LockedFlash;
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 
-/// DBGMCU: the debug connection through low-power modes.
-mod dbgmcu;
-/// DMA2 stream 0's interrupt: one simultaneous frame per control period into the sampler.
-mod dma_sampling;
-/// FLASH_ACR and FLASH_OPTCR: the data cache flush and the brown-out level.
-mod flash_control;
-/// The flight loop.
-mod flights;
-/// The health record in flash sectors 6–7.
-mod health_flash;
-/// RCC: the clocks and the reset cause.
-mod rcc;
-/// USART2: the report line.
-mod report_uart;
-/// Failure and the safe state.
-mod safe_state;
-/// TIM5: the log's timestamps.
-mod timestamp;
-/// ADC1–3 in triple regular simultaneous mode, triggered by TIM2, read by DMA2.
-mod triple_adc;
-/// The independent watchdog.
-mod watchdog;
+use ema_monitor_nucleo_f446re::dma_sampling::{BoardSampler, Isr};
+use ema_monitor_nucleo_f446re::safe_state::{failsafe, idle_failed, refused};
+use ema_monitor_nucleo_f446re::triple_adc::{self, SimultaneousReader, TripleAdc};
+use ema_monitor_nucleo_f446re::{
+    flash_control, COMMISSIONING_FLIGHTS, FRAME_PERIOD_US, PARAMS, TRIGGER_TIMEOUT_FRAMES,
+};
+use ema_monitor_nucleo_f446re::{flights, health_flash, rcc, report_uart, safe_state, timestamp};
 
-use dma_sampling::{BoardSampler, Isr};
-use safe_state::{failsafe, idle_failed, refused};
-use triple_adc::{SimultaneousReader, TripleAdc};
-
-/// Independent-watchdog timeout. The longest thing done between two feeds is one objective
-/// evaluation: at most about 1.2e7 instructions at this crate's `opt-level = "s"` (a full,
-/// not early-abandoned model run), about 105 ms at 1.6 cycles per instruction and 180 MHz.
-/// 500 ms leaves a margin above 4, and above 3 at the LSI's fastest (47 kHz against 32 kHz).
-const WATCHDOG_MS: u32 = 500;
-
-/// Period of one ADC frame: 100 µs, the control period of `EmaParams::NOMINAL` (10 kHz).
-const FRAME_PERIOD_US: u32 = 100;
-
-/// The frame rate, 10 kHz.
-const FRAME_RATE_HZ: u32 = 1_000_000 / FRAME_PERIOD_US;
-
-/// Ticks the sampler waits for the start trigger before it re-arms (10 s).
-const TRIGGER_TIMEOUT_FRAMES: u32 = 100_000;
-
-/// The actuator's parameters.
-const PARAMS: EmaParams = EmaParams::NOMINAL;
-
-/// Flights of the commissioning a new record starts with (`docs/commissioning.md`).
-const COMMISSIONING_FLIGHTS: u8 = 3;
+/// `defmt::panic!` and friends: straight to the HardFault path (panic-probe's advice, so that the
+/// message is not printed twice), which logs `FAILSAFE` and parks (`safe_state.rs`).
+#[defmt::panic_handler]
+fn defmt_panic() -> ! {
+    panic_probe::hard_fault()
+}
 
 #[entry]
 fn main() -> ! {

@@ -65,8 +65,9 @@ fn park() -> ! {
     }
 }
 
-/// A panic (panic-probe logs its message, then executes `udf`), a stack overflow (flip-link: the
-/// stack hits the bottom of RAM) or any other fault: log the status and park.
+/// A panic (the firmware's panic-probe logs its message, then executes `udf`; `main.rs`), a stack
+/// overflow (flip-link: the stack hits the bottom of RAM) or any other fault: log the status and
+/// park.
 #[exception]
 unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
     defmt::error!(
@@ -74,13 +75,6 @@ unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
         frame.pc()
     );
     park()
-}
-
-/// `defmt::panic!` and friends: straight to the HardFault path (panic-probe's advice, so that the
-/// message is not printed twice).
-#[defmt::panic_handler]
-fn defmt_panic() -> ! {
-    panic_probe::hard_fault()
 }
 
 /// The board's flight hooks: the watchdog fed before each objective evaluation, and each

@@ -326,6 +326,13 @@ impl TripleAdc {
         self.stalled.get()
     }
 
+    /// The codes `[A, B, C]` of the last frame the DMA completed, as the interrupt would take
+    /// them, without the events and checks of a frame taken: for the on-target tests, which look
+    /// at the raw codes while the sampler runs.
+    pub fn last_codes(&self) -> [u16; 3] {
+        self.last_frame()
+    }
+
     /// The frame in the half the DMA is not writing: DMA_S0NDTR counts the half-words left
     /// before the wrap, so 1–3 means the DMA is in (or about to start) the second half and the
     /// first holds the last frame; 4–6 (and 0, the reload) the other way round.

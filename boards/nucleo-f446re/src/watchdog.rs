@@ -51,6 +51,17 @@ pub enum WatchdogError {
     },
 }
 
+/// What the IWDG's counter runs with, read back from IWDG_PR and IWDG_RLR ([`Watchdog::in_force`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
+pub struct InForce {
+    /// IWDG_PR.PR: the LSI is divided by 4·2^PR (PR 6 and 7 both by 256).
+    pub prescaler: u8,
+    /// IWDG_RLR.RL: the counter's reload value.
+    pub reload: u16,
+    /// The timeout they give at the nominal LSI (ms): `(RL + 1)·divider / LSI`.
+    pub timeout_ms: u32,
+}
+
 /// The running independent watchdog and the timeout last set on it.
 pub struct Watchdog {
     /// The peripheral, owned: nothing else writes IWDG_KR.
@@ -98,6 +109,19 @@ impl Watchdog {
         let updated = ready.and_then(|()| self.wait_updated());
         self.feed();
         updated.map(|()| set_ms)
+    }
+
+    /// The prescaler and reload the counter runs with, read back once no update is under way:
+    /// IWDG_PR and IWDG_RLR read the values of the LSI's clock domain, valid only while IWDG_SR's
+    /// PVU and RVU are clear (RM0390, IWDG_PR and IWDG_RLR). Waits for them (bounded, as
+    /// [`Watchdog::set_timeout_ms`]); writes nothing and does not feed.
+    pub fn in_force(&self) -> Result<InForce, WatchdogError> {
+        self.wait_updated()?;
+        let prescaler = self.iwdg.pr().read().pr().bits();
+        let reload = self.iwdg.rlr().read().rl().bits();
+        let divider = 4u32 << u32::from(prescaler.min(6));
+        let timeout_ms = (u32::from(reload) + 1) * divider / (LSI_HZ / 1000); // ≤ 4096·256/32
+        Ok(InForce { prescaler, reload, timeout_ms })
     }
 
     /// Waits, bounded, until IWDG_SR shows no update in progress.
