@@ -215,7 +215,15 @@ fn identify_finds_the_start_and_the_same_diagnosis() {
     let without = accepted(&["identify", s(&plain), "--params", s(&params), "--quiet"]);
     let with = accepted(&["identify", s(&pre), "--params", s(&params), "--quiet"]);
     assert!(with.contains("manoeuvre starts at 0.050000 s (aligned); trimmed 0.050000 s before"), "{with}");
-    assert_eq!(diagnosis(&with), diagnosis(&without), "{with}\n{without}");
+    // the pre-trigger's 500 rows give the zero points (within a fraction of a count of the ideal
+    // sensors' 0): the same status and the same condition of every mode
+    assert!(with.contains("sensors: zero points from 500 rows before the manoeuvre"), "{with}");
+    assert!(without.contains("sensors: declared zero points"), "{without}");
+    let conditions = |out: &str| -> Vec<String> {
+        // the status line, then each mode's name and condition
+        diagnosis(out).iter().take(6).map(|l| l.split_whitespace().take(3).collect::<Vec<_>>().join(" ")).collect()
+    };
+    assert_eq!(conditions(&with), conditions(&without), "{with}\n{without}");
     assert!(without.contains("EMA health: DEGRADED") && without.contains("friction"), "{without}");
 }
 
@@ -250,12 +258,23 @@ fn a_pre_trigger_recording_packs_to_an_ema2_trace() {
     }
     assert!(pre_t.iter().skip(REST).eq(plain_t.iter()));
     assert!(long_t.iter().skip(1000).eq(plain_t.iter()));
-    // the firmware's path (parity with QEMU) reads from the trigger on: the same summary line
-    let summary = |trace: &Path| {
-        let out = accepted(&["identify", "--firmware-trace", s(trace), "--bits", "--quiet"]);
-        out.lines().find(|l| l.starts_with("summary: ")).expect("a summary line").to_owned()
+    // the firmware's path (parity with QEMU) reads the rest frames for the zero points, which are
+    // the preset's zero errors (+0.15, −0.10, +0.12 A at 9.77 mA per count), and the manoeuvre
+    // from the trigger on; the trace without them keeps the declared zeros
+    let sensors = |trace: &Path| {
+        let out = accepted(&["identify", "--firmware-trace", s(trace), "--json", "--max-iterations", "2"]);
+        serde_json::from_str::<serde_json::Value>(&out).expect("JSON")["sensors"].clone()
     };
-    assert_eq!(summary(&pre_trace), summary(&plain_trace));
+    let (measured, declared) = (sensors(&pre_trace), sensors(&plain_trace));
+    assert_eq!(
+        (&measured["zero_points"], &measured["rest_frames"]),
+        (&serde_json::json!("rest"), &serde_json::json!(500))
+    );
+    for (j, zero_a) in [0.15, -0.10, 0.12].iter().enumerate() {
+        let shift = measured["zero_shift_counts"][j].as_f64().expect("a number");
+        assert!((shift - zero_a / (40.0 / 4096.0)).abs() < 1.0, "phase {j}: {measured}");
+    }
+    assert_eq!(declared["zero_points"], "declared", "{declared}");
 }
 
 #[test]
