@@ -427,6 +427,20 @@ impl AcquisitionConfig {
 }
 
 impl AcquisitionConfig {
+    /// The settings a recording with `rest_frames` frames before its manoeuvre is read with: the
+    /// defaults, with the sensors' zero points measured on those frames when there are at least
+    /// [`SelfCalibrationConfig::min_rest_frames`], the declared ones kept otherwise. A live board
+    /// always measures them, and a trigger too soon after arming is a sensor fault there; a
+    /// recording made without the pre-trigger in mind is not.
+    pub const fn for_recorded_rest(rest_frames: usize) -> Self {
+        // `as`: a usize beyond u32 is far more than enough rest frames either way
+        if rest_frames >= SelfCalibrationConfig::DEFAULT.min_rest_frames as usize {
+            Self::SELF_CALIBRATED
+        } else {
+            Self::DEFAULT
+        }
+    }
+
     /// These settings for phases sampled `phase_skew_us` after the frame's instant.
     pub const fn with_phase_skew_us(self, phase_skew_us: [f32; 3]) -> Self {
         Self { phase_skew_us, ..self }

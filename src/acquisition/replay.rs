@@ -4,7 +4,7 @@ use core::fmt;
 
 use embedded_hal::adc::{Channel, OneShot};
 
-use super::{AcquisitionConfig, AdcError, AdcErrorKind, PhasePin, SelfCalibrationConfig};
+use super::{AcquisitionConfig, AdcError, AdcErrorKind, PhasePin};
 use crate::trace::PackedTrace;
 
 /// Why the replay could not give a code.
@@ -16,17 +16,10 @@ pub enum ReplayError {
     EndOfTrace,
 }
 
-/// The acquisition settings a replay of `trace` is read with: the defaults, with the sensors'
-/// zero points measured on the trace's frames before its trigger when it has enough of them
-/// (an `EMA2` trace with at least [`SelfCalibrationConfig::min_rest_frames`] of pre-trigger),
-/// the declared ones kept otherwise. A live board always measures them, and a trigger too soon
-/// after arming is a sensor fault there; a recording made without the pre-trigger in mind is not.
+/// The acquisition settings a replay of `trace` is read with: its frames before the trigger are
+/// its rest frames ([`AcquisitionConfig::for_recorded_rest`]).
 pub fn replay_config(trace: &PackedTrace<'_>) -> AcquisitionConfig {
-    if trace.trigger_frame() >= SelfCalibrationConfig::DEFAULT.min_rest_frames {
-        AcquisitionConfig::SELF_CALIBRATED
-    } else {
-        AcquisitionConfig::DEFAULT
-    }
+    AcquisitionConfig::for_recorded_rest(trace.trigger_frame() as usize)
 }
 
 impl fmt::Display for ReplayError {

@@ -186,8 +186,6 @@ pub struct TripleAdc {
     _pins: PhasePins,
     /// Events the interrupt acknowledged since the last frame was taken ([`TripleAdc::acknowledge`]).
     pending: Cell<Events>,
-    /// Set by [`TripleAdc::start`]: a new acquisition begins, the reader's checks start afresh.
-    restarted: Cell<bool>,
     /// A one-shot conversion of the temperature input is under way.
     one_shot: Cell<bool>,
     /// The last restart failed ([`TripleAdc::stalled`]).
@@ -214,7 +212,6 @@ impl TripleAdc {
             dma: dma2,
             _pins: pins,
             pending: Cell::new(Events::default()),
-            restarted: Cell::new(false),
             one_shot: Cell::new(false),
             stalled: Cell::new(false),
         };
@@ -235,10 +232,9 @@ impl TripleAdc {
     }
 
     /// Starts the sampling: the stream reloaded, the triple mode and its DMA requests on, ADC1
-    /// answering TIM2's TRGO from its next update. A new acquisition: the reader's checks and
-    /// zero points start afresh, and no event from before counts.
+    /// answering TIM2's TRGO from its next update. No event from before counts; the reader's
+    /// rest frames start afresh with the sampler's re-arm (`PhaseCurrents::rearm`).
     pub fn start(&self) -> Result<(), SamplingError> {
-        self.restarted.set(true);
         self.one_shot.set(false);
         self.stalled.set(false);
         self.restart()
@@ -496,46 +492,36 @@ pub struct SimultaneousReader {
 impl SimultaneousReader {
     /// The reader of `adc`'s frames.
     pub fn new(adc: TripleAdc) -> Result<Self, ConfigError> {
-        Ok(Self { adc, check: fresh_check()? })
+        let check = FrameCheck::new(Calibration::NOMINAL, AcquisitionConfig::SELF_CALIBRATED)?;
+        Ok(Self { adc, check })
     }
 
     /// The sampling hardware (started and stopped by `dma_sampling`'s `arm` and `disarm`).
     pub const fn adc(&self) -> &TripleAdc {
         &self.adc
     }
-
-    /// The codes of the frame the interrupt announced; a new acquisition (a start since the
-    /// last frame) first gets fresh checks, so that each measures its own zero points.
-    fn codes(&mut self) -> Result<[u16; 3], AcquisitionError> {
-        if self.adc.restarted.replace(false) {
-            match fresh_check() {
-                Ok(check) => self.check = check,
-                Err(_) => self.check.reset(), // not reached: the settings passed at `new`
-            }
-        }
-        self.adc.take_codes()
-    }
-}
-
-/// The checks the reader starts each acquisition with.
-fn fresh_check() -> Result<FrameCheck, ConfigError> {
-    FrameCheck::new(Calibration::NOMINAL, AcquisitionConfig::SELF_CALIBRATED)
 }
 
 impl PhaseCurrents for SimultaneousReader {
     fn read_frame(&mut self) -> Result<PhaseFrame, AcquisitionError> {
-        let codes = self.codes()?;
+        let codes = self.adc.take_codes()?;
         self.check.codes(codes)
     }
 
     fn read_rest_frame(&mut self) -> Result<(), AcquisitionError> {
-        let codes = self.codes()?;
+        let codes = self.adc.take_codes()?;
         self.check.rest(codes);
         Ok(())
     }
 
+    /// The zero points from the rest frames, the stuck and sum history afresh: each acquisition
+    /// starts its checks anew here.
     fn start_recording(&mut self) {
         self.check.start_recording();
+    }
+
+    fn rearm(&mut self) {
+        self.check.rearm();
     }
 
     fn sensor_check(&self) -> SensorCheck {

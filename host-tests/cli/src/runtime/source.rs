@@ -5,17 +5,16 @@
 //! row. With [`FrameChecks::OnBoard`] every frame first passes the core's frame checks
 //! ([`FrameCheck::amps`]: range, stuck channel and sum, nominal calibration, default settings),
 //! so a refused frame is held at the last good one and counted exactly as the firmware holds and
-//! counts it; a recording with enough rows before its manoeuvre ([`Recording::rest_currents_a`],
-//! at least `SelfCalibrationConfig::min_rest_frames`) has its sensors' zero points measured on
-//! them first, as a board measures them on the frames before its trigger
-//! (`AcquisitionConfig::SELF_CALIBRATED`), and one with fewer keeps the declared ones. With [`FrameChecks::None`] every frame is taken as it is. [`acquire_recording`]
+//! counts it; a recording's rows before its manoeuvre ([`Recording::rest_currents_a`]) are its
+//! rest frames, on which its sensors' zero points are measured first, as a board measures them on
+//! the frames before its trigger, when there are enough of them
+//! (`AcquisitionConfig::for_recorded_rest`). With [`FrameChecks::None`] every frame is taken as it is. [`acquire_recording`]
 //! runs the acquisition and names the row of a refused window in its error.
 
 use std::path::Path;
 
 use ema_monitor::acquisition::{
-    AcquisitionConfig, AcquisitionError, Calibration, FrameCheck, PhaseCurrents, PhaseFrame, SelfCalibrationConfig,
-    SensorCheck,
+    AcquisitionConfig, AcquisitionError, Calibration, FrameCheck, PhaseCurrents, PhaseFrame, SensorCheck,
 };
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::monitor::{self, AcquisitionSummary, MonitorError};
@@ -25,10 +24,6 @@ use crate::recording::Recording;
 
 /// Window capacity for host identifications from CSV: 3.2 s of recording at the 2.5 kHz fitness rate.
 pub const HOST_WINDOW: usize = 8192;
-
-/// Rows before the manoeuvre that the zero points need: a shorter pre-trigger keeps the declared
-/// ones.
-const MIN_REST_ROWS: usize = SelfCalibrationConfig::DEFAULT.min_rest_frames as usize;
 
 /// Whether a recording's frames pass the core's frame checks on their way to the trace.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -55,11 +50,9 @@ impl<'r> RecordingSource<'r> {
     /// core's defaults, which it accepts (an error here is the core refusing its own defaults).
     pub fn new(recording: &'r Recording, checks: FrameChecks) -> Result<Self, ema_monitor::acquisition::ConfigError> {
         let check = match checks {
-            FrameChecks::OnBoard if recording.rest_currents_a.len() < MIN_REST_ROWS => {
-                Some(FrameCheck::new(Calibration::NOMINAL, AcquisitionConfig::DEFAULT)?)
-            }
             FrameChecks::OnBoard => {
-                let mut check = FrameCheck::new(Calibration::NOMINAL, AcquisitionConfig::SELF_CALIBRATED)?;
+                let config = AcquisitionConfig::for_recorded_rest(recording.rest_currents_a.len());
+                let mut check = FrameCheck::new(Calibration::NOMINAL, config)?;
                 for row in &recording.rest_currents_a {
                     check.rest_amps(row.map(|i| i as f32));
                 }
