@@ -361,15 +361,11 @@ mod tests {
     use crate::acquisition::calibration::OffsetCounts;
     use crate::optimizer::rng::Rng;
 
-    fn gauss(rng: &mut Rng) -> f32 {
-        rng.normal()
-    }
-
     fn rest(zero: [f32; 3], sd: f32, frames: u32, seed: u64) -> RestEstimator {
         let mut rng = Rng::new(seed);
         let mut est = RestEstimator::new();
         for _ in 0..frames {
-            est.add(zero.map(|z| libm::roundf(z + sd * gauss(&mut rng)).clamp(0.0, 4095.0) as u16));
+            est.add(zero.map(|z| libm::roundf(z + sd * rng.normal()).clamp(0.0, 4095.0) as u16));
         }
         est
     }
@@ -415,7 +411,7 @@ mod tests {
         let mut est = rest([1500.0, 2600.0, 2048.0], 40.0, 3000, 3);
         let mut rng = Rng::new(4);
         for _ in 0..600 {
-            est.add([2040.0, 2050.0, 2048.0].map(|z: f32| libm::roundf(z + gauss(&mut rng)) as u16));
+            est.add([2040.0, 2050.0, 2048.0].map(|z: f32| libm::roundf(z + rng.normal()) as u16));
         }
         assert!(est.frames() >= REST_BLOCK_FRAMES && est.frames() < 2 * REST_BLOCK_FRAMES);
         let (cal, check) = est.zero_points(&Calibration::NOMINAL, &SelfCalibrationConfig::DEFAULT);
@@ -454,8 +450,7 @@ mod tests {
                 let th = k as f32 * 0.01;
                 let amp = 6.0;
                 let true_i = [0.0f32, -2.094_395, 2.094_395].map(|p| amp * libm::sinf(th + p));
-                let measured: [f32; 3] =
-                    core::array::from_fn(|j| (1.0 + gains[j]) * true_i[j] + 0.02 * gauss(&mut rng));
+                let measured: [f32; 3] = core::array::from_fn(|j| (1.0 + gains[j]) * true_i[j] + 0.02 * rng.normal());
                 check.add(measured);
             }
             let m = check.mismatch();
