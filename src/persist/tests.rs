@@ -164,8 +164,8 @@ fn record_refuses_other_versions_and_bad_fields() {
     bad[0] = RECORD_VERSION + 1;
     assert_eq!(HealthRecord::decode(&bad), Err(RecordError::Version(RECORD_VERSION + 1)));
     let mut bad = buf;
-    bad[1] = 9;
-    assert_eq!(HealthRecord::decode(&bad), Err(RecordError::Status(9)));
+    bad[1] = 10;
+    assert_eq!(HealthRecord::decode(&bad), Err(RecordError::Status(10)));
     let mut bad = buf;
     bad[100] = HISTORY_LEN as u8 + 1;
     assert_eq!(HealthRecord::decode(&bad), Err(RecordError::History));
@@ -203,6 +203,7 @@ fn every_status_has_its_own_code_and_reads_back() {
         Status::Inconclusive(Abstain::RateMismatch),
         Status::Inconclusive(Abstain::UnitMismatch),
         Status::Inconclusive(Abstain::Commissioning),
+        Status::Inconclusive(Abstain::NothingAssessable),
         Status::SensorFault,
     ];
     for (i, &s) in all.iter().enumerate() {

@@ -3,7 +3,7 @@
 //! (docs/board.md, "Report line"):
 //!
 //! ```text
-//! EMA-REPORT v1 flight=12 status=DEGRADED reason=- mode=friction friction=0.2497 … commissioning=-*4768
+//! EMA-REPORT v3 flight=12 status=DEGRADED reason=- mode=friction friction=0.2497 … commissioning=-*4768
 //! ```
 //!
 //! - ASCII, one space between fields, every field `key=value` in a fixed order, every key always
@@ -35,7 +35,7 @@ use crate::rcc::{ClockSource, SYSCLK_HZ};
 use crate::watchdog::Watchdog;
 
 /// The line's format version.
-pub const VERSION: &str = "v2";
+pub const VERSION: &str = "v3";
 
 /// Baud rate (8 data bits, no parity, 1 stop bit).
 const BAUD: u32 = 115_200;
@@ -150,7 +150,11 @@ impl Line {
         }
         for (m, key) in r.modes.iter().zip(MODE_KEYS) {
             l.key(key);
-            l.real_or_dash(diagnosis.then_some(m.severity), 4);
+            if m.condition == Condition::NotAssessed {
+                l.text("na");
+            } else {
+                l.real_or_dash(diagnosis.then_some(m.severity), 4);
+            }
         }
         for (m, key) in r.modes.iter().zip(SIGMA_KEYS) {
             l.key(key);
@@ -333,11 +337,11 @@ impl Line {
     }
 }
 
-/// The mode of the highest severity when it is degraded or failing; `None` when all are healthy.
+/// The mode of the highest severity when it is degraded or failing; `None` when none is.
 fn worst_mode(r: &HealthReport) -> Option<FaultMode> {
     r.modes
         .iter()
-        .filter(|m| m.condition != Condition::Healthy)
+        .filter(|m| m.condition >= Condition::Degraded)
         .fold(None, |worst: Option<&ModeReport>, m| match worst {
             Some(w) if w.severity >= m.severity => Some(w),
             _ => Some(m),

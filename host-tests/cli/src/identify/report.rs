@@ -23,7 +23,7 @@ pub struct ModeJson {
     pub mode: &'static str,
     /// Severity in [0, 1].
     pub severity: f32,
-    /// `HEALTHY`, `DEGRADED` or `FAILING`.
+    /// `HEALTHY`, `DEGRADED`, `FAILING` or `NOT_ASSESSED`.
     pub condition: &'static str,
     /// The physical value, in `unit`.
     pub value: f32,
@@ -130,7 +130,8 @@ pub struct FitTestJson {
 
 /// The report of `ema identify --json`; `docs/output-schema.md` documents every key. Under
 /// `INCONCLUSIVE` or `SENSOR_FAULT` the fault values are no diagnosis: `k` moves to
-/// `k_not_a_diagnosis`, and `overall` and `modes` are left out.
+/// `k_not_a_diagnosis`, and `overall` and `modes` are left out (`modes` stays when no mode is
+/// assessable: it carries each mode's bound).
 #[derive(Clone, Debug, Serialize)]
 pub struct IdentifyJson {
     /// `HEALTHY`, `DEGRADED`, `FAILING`, `INCONCLUSIVE` or `SENSOR_FAULT`.
@@ -162,7 +163,7 @@ pub struct IdentifyJson {
     /// The worst mode's condition, under a diagnosis.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub overall: Option<&'static str>,
-    /// The five fault modes, under a diagnosis.
+    /// The five fault modes, under a diagnosis or when no mode is assessable.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub modes: Option<Vec<ModeJson>>,
     /// The fault vector when the status is no diagnosis.
@@ -220,6 +221,7 @@ pub fn json_body(
 ) -> IdentifyJson {
     let r = &outcome.report;
     let diagnosis = r.status.is_diagnosis();
+    let blind = r.status.reason() == Some(ema_monitor::health::Abstain::NothingAssessable);
     let modes = r
         .modes
         .iter()
@@ -259,7 +261,7 @@ pub fn json_body(
         identification_s: outcome.seconds,
         k: diagnosis.then_some(r.faults.0),
         overall: diagnosis.then(|| r.overall().label()),
-        modes: diagnosis.then_some(modes),
+        modes: (diagnosis || blind).then_some(modes),
         k_not_a_diagnosis: (!diagnosis).then_some(r.faults.0),
         sigma: r.uncertainty.map(|u| u.sigma),
         command: command.to_json(),
