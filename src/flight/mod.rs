@@ -66,6 +66,15 @@ pub trait FlightHooks {
     fn after_step(&mut self) {}
     /// After the identification's report, before its uncertainty and the record.
     fn identification_end(&mut self) {}
+    /// Before each of a flight's calls after the identification ([`FlightCall`]): one
+    /// uninterrupted run each, which a firmware times and feeds its watchdog around.
+    fn before_call(&mut self, call: FlightCall) {
+        let _ = call;
+    }
+    /// After each of a flight's calls after the identification.
+    fn after_call(&mut self, call: FlightCall) {
+        let _ = call;
+    }
     /// Before the baseline fit of the last commissioning flight ([`commissioning`]).
     fn commissioning_start(&mut self) {}
     /// Before each evaluation of the baseline fit and each flight's run of its sensitivities
@@ -88,6 +97,16 @@ pub trait FlightHooks {
         let _ = (slot, out);
         None
     }
+}
+
+/// A flight's calls after the identification, each run without a hook inside it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FlightCall {
+    /// The report's uncertainty: the fitness built again and 9 model runs in lockstep.
+    Uncertainty,
+    /// The flight added to the health record with its pooled evidence.
+    Record,
 }
 
 /// Hooks that do nothing: an identification run straight to its end.
@@ -337,14 +356,19 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         let identified = self.identify(trace, &params, prior, hooks);
         hooks.identification_end();
         let (report, warm) = identified?;
-        let report = self.with_uncertainty(trace, &params, report).with_acquisition(&acquired.summary);
+        hooks.before_call(FlightCall::Uncertainty);
+        let report = self.with_uncertainty(trace, &params, report);
+        hooks.after_call(FlightCall::Uncertainty);
+        let report = report.with_acquisition(&acquired.summary);
         let report = if acquired.rate_ok(&self.params) {
             report
         } else {
             report.abstaining(Status::Inconclusive(Abstain::RateMismatch))
         };
         let cold = prior.is_none() || warm.is_some_and(|w| w.cold_fallback);
+        hooks.before_call(FlightCall::Record);
         let pooled = self.record(record, trace, &params, &report, cold);
+        hooks.after_call(FlightCall::Record);
         Ok(Flight {
             number,
             temperature_c: acquired.temperature_c,
