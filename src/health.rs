@@ -570,7 +570,8 @@ impl core::fmt::Display for HealthReport {
             Some(reason) => writeln!(f, "EMA health: {} ({})", self.status.label(), reason.label())?,
             None => {
                 write!(f, "EMA health: {}", self.status.label())?;
-                let mut hidden = self.modes.iter().filter(|m| m.condition == Condition::NotAssessed);
+                let diagnosis = self.status.is_diagnosis();
+                let mut hidden = self.modes.iter().filter(|m| diagnosis && m.condition == Condition::NotAssessed);
                 if let Some(first) = hidden.next() {
                     write!(f, " (not assessed: {}", first.mode.name())?;
                     for m in hidden {
@@ -762,6 +763,11 @@ mod tests {
             (r.status, r.modes[0].condition, r.modes[1].condition),
             (Status::Degraded, Condition::Degraded, Condition::NotAssessed)
         );
+        // a sensor fault names no mode in its headline
+        let fault = HealthReport::new(k, &EmaParams::NOMINAL, 0.01, 1, 1, None)
+            .with_uncertainty(Uncertainty { detectable_below: bounds, sigma: [0.01; 8] })
+            .abstaining(Status::SensorFault);
+        assert!(std::format!("{fault}").starts_with("EMA health: SENSOR_FAULT\n"), "{fault}");
         // an abstention stays: the modes are marked, the status is not replaced
         let poor = HealthReport::new(k, &EmaParams::NOMINAL, 0.01, 1, 1, None)
             .abstaining(Status::Inconclusive(Abstain::PoorFit))
