@@ -7,7 +7,8 @@
 //! 2. replay the built-in trace (`traces/standard.ematrace`, or `EMA_TRACE` and `EMA_PROFILE`,
 //!    `build.rs`) through the replay ADC, one frame per TIMER0 interrupt (`qemu_live.rs`), into
 //!    the monitor's acquisition, the trigger raised at the trace's trigger frame (the first tick
-//!    for an `EMA1` trace; after the pre-trigger frames of an `EMA2` one);
+//!    for a trace without pre-trigger; after the pre-trigger frames of one with them); a trace
+//!    whose `EMA3` checksum does not match is refused (`summary: REFUSED trace Checksum`);
 //! 3. flight 1, then flight 2 on the same recording, each through
 //!    [`HealthMonitor::diagnose_kept`] with the instruction-count markers around its
 //!    identification (`insn_markers.rs`), saved to the record's flash and read back as the next

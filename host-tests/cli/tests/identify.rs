@@ -151,10 +151,16 @@ fn bad_firmware_traces_are_refused_naming_the_file() {
     refused(&["identify", "--firmware-trace", s(&p)], &["magic.ematrace", "does not start with EMA1"]);
     let p = dir.join("truncated.ematrace");
     std::fs::write(&p, &good[..good.len() - 100]).expect("writable");
-    refused(&["identify", "--firmware-trace", s(&p)], &["truncated.ematrace", "length does not match its frame count"]);
+    refused(&["identify", "--firmware-trace", s(&p)], &["truncated.ematrace", "checksum does not match", "truncated"]);
     let p = dir.join("header.ematrace");
     std::fs::write(&p, &good[..7]).expect("writable");
     refused(&["identify", "--firmware-trace", s(&p)], &["header.ematrace", "shorter than its 12-byte header"]);
+    // one bit of one code flipped: the checksum refuses it, naming the file
+    let mut flipped = good.clone();
+    flipped[20_000] ^= 0x04;
+    let p = dir.join("flipped.ematrace");
+    std::fs::write(&p, &flipped).expect("writable");
+    refused(&["identify", "--firmware-trace", s(&p)], &["flipped.ematrace", "checksum does not match", "corrupted"]);
 }
 
 #[test]

@@ -24,10 +24,11 @@ use crate::input;
 /// `src/main.rs`).
 pub const MAX_PRE_TRIGGER_FRAMES: usize = 1000;
 
-/// Largest packed trace the on-board window takes, in bytes: an `EMA2` header,
+/// Largest packed trace the on-board window takes, in bytes: an `EMA3` header and checksum,
 /// [`MAX_PRE_TRIGGER_FRAMES`], then [`ONBOARD_WINDOW`] blocks of [`DECIMATION`] frames and a
 /// trailing partial block (which conditioning drops); a longer one would stop acquisition with a
-/// full window anyway, so a larger file is refused unread.
+/// full window anyway, so a larger file is refused unread. (An `EMA1` or `EMA2` trace of as many
+/// frames is smaller.)
 pub const MAX_FIRMWARE_TRACE_BYTES: usize =
     TraceHeader::new(1, 1).packed_len(MAX_PRE_TRIGGER_FRAMES + ONBOARD_WINDOW * DECIMATION + DECIMATION - 1);
 
