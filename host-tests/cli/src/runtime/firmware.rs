@@ -57,6 +57,19 @@ impl Refusal {
     }
 }
 
+/// The warning line for a packed trace that carries no checksum (`EMA1`, `EMA2`: nothing detects
+/// its corruption, the core's `trace` module); `None` for an `EMA3` trace and for bytes that do
+/// not parse (the refusal says why).
+pub fn checksum_warning(path: &Path, bytes: &[u8]) -> Option<String> {
+    let t = PackedTrace::parse(bytes).ok().filter(|t| !t.has_checksum())?;
+    Some(format!(
+        "warning: {}: an EMA{} packed trace carries no checksum, so a corrupted code would read as a current \
+         unnoticed; `ema firmware-trace` writes EMA3, which carries one",
+        path.display(),
+        t.version()
+    ))
+}
+
 /// Reads a packed trace file (`--firmware-trace`), at most [`MAX_FIRMWARE_TRACE_BYTES`].
 pub fn read_firmware_trace(path: &Path) -> Result<Vec<u8>, CliError> {
     let file = File::open(path).map_err(|e| CliError::input(path, format!("cannot read: {e}")))?;
