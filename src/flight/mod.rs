@@ -31,7 +31,11 @@
 //! resistance, EMF constant, friction); without a reading, at the parameters' 20 °C.
 //!
 //! Saving the record to flash stays with the caller: it knows its flash and what an erase
-//! costs it (the board raises its watchdog timeout).
+//! costs it (the board raises its watchdog timeout). What may be saved is the core's policy,
+//! shared by both firmwares ([`crate::persist::kept`]): the firmware holds the loaded record as a
+//! [`KeptRecord`] and flies with [`HealthMonitor::diagnose_kept`]; after a failed load the
+//! flight runs cold on a new record that is not saved, so the stored history is still there for
+//! the next load.
 //!
 //! Nothing here allocates or panics; a refused input is a [`MonitorError`], an unusable recording
 //! an honest `INCONCLUSIVE` or `SENSOR_FAULT` report.
@@ -45,7 +49,7 @@ use crate::monitor::{
     WarmReport, ONBOARD_POPULATION, ONBOARD_WINDOW,
 };
 use crate::optimizer::SearchStatus;
-use crate::persist::{Commissioning, HealthRecord, RecordIdentity};
+use crate::persist::{Commissioning, HealthRecord, KeptRecord, RecordIdentity};
 use crate::unit::Tolerances;
 use crate::{Command, EmaParams, ModelEffects};
 
@@ -316,13 +320,48 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         record: &mut HealthRecord,
         hooks: &mut impl FlightHooks,
     ) -> Result<Flight, MonitorError> {
+        self.diagnose_on(trace, acquired, record, hooks, true)
+    }
+
+    /// [`HealthMonitor::diagnose`] on the record a firmware keeps in RAM, under the policy of
+    /// [`crate::persist::kept`]. A record that may be saved is diagnosed as it is. One that may
+    /// not (the load failed, or a record it replaces was not archived) is replaced by a new
+    /// record of this monitor's identity, and the flight runs as an ordinary cold one against
+    /// the parameters as given: no commissioning starts, since the unit may be commissioned in
+    /// the record that could not be read, and so no window is written to the flash the policy
+    /// leaves untouched. The caller saves [`KeptRecord::savable`] alone.
+    pub fn diagnose_kept(
+        &self,
+        trace: &MeasuredTrace<W>,
+        acquired: &Acquired,
+        kept: &mut KeptRecord,
+        hooks: &mut impl FlightHooks,
+    ) -> Result<Flight, MonitorError> {
+        let may_save = kept.may_save();
+        let record = kept.record_mut();
+        if !may_save {
+            *record = HealthRecord::for_unit(self.identity());
+        }
+        self.diagnose_on(trace, acquired, record, hooks, may_save)
+    }
+
+    /// [`HealthMonitor::diagnose`], a new record commissioning the unit only when `commission`.
+    fn diagnose_on(
+        &self,
+        trace: &MeasuredTrace<W>,
+        acquired: &Acquired,
+        record: &mut HealthRecord,
+        hooks: &mut impl FlightHooks,
+        commission: bool,
+    ) -> Result<Flight, MonitorError> {
         if record.identity() != self.identity() {
             if record.flights() > 0 {
                 return Err(MonitorError::ForeignRecord);
             }
             *record = HealthRecord::for_unit(self.identity());
         }
-        if record.flights() == 0 && self.commissioning_flights > 0 && record.commissioning() == Commissioning::Off {
+        let commission = commission && self.commissioning_flights > 0;
+        if record.flights() == 0 && commission && record.commissioning() == Commissioning::Off {
             record.set_commissioning(Commissioning::Collecting { planned: self.commissioning_flights, kept: 0 });
         }
         if let Commissioning::Collecting { planned, kept } = record.commissioning() {

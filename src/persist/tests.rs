@@ -8,10 +8,10 @@ use crate::health::{Abstain, FaultMode, HealthReport, Status};
 use crate::params::EmaParams;
 
 /// The tests' flash: 4 pages of 2 KiB (two records per page, so saves cycle the pages quickly).
-type Flash = RamFlash<4, 2048>;
-const RANGE: core::ops::Range<u32> = 0..Flash::CAPACITY as u32;
+pub(super) type Flash = RamFlash<4, 2048>;
+pub(super) const RANGE: core::ops::Range<u32> = 0..Flash::CAPACITY as u32;
 
-fn report(k: [f32; 8]) -> HealthReport {
+pub(super) fn report(k: [f32; 8]) -> HealthReport {
     HealthReport::new(FaultVector(k), &EmaParams::NOMINAL, 0.01, 100, 10, None)
 }
 
@@ -26,12 +26,12 @@ pub(super) fn record_after(flights: u32) -> HealthRecord {
     r
 }
 
-fn store(flash: Flash) -> HealthStore<Flash> {
+pub(super) fn store(flash: Flash) -> HealthStore<Flash> {
     HealthStore::new(flash, RANGE).expect("valid range")
 }
 
 /// A flash holding the saves of `record_after(1..=n)`.
-fn flash_with(n: u32) -> Flash {
+pub(super) fn flash_with(n: u32) -> Flash {
     let mut s = store(Flash::new());
     for i in 1..=n {
         s.save(&record_after(i)).expect("save");
