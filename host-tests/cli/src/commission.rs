@@ -122,10 +122,10 @@ pub fn run(args: &CommissionArgs) -> Result<String, CliError> {
     let overwrite = args.output.overwrite();
     let out = args.output.out.as_deref().ok_or_else(|| CliError::flag("--out", "give the unit's parameter file"))?;
     if args.files.len() > MAX_COMMISSIONING_FLIGHTS {
-        return Err(CliError::flag(
-            "FILE",
-            format!("{} recordings; commissioning takes at most {MAX_COMMISSIONING_FLIGHTS}", args.files.len()),
-        ));
+        return Err(CliError::usage(format!(
+            "{} recordings; commissioning takes at most {MAX_COMMISSIONING_FLIGHTS}",
+            args.files.len()
+        )));
     }
     let posterior_out = tolerances_path(out);
     check_file(out, overwrite)?;
@@ -231,7 +231,7 @@ pub fn commission_recordings(
     config: &IdentifyConfig,
 ) -> Result<Baseline, CliError> {
     let Some(first) = recordings.first().map(|r| r.path) else {
-        return Err(CliError::flag("FILE", "give at least one recording"));
+        return Err(CliError::usage("give at least one recording"));
     };
     let fits = recordings
         .iter()
@@ -243,7 +243,7 @@ pub fn commission_recordings(
         .map(|(fit, r)| CommissioningFlight { fit, temperature_c: r.temperature_c })
         .collect();
     let mut objective = BaselineFit::new(&flights, *base, *tolerances, config.independent_frames_per_block)
-        .map_err(|e| CliError::flag("FILE", e.to_string()))?;
+        .map_err(|e| CliError::usage(e.to_string()))?;
     let baseline =
         commission::<HOST_WINDOW, SWARM_PARTICLES>(&mut objective, SWARM_ITERATIONS, config.seed, &mut || {})
             .map_err(|e| CliError::input(first, e.to_string()))?;

@@ -186,24 +186,24 @@ pub fn recording_trace_bytes(
 ) -> Result<Vec<u8>, CliError> {
     check_recording(recording, path, &Profile::STANDARD, params)?;
     if recording.len() != FIRMWARE_TRACE_FRAMES {
-        return Err(CliError::Input {
-            path: path.to_path_buf(),
-            message: format!(
+        return Err(CliError::input(
+            path,
+            format!(
                 "{} rows, but a firmware trace holds exactly {FIRMWARE_TRACE_FRAMES} frames (the standard profile, \
                  {} s at {SAMPLE_RATE_HZ} Hz)",
                 recording.len(),
                 Profile::STANDARD.duration_s()
             ),
-        });
+        ));
     }
     if pre_trigger.len() > MAX_PRE_TRIGGER_FRAMES {
-        return Err(CliError::Input {
-            path: path.to_path_buf(),
-            message: format!(
+        return Err(CliError::input(
+            path,
+            format!(
                 "{} rows before the manoeuvre, but a firmware trace keeps at most {MAX_PRE_TRIGGER_FRAMES}",
                 pre_trigger.len()
             ),
-        });
+        ));
     }
     let codes = |r: &Recording, k: usize| [r.ia_a[k], r.ib_a[k], r.ic_a[k]].map(|i| amps_to_counts(i as f32));
     let frames: Vec<[u16; 3]> = (0..pre_trigger.len())
@@ -213,10 +213,8 @@ pub fn recording_trace_bytes(
     // at most MAX_PRE_TRIGGER_FRAMES: fits a u32
     let header = TraceHeader::new(SAMPLE_RATE_HZ, pre_trigger.len() as u32);
     let mut bytes = vec![0u8; header.packed_len(frames.len())];
-    let n = pack(&frames, header, &mut bytes).map_err(|e| CliError::Input {
-        path: path.to_path_buf(),
-        message: format!("the recording cannot be packed: {e}"),
-    })?;
+    let n = pack(&frames, header, &mut bytes)
+        .map_err(|e| CliError::input(path, format!("the recording cannot be packed: {e}")))?;
     bytes.truncate(n);
     Ok(bytes)
 }

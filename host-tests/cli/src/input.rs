@@ -8,6 +8,9 @@
 
 use std::fmt;
 use std::io::{BufRead, Read};
+use std::path::Path;
+
+use crate::error::{CliError, Place};
 
 /// Why a bounded read failed.
 #[derive(Debug)]
@@ -45,6 +48,30 @@ impl fmt::Display for ReadError {
 }
 
 impl std::error::Error for ReadError {}
+
+impl ReadError {
+    /// The 1-based line at fault, when one is.
+    pub fn line(&self) -> Option<usize> {
+        match self {
+            ReadError::NotUtf8 { line } | ReadError::LineTooLong { line, .. } => Some(*line),
+            ReadError::Io(_) | ReadError::TooLarge { .. } => None,
+        }
+    }
+
+    /// What is wrong, without the line.
+    pub fn message(&self) -> String {
+        match self {
+            ReadError::NotUtf8 { .. } => "not UTF-8 text".to_owned(),
+            ReadError::LineTooLong { limit, .. } => format!("longer than {limit} bytes"),
+            other => other.to_string(),
+        }
+    }
+
+    /// The error about the file `path`, at its line ([`CliError::Input`]).
+    pub fn at(&self, path: &Path) -> CliError {
+        CliError::input_at(Place::at(path, self.line(), None), self.message())
+    }
+}
 
 /// All bytes of `reader`, at most `limit` of them: a longer input is [`ReadError::TooLarge`]
 /// after reading `limit + 1` bytes, never more.

@@ -28,7 +28,7 @@ use clap::{Args, ValueEnum};
 use ema_monitor::{EffectId, EmaParams, FaultVector, ModelEffects, Profile, Tolerances, FAULT_COUNT};
 use ema_reference::{simulate, Effect, Effects, SimConfig};
 
-use crate::error::CliError;
+use crate::error::{num, CliError};
 use crate::output::{check_file, write_files, OutputArgs};
 use crate::params::ParamsArgs;
 use crate::profile_file::read_profile;
@@ -137,12 +137,12 @@ impl Actuator {
 /// `--temperature C`: finite and within [`MIN_TEMPERATURE_C`] and [`MAX_TEMPERATURE_C`].
 pub fn check_temperature(c: f64) -> Result<f64, CliError> {
     if !c.is_finite() {
-        return Err(CliError::flag("--temperature", format!("{c} is not a temperature; give degrees Celsius")));
+        return Err(CliError::flag("--temperature", format!("{} is not a temperature; give degrees Celsius", num(c))));
     }
     if !(MIN_TEMPERATURE_C..=MAX_TEMPERATURE_C).contains(&c) {
         return Err(CliError::flag(
             "--temperature",
-            format!("{c} °C is outside {MIN_TEMPERATURE_C} to {MAX_TEMPERATURE_C} °C"),
+            format!("{} °C is outside {MIN_TEMPERATURE_C} to {MAX_TEMPERATURE_C} °C", num(c)),
         ));
     }
     Ok(c)

@@ -76,7 +76,7 @@ pub const OUTPUT_FILES: [&str; 2] = ["history.json", "severity.svg"];
 pub fn run(args: &HistoryArgs) -> Result<String, CliError> {
     let laws = args.simulate.iter().map(|l| Law::parse(l)).collect::<Result<Vec<_>, _>>()?;
     if laws.is_empty() && args.files.is_empty() {
-        return Err(CliError::flag("FILES", "give recordings of successive flights or --simulate LAW…"));
+        return Err(CliError::usage("give recordings of successive flights or --simulate LAW…"));
     }
     let params = args.params.load()?;
     let overwrite = args.output.overwrite();

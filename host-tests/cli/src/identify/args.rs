@@ -7,7 +7,7 @@ use clap::{Args, ValueEnum};
 use ema_monitor::monitor::{Algorithm, IdentifyConfig};
 use ema_monitor::FaultVector;
 
-use crate::error::CliError;
+use crate::error::{num, CliError};
 use crate::params::ParamsArgs;
 use crate::progress::ProgressArgs;
 use crate::recording::RecordingArgs;
@@ -148,7 +148,7 @@ pub fn method_flags(config: IdentifyConfig, paper_only: bool, fast_regime_weight
 pub fn check_fast_regime_weight(weight: Option<f32>) -> Result<(), CliError> {
     match weight {
         Some(w) if !ema_monitor::fitness::fast_regime_weight_is_valid(w) => {
-            Err(CliError::flag("--fast-regime-weight", format!("{w} is not in (0, 1]")))
+            Err(CliError::flag("--fast-regime-weight", format!("{} is not in (0, 1]", num(w))))
         }
         _ => Ok(()),
     }

@@ -137,7 +137,7 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
             }
             (outcome, command)
         }
-        (None, None) => return Err(CliError::flag("FILE", "give a recording CSV or --firmware-trace FILE")),
+        (None, None) => return Err(CliError::usage("give a recording CSV or --firmware-trace PACKED_TRACE")),
     };
     Ok(render(&outcome, &config.effects, &command, loaded.as_ref(), temperature, args))
 }

@@ -55,10 +55,10 @@ pub struct PooledOutcome {
 pub fn run(args: &IdentifyArgs, config: &IdentifyConfig, params: &EmaParams) -> Result<PooledOutcome, CliError> {
     let files = &args.files;
     if files.len() > MAX_POOLED_RECORDINGS {
-        return Err(CliError::flag(
-            "FILE",
-            format!("{} recordings given; at most {MAX_POOLED_RECORDINGS} are pooled", files.len()),
-        ));
+        return Err(CliError::usage(format!(
+            "{} recordings given; at most {MAX_POOLED_RECORDINGS} are pooled",
+            files.len()
+        )));
     }
     let mut loads = Vec::new();
     for path in files {
@@ -85,7 +85,7 @@ pub fn run(args: &IdentifyArgs, config: &IdentifyConfig, params: &EmaParams) -> 
         first_load.get_or_insert(load.summary);
     }
     let (Some(loaded), Some(first_path)) = (first_load, files.first()) else {
-        return Err(CliError::flag("FILE", "give a recording CSV or --firmware-trace FILE"));
+        return Err(CliError::usage("give a recording CSV or --firmware-trace PACKED_TRACE"));
     };
     let config = IdentifyConfig { independent_frames_per_block: frames_per_block, ..*config };
     let refs: Vec<&MeasuredTrace<HOST_WINDOW>> = traces.iter().map(|t| &**t).collect();

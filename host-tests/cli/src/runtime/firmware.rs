@@ -59,7 +59,7 @@ impl Refusal {
 /// Reads a packed trace file (`--firmware-trace`), at most [`MAX_FIRMWARE_TRACE_BYTES`].
 pub fn read_firmware_trace(path: &Path) -> Result<Vec<u8>, CliError> {
     let file = File::open(path).map_err(|e| CliError::input(path, format!("cannot read: {e}")))?;
-    input::read_bounded(file, MAX_FIRMWARE_TRACE_BYTES).map_err(|e| CliError::input(path, e.to_string()))
+    input::read_bounded(file, MAX_FIRMWARE_TRACE_BYTES).map_err(|e| e.at(path))
 }
 
 /// The firmware's path on the bytes of a packed trace, step for step as `src/main.rs`: parse,
