@@ -1,4 +1,5 @@
-//! The command line's error type: one line, printed by `main` after `error: `, exit status 2.
+//! The command line's error type: one line, printed by `main` after `error: `, with the exit
+//! status of its kind ([`CliError::exit_code`], the contract of [`crate::exit`]).
 //!
 //! Every error about a file opens with the same place ([`Place`]), whatever the file (a recording,
 //! a parameter, tolerance, sensor or profile file, a model configuration, a sidecar, a packed
@@ -12,14 +13,14 @@
 //! as a whole). Numbers in messages go through [`num`]: at most six significant digits, so no
 //! value prints at full length.
 //!
-//! This module depends on no other module of the crate: the readers convert their own errors
-//! into a [`CliError`] (`impl From<RecordingError> for CliError` lives with `RecordingError`).
+//! This module depends on no other module of the crate but [`crate::exit`] (a leaf): the readers
+//! convert their own errors into a [`CliError`] (`impl From<RecordingError> for CliError` lives
+//! with `RecordingError`).
 
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-/// Exit status of every failed command (bad input or failed I/O).
-pub const EXIT_FAILURE: u8 = 2;
+use crate::exit::{RUNTIME_FAILURE, USAGE_ERROR};
 
 /// Where in a file an error is: the file, and the line, field and column where one is at fault.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -122,15 +123,25 @@ pub enum CliError {
         /// The file.
         path: PathBuf,
     },
-    /// A file could not be created or written.
+    /// An output path cannot be used: its directory is missing or not writable, or it is a
+    /// directory (checked before any work, and again just before the file is put in place).
+    Unwritable {
+        /// The path.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+    /// A file could not be written (the disk, not the command line, failed).
     Io {
         /// The file.
         path: PathBuf,
         /// The operating system's reason.
         source: std::io::Error,
     },
-    /// The simulator refused its configuration.
+    /// The simulator refused its configuration (the flags' or the parameter file's values).
     Simulation(String),
+    /// The work itself failed for a reason that is not the input's (e.g. no worker thread).
+    Runtime(String),
     /// An input file is unusable (names the file, and the line and field where there is one).
     Input {
         /// Where.
@@ -165,6 +176,16 @@ impl CliError {
     pub fn input_line(path: &Path, line: usize, field: Option<&str>, message: impl Into<String>) -> Self {
         Self::input_at(Place::at(path, (line > 0).then_some(line), field), message)
     }
+
+    /// The exit status of this error: [`crate::exit::RUNTIME_FAILURE`] (1) when writing failed
+    /// or the work could not run, [`crate::exit::USAGE_ERROR`] (2) for every error of the
+    /// command line or of an input file.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CliError::Io { .. } | CliError::Runtime(_) => RUNTIME_FAILURE,
+            _ => USAGE_ERROR,
+        }
+    }
 }
 
 impl fmt::Display for CliError {
@@ -175,8 +196,10 @@ impl fmt::Display for CliError {
             CliError::Exists { path } => {
                 write!(f, "'{}' exists; pass --force to overwrite it", path.display())
             }
+            CliError::Unwritable { path, reason } => write!(f, "cannot write '{}': {reason}", path.display()),
             CliError::Io { path, source } => write!(f, "cannot write '{}': {source}", path.display()),
             CliError::Simulation(m) => write!(f, "simulation refused: {m}"),
+            CliError::Runtime(m) => write!(f, "{m}"),
             CliError::Input { place, message } => write!(f, "{place}: {message}"),
         }
     }

@@ -18,7 +18,8 @@
 //!    them. A replaced file keeps its permissions.
 //!
 //! A process killed between the write and the rename leaves its `.NAME.PID.N.tmp` file behind,
-//! and the destination untouched.
+//! and the destination untouched. An error up front (a path that cannot be used) exits 2, a
+//! failed write 1 ([`crate::exit`]).
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter, Write};
@@ -87,14 +88,14 @@ fn temp_path(dir: &Path, name: &str) -> PathBuf {
     dir.join(format!(".{name}.{}.{n}.tmp", std::process::id()))
 }
 
-/// An I/O error about `path`, with the operating system's or our reason.
+/// A failed write of `path` (the disk's fault: exit status 1).
 fn io_error(path: &Path, source: io::Error) -> CliError {
     CliError::Io { path: path.to_path_buf(), source }
 }
 
-/// An I/O error about `path` with a reason of ours.
-fn refusal(path: &Path, reason: String) -> CliError {
-    io_error(path, io::Error::other(reason))
+/// `path` cannot be used as an output, for `reason` (the command line's fault: exit status 2).
+fn refusal(path: &Path, reason: impl Into<String>) -> CliError {
+    CliError::Unwritable { path: path.to_path_buf(), reason: reason.into() }
 }
 
 /// Checks that `dir` is an existing directory in which a file can be created (creates and
@@ -106,27 +107,27 @@ fn check_writable_dir(dir: &Path, target: &Path) -> Result<(), CliError> {
         Err(e) if e.kind() == io::ErrorKind::NotFound => {
             return Err(refusal(target, format!("directory '{}' does not exist", dir.display())))
         }
-        Err(e) => return Err(io_error(target, e)),
+        Err(e) => return Err(refusal(target, e.to_string())),
     }
     let probe = temp_path(dir, "ema-write-probe");
-    OpenOptions::new().write(true).create_new(true).open(&probe).map_err(|e| io_error(target, e))?;
-    fs::remove_file(&probe).map_err(|e| io_error(target, e))
+    OpenOptions::new().write(true).create_new(true).open(&probe).map_err(|e| refusal(target, e.to_string()))?;
+    fs::remove_file(&probe).map_err(|e| refusal(target, e.to_string()))
 }
 
 /// Checks the destination itself: not a directory, and no existing file unless `overwrite` allows it.
 fn check_destination(path: &Path, overwrite: Overwrite) -> Result<(), CliError> {
     match fs::metadata(path) {
-        Ok(m) if m.is_dir() => Err(refusal(path, "it is a directory, not a file".to_string())),
+        Ok(m) if m.is_dir() => Err(refusal(path, "it is a directory, not a file")),
         Ok(_) if overwrite == Overwrite::Refuse => Err(CliError::Exists { path: path.to_path_buf() }),
         Ok(_) => Ok(()),
         Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(()),
-        Err(e) => Err(io_error(path, e)),
+        Err(e) => Err(refusal(path, e.to_string())),
     }
 }
 
 /// The file name of an output path, or an error if it has none (`dir/..`, `/`).
 fn file_name(path: &Path) -> Result<&str, CliError> {
-    path.file_name().and_then(|n| n.to_str()).ok_or_else(|| refusal(path, "not a file name".to_string()))
+    path.file_name().and_then(|n| n.to_str()).ok_or_else(|| refusal(path, "not a file name"))
 }
 
 /// Checks, before any work, that `path` can be written: its directory exists and accepts a new
@@ -143,9 +144,9 @@ pub fn check_file(path: &Path, overwrite: Overwrite) -> Result<(), CliError> {
 /// into it as [`check_file`] does.
 pub fn prepare_dir(dir: &Path, names: &[&str], overwrite: Overwrite) -> Result<(), CliError> {
     match fs::metadata(dir) {
-        Ok(m) if !m.is_dir() => return Err(refusal(dir, "it is a file, not a directory".to_string())),
+        Ok(m) if !m.is_dir() => return Err(refusal(dir, "it is a file, not a directory")),
         Ok(_) => {}
-        Err(_) => fs::create_dir_all(dir).map_err(|e| io_error(dir, e))?,
+        Err(_) => fs::create_dir_all(dir).map_err(|e| refusal(dir, e.to_string()))?,
     }
     check_writable_dir(dir, dir)?;
     for name in names {

@@ -114,10 +114,11 @@ fn a_write_failing_midway_keeps_the_old_file_and_no_temporary_file() {
     let dir = scratch("safety", "midway");
     let out = dir.join("rec.csv");
     std::fs::write(&out, "old recording\n").unwrap();
-    // the write fails with EFBIG after 16 KiB: exit 2 naming the file, old file intact, no temp file
+    // the write fails with EFBIG after 16 KiB: exit 1 (a failed write, not a bad input: docs/cli.md)
+    // naming the file, old file intact, no temp file
     let o = ema_with_small_file_limit(&["simulate", "--out", s(&out), "--force"], true);
     let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.starts_with("error: cannot write") && err.contains("rec.csv"), "{err}");
     assert_eq!(std::fs::read_to_string(&out).unwrap(), "old recording\n");
     assert_eq!(entries(&dir), ["rec.csv"]);
@@ -131,7 +132,7 @@ fn a_write_failing_midway_keeps_the_old_file_and_no_temporary_file() {
     // the same with no old file: nothing appears under the destination's name
     let fresh = dir.join("fresh.csv");
     let o = ema_with_small_file_limit(&["simulate", "--out", s(&fresh)], true);
-    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(o.status.code(), Some(1));
     assert!(!fresh.exists());
 }
 

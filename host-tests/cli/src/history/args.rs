@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use crate::exit::FailOn;
 use crate::output::OutputArgs;
 use crate::params::ParamsArgs;
 use crate::progress::ProgressArgs;
@@ -33,6 +34,10 @@ pub struct HistoryArgs {
     /// Print JSON instead of the tables.
     #[arg(long)]
     pub json: bool,
+    /// Exit with status 5 when the last flight's diagnosis is at or above LEVEL (`degraded`:
+    /// DEGRADED or FAILING; `failing`: FAILING), for a CI pipeline (docs/cli.md).
+    #[arg(long, value_enum, value_name = "LEVEL", conflicts_with = "simulate")]
+    pub fail_on: Option<FailOn>,
     /// How to read the recordings.
     #[command(flatten)]
     pub recording: RecordingArgs,

@@ -38,6 +38,11 @@
 //! for declarations by pooled evidence), and the prognosis at the last flight against the true
 //! crossing of the failing threshold.
 //!
+//! **Exit status** (docs/cli.md): for recordings, that of the last flight's report as the health
+//! record keeps it (with any mode declared by pooled evidence refitted in): the actuator's
+//! current state, 0 for a diagnosis, 3 for INCONCLUSIVE, 4 for SENSOR_FAULT, 5 at or above
+//! `--fail-on LEVEL`. Under `--simulate` (a measurement of the method) it is 0.
+//!
 //! `--out DIR` writes `history.json` (the `--json` document) and `severity.svg` (severity against
 //! flight per mode as the record keeps it, the flights a mode was declared by pooled evidence
 //! ringed, the trend lines, the failing threshold and the RUL band).
@@ -57,6 +62,7 @@ pub mod series;
 pub mod text;
 
 use crate::error::CliError;
+use crate::exit::Done;
 use crate::output::{prepare_dir, write_files};
 use crate::schema::Document;
 
@@ -72,8 +78,9 @@ pub use text::text;
 /// The files `--out DIR` receives.
 pub const OUTPUT_FILES: [&str; 2] = ["history.json", "severity.svg"];
 
-/// Runs `ema history`.
-pub fn run(args: &HistoryArgs) -> Result<String, CliError> {
+/// Runs `ema history`. Its exit status: for recordings, the last flight's as the health record
+/// keeps it ([`Series::current`], under `--fail-on`); under `--simulate`, 0.
+pub fn run(args: &HistoryArgs) -> Result<Done, CliError> {
     let laws = args.simulate.iter().map(|l| Law::parse(l)).collect::<Result<Vec<_>, _>>()?;
     if laws.is_empty() && args.files.is_empty() {
         return Err(CliError::usage("give recordings of successive flights or --simulate LAW…"));
@@ -91,5 +98,9 @@ pub fn run(args: &HistoryArgs) -> Result<String, CliError> {
         let paths = OUTPUT_FILES.map(|name| dir.join(name));
         write_files(&[(&paths[0], json.as_bytes()), (&paths[1], svg.as_bytes())], overwrite)?;
     }
-    Ok(if args.json { json } else { text(&doc) })
+    let stdout = if args.json { json } else { text(&doc) };
+    Ok(match series.current {
+        Some(status) if laws.is_empty() => Done::report(stdout, status, args.fail_on),
+        _ => Done::success(stdout),
+    })
 }

@@ -8,6 +8,7 @@ use ema_monitor::monitor::{Algorithm, IdentifyConfig};
 use ema_monitor::FaultVector;
 
 use crate::error::{num, CliError};
+use crate::exit::FailOn;
 use crate::params::ParamsArgs;
 use crate::progress::ProgressArgs;
 use crate::recording::RecordingArgs;
@@ -107,6 +108,11 @@ pub struct IdentifyArgs {
     /// Print JSON instead of the readable report.
     #[arg(long)]
     pub json: bool,
+    /// Exit with status 5 when the diagnosis is at or above LEVEL (`degraded`: DEGRADED or
+    /// FAILING; `failing`: FAILING), for a CI pipeline; INCONCLUSIVE and SENSOR_FAULT keep their
+    /// statuses 3 and 4 (docs/cli.md).
+    #[arg(long, value_enum, value_name = "LEVEL")]
+    pub fail_on: Option<FailOn>,
     /// Also print the fault vector's f32 bit patterns and the one-line summary the firmware logs
     /// (for the host/target parity check, `scripts/parity`); a refused --firmware-trace prints its
     /// summary (`summary: REFUSED <stage> <error>`) before the error.
