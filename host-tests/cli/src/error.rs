@@ -123,8 +123,9 @@ pub enum CliError {
         /// The file.
         path: PathBuf,
     },
-    /// An output path cannot be used: its directory is missing or not writable, or it is a
-    /// directory (checked before any work, and again just before the file is put in place).
+    /// An output path cannot be used: its directory is missing or not writable, it is a directory,
+    /// or something other than a regular file is there (checked before any work, and again just
+    /// before the file is put in place).
     Unwritable {
         /// The path.
         path: PathBuf,
@@ -194,7 +195,7 @@ impl fmt::Display for CliError {
             CliError::Flag { flag, message } => write!(f, "{flag}: {message}"),
             CliError::Usage(m) => write!(f, "{m}"),
             CliError::Exists { path } => {
-                write!(f, "'{}' exists; pass --force to overwrite it", path.display())
+                write!(f, "'{}' exists (a regular file; --force replaces it)", path.display())
             }
             CliError::Unwritable { path, reason } => write!(f, "cannot write '{}': {reason}", path.display()),
             CliError::Io { path, source } => write!(f, "cannot write '{}': {source}", path.display()),

@@ -1,7 +1,9 @@
 //! No lost data: every file the `ema` commands write is checked before the work starts, replaces
-//! an existing file only with `--force`, and is written to a temporary file renamed into place, so
-//! a failed or interrupted write leaves the old file intact.
+//! an existing regular file only with `--force` and nothing else ever (a symlink, FIFO or device
+//! stays as it is), and is written to a temporary file renamed into place, so a failed or
+//! interrupted write leaves the old file intact.
 
+use std::os::unix::fs::{symlink, FileTypeExt};
 use std::os::unix::process::ExitStatusExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -238,11 +240,89 @@ fn firmware_trace_writes_to_the_working_directory_not_the_source_tree() {
     assert_eq!(std::fs::metadata(committed_trace()).unwrap().modified().unwrap(), modified);
 }
 
+/// A FIFO at `path`.
+fn mkfifo(path: &Path) {
+    let status = Command::new("mkfifo").arg(path).status().expect("mkfifo runs");
+    assert!(status.success(), "mkfifo {}", path.display());
+}
+
+/// The effective user id (`id -u`).
+fn uid() -> u32 {
+    let out = Command::new("id").arg("-u").output().expect("id runs");
+    String::from_utf8_lossy(&out.stdout).trim().parse().expect("a user id")
+}
+
+#[test]
+fn outputs_never_replace_a_symlink_a_fifo_or_a_device() {
+    let dir = scratch("safety", "nodes");
+    let precious = dir.join("precious.txt");
+    std::fs::write(&precious, "precious\n").unwrap();
+    let to_file = dir.join("to-file.csv");
+    symlink(&precious, &to_file).unwrap();
+    let to_null = dir.join("to-null.csv");
+    symlink("/dev/null", &to_null).unwrap();
+    let fifo = dir.join("fifo.csv");
+    mkfifo(&fifo);
+    for (target, kind) in [(&to_file, "a symlink"), (&to_null, "a symlink"), (&fifo, "a FIFO")] {
+        for force in [false, true] {
+            let mut args = vec!["simulate", "--out", s(target)];
+            if force {
+                args.push("--force");
+            }
+            refused_fast(&args, &[s(target), kind, "not replaced"]);
+        }
+        // the same for every command that writes one file
+        refused_fast(&["fleet", "--units", "1", "--out", s(target), "--force"], &[kind]);
+        refused_fast(&["firmware-trace", "--out", s(target), "--force"], &[kind]);
+    }
+    assert!(std::fs::symlink_metadata(&to_file).unwrap().file_type().is_symlink());
+    assert!(std::fs::symlink_metadata(&to_null).unwrap().file_type().is_symlink());
+    assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
+    assert_eq!(std::fs::read_link(&to_null).unwrap(), Path::new("/dev/null"));
+    assert_eq!(std::fs::read_to_string(&precious).unwrap(), "precious\n");
+    // and in an output directory: one of campaign's files a symlink to a file
+    let out = dir.join("campaign");
+    std::fs::create_dir(&out).unwrap();
+    symlink(&precious, out.join("runs.csv")).unwrap();
+    let args = ["campaign", "--runs", "1", "--modes", "gain", "--max-iterations", "2", "--out", s(&out), "--force"];
+    refused_fast(&args, &["runs.csv", "a symlink"]);
+    assert_eq!(std::fs::read_to_string(&precious).unwrap(), "precious\n");
+    assert_eq!(entries(&dir), ["campaign", "fifo.csv", "precious.txt", "to-file.csv", "to-null.csv"]);
+    assert_eq!(entries(&out), ["runs.csv"]);
+}
+
+/// As root, a device node (`mknod DIR/full c 1 7`, the kernel's /dev/full) given as `--out` with
+/// `--force` stays a character device: before the fix it became a regular file. Without root,
+/// `mknod` is refused, and the case is skipped with a note saying so.
+#[test]
+fn as_root_a_device_node_given_as_out_stays_a_device() {
+    let uid = uid();
+    if uid != 0 {
+        eprintln!(
+            "skipped: the device case needs root to mknod (running as uid {uid}); the symlink to /dev/null stands in"
+        );
+        return;
+    }
+    let dir = scratch("safety", "device");
+    let device = dir.join("full");
+    let status = Command::new("mknod").arg(&device).args(["c", "1", "7"]).status().expect("mknod runs");
+    assert!(status.success(), "mknod as root");
+    for args in
+        [vec!["simulate", "--out", s(&device), "--force"], vec!["firmware-trace", "--out", s(&device), "--force"]]
+    {
+        refused_fast(&args, &["full", "a character device", "not replaced"]);
+        let meta = std::fs::symlink_metadata(&device).unwrap();
+        assert!(meta.file_type().is_char_device(), "{args:?}: the node is still a device: {meta:?}");
+    }
+    assert_eq!(entries(&dir), ["full"]);
+}
+
 #[test]
 fn help_documents_force_and_the_default_trace_location() {
-    for cmd in ["simulate", "firmware-trace", "campaign", "discover"] {
+    for cmd in ["simulate", "firmware-trace", "campaign", "discover", "history", "commission", "fleet"] {
         let help = accepted(&[cmd, "--help"]);
         assert!(help.contains("--force"), "{cmd} --help lacks --force: {help}");
+        assert!(help.contains("regular file"), "{cmd} --help does not say what --force replaces: {help}");
     }
     let help = accepted(&["firmware-trace", "--help"]);
     assert!(help.contains("current directory") && help.contains("standard.ematrace"), "{help}");
