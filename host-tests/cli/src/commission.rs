@@ -14,6 +14,8 @@
 //! beside it `NAME.tolerances.toml`, the 1σ commissioning left on each parameter, which `ema
 //! identify --tolerances` takes for its unit check.
 //!
+//! A recording given twice (the same file, or the same bytes) is refused: it is one flight.
+//!
 //! Nothing is written when the recordings do not look like a healthy unit within its
 //! tolerances, because a fault present at commissioning must not become the baseline:
 //! - a resolved parameter more than 3σ from nominal (a friction fault reads as friction far
@@ -36,11 +38,12 @@ use ema_monitor::{Command, EmaParams};
 use serde::Serialize;
 
 use crate::error::CliError;
+use crate::input::check_distinct;
 use crate::output::{check_file, write_files, OutputArgs};
 use crate::params::ParamsArgs;
 use crate::params_file::template;
 use crate::progress::ProgressArgs;
-use crate::recording::RecordingArgs;
+use crate::recording::{RecordingArgs, MAX_FILE_BYTES};
 use crate::runtime::command::{command_for, resolve_command, CommandArg, ModelCommand};
 use crate::runtime::identification::identify_trace;
 use crate::runtime::recording::condition_recording_checked_for;
@@ -127,6 +130,7 @@ pub fn run(args: &CommissionArgs) -> Result<String, CliError> {
             args.files.len()
         )));
     }
+    check_distinct(&args.files, MAX_FILE_BYTES)?;
     let posterior_out = tolerances_path(out);
     check_file(out, overwrite)?;
     check_file(&posterior_out, overwrite)?;

@@ -8,9 +8,9 @@
 //! exit statuses ([`exit`]). No
 //! file imports itself back through another (no import cycle). Every input file is read within a
 //! stated size, so no file drives an allocation. Every output file goes
-//! through [`output`]: checked before the work, an existing regular file replaced only with
-//! `--force` and no other node ever (a symlink, FIFO or device), written to a temporary file and
-//! renamed into place.
+//! through [`output`]: checked before the work (and after the inputs), an existing regular file
+//! replaced only with `--force` and no other node ever (a symlink, FIFO or device), written to a
+//! temporary file and renamed into place.
 //! The binary (`src/main.rs`) parses the command line with clap and prints every error as a
 //! single `error: …` line on stderr; its exit status is the contract of [`exit`] (2 for a usage or
 //! input error, 1 when writing failed, 3 and 4 for a report that is no diagnosis).

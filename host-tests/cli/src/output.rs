@@ -5,10 +5,12 @@
 //! `fleet --out`):
 //!
 //! 1. **Checked up front.** [`check_file`] and [`prepare_dir`] run before any simulation or
-//!    identification: the directory exists (an output directory is created), is a directory, and
-//!    accepts a new file (one is created and removed); the output path is not a directory; an
-//!    existing file is refused unless the command was given `--force` ([`Overwrite::Replace`]),
-//!    with [`CliError::Exists`] naming it. A long run never ends in an error about its output.
+//!    identification (and, in a command that reads inputs, once they are checked: a bad input
+//!    leaves no output directory behind): the directory exists (an output directory is created),
+//!    is a directory, and accepts a new file (one is created and removed); the output path is not
+//!    a directory; an existing file is refused unless the command was given `--force`
+//!    ([`Overwrite::Replace`]), with [`CliError::Exists`] naming it. A long run never ends in an
+//!    error about its output.
 //! 2. **Only a regular file is replaced.** Whatever is at the output path that is not a regular
 //!    file — a symlink (to a file, a directory or a device alike: the link itself is looked at,
 //!    never followed), a FIFO, a character or block device, a socket — is refused with or without

@@ -1,7 +1,8 @@
-//! No lost data: every file the `ema` commands write is checked before the work starts, replaces
-//! an existing regular file only with `--force` and nothing else ever (a symlink, FIFO or device
-//! stays as it is), and is written to a temporary file renamed into place, so a failed or
-//! interrupted write leaves the old file intact.
+//! No lost data: every file the `ema` commands write is checked before the work starts (and
+//! after the inputs: a bad input leaves no output behind), replaces an existing regular file only
+//! with `--force` and nothing else ever (a symlink, FIFO or device stays as it is), and is written
+//! to a temporary file renamed into place, so a failed or interrupted write leaves the old file
+//! intact.
 
 use std::os::unix::fs::{symlink, FileTypeExt};
 use std::os::unix::process::ExitStatusExt;
@@ -315,6 +316,23 @@ fn as_root_a_device_node_given_as_out_stays_a_device() {
         assert!(meta.file_type().is_char_device(), "{args:?}: the node is still a device: {meta:?}");
     }
     assert_eq!(entries(&dir), ["full"]);
+}
+
+#[test]
+fn a_bad_input_leaves_no_output_directory() {
+    let dir = scratch("safety", "inputs-first");
+    let bad = dir.join("bad.csv");
+    std::fs::write(&bad, "time_s,command_rad,position_rad,ia_A,ib_A,ic_A\n0,0,0,0,0,0\n0.0001,0,0,x,0,0\n").unwrap();
+    let good = dir.join("good.csv");
+    accepted(&["simulate", "--out", s(&good)]);
+    let out = dir.join("out");
+    refused_fast(&["discover", s(&bad), "--out", s(&out)], &["bad.csv", "line 3", "field 'ia_A'"]);
+    assert!(!out.exists(), "discover created its --out before refusing its input");
+    // history reads every recording before the first flight and before --out
+    refused_fast(&["history", s(&good), s(&bad), "--out", s(&out)], &["bad.csv", "line 3"]);
+    refused_fast(&["history", s(&good), s(&dir.join("missing.csv")), "--out", s(&out)], &["missing.csv"]);
+    assert!(!out.exists(), "history created its --out before refusing an input");
+    assert_eq!(entries(&dir), ["bad.csv", "good.csv", "good.json"]);
 }
 
 #[test]

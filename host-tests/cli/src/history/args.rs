@@ -13,7 +13,7 @@ use crate::recording::RecordingArgs;
 /// Arguments of `ema history`.
 #[derive(Args, Debug, Clone)]
 #[command(mut_arg("out", |a| a.value_name("DIR").help("Write history.json and severity.svg here \
-    (created if needed; checked before the first flight)")))]
+    (created if needed, once every recording is checked; checked before the first flight)")))]
 pub struct HistoryArgs {
     /// Recordings of successive flights of one actuator, oldest first.
     #[arg(required_unless_present = "simulate", conflicts_with = "simulate")]

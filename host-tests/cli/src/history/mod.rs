@@ -6,7 +6,9 @@
 //! ema history --simulate LAW… [--flights N] [--seed S] [--json] [--out DIR]
 //! ```
 //!
-//! Each recording is one flight, in the order given. Every flight runs the on-board sequence
+//! Each recording is one flight, in the order given. Every recording is read and checked before
+//! the first flight is identified, and before `--out DIR` is created ([`check_flights`]); one
+//! given twice (the same file, or the same bytes) is refused. Every flight runs the on-board sequence
 //! through [`identify_flight`]: the core identifies the recording (the first flight cold, a later
 //! flight warm from the previous diagnosis, with new-fault probes, unless the core's plan asks
 //! for a cold one) with the on-board settings
@@ -72,20 +74,25 @@ pub use flight::{identify_flight, FlightResult, Start};
 pub use json::{CampaignJson, FlightJson, HistoryJson, ModeJson};
 pub use law::{true_crossing, truth_at, Law, LAW_MODES};
 pub use plot::plot;
-pub use series::{run_series, Series};
+pub use series::{check_flights, run_series, Series};
 pub use text::text;
 
 /// The files `--out DIR` receives.
 pub const OUTPUT_FILES: [&str; 2] = ["history.json", "severity.svg"];
 
-/// Runs `ema history`. Its exit status: for recordings, the last flight's as the health record
-/// keeps it ([`Series::current`], under `--fail-on`); under `--simulate`, 0.
+/// Runs `ema history`: every input checked (the laws, the parameters, the profile, and every
+/// recording read as its flight will read it, [`check_flights`]) before `--out` is created and
+/// before the first flight. Its exit status: for recordings, the last flight's as the health
+/// record keeps it ([`Series::current`], under `--fail-on`); under `--simulate`, 0.
 pub fn run(args: &HistoryArgs) -> Result<Done, CliError> {
     let laws = args.simulate.iter().map(|l| Law::parse(l)).collect::<Result<Vec<_>, _>>()?;
     if laws.is_empty() && args.files.is_empty() {
         return Err(CliError::usage("give recordings of successive flights or --simulate LAW…"));
     }
     let params = args.params.load()?;
+    if laws.is_empty() {
+        check_flights(args, &params)?;
+    }
     let overwrite = args.output.overwrite();
     if let Some(dir) = &args.output.out {
         prepare_dir(dir, &OUTPUT_FILES, overwrite)?;

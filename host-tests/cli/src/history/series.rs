@@ -18,8 +18,9 @@ use super::flight::{identify_flight, Start};
 use super::json::FlightJson;
 use super::law::{truth_at, Law};
 use crate::error::CliError;
+use crate::input::check_distinct;
 use crate::progress;
-use crate::recording::Recording;
+use crate::recording::{Recording, MAX_FILE_BYTES};
 use crate::runtime::command::ModelCommand;
 use crate::runtime::temperature::model_params;
 use crate::simulate::resolve_profile;
@@ -94,6 +95,21 @@ pub struct Series {
     /// each mode declared by pooled evidence refitted in): the actuator's current state; `None`
     /// without flights.
     pub current: Option<Status>,
+}
+
+/// Checks every recording of `ema history FILE…` before the first flight: no file given twice
+/// ([`check_distinct`]), and each read (`--column`, `--start`, … and the profile's alignment) and
+/// taken at its temperature exactly as its flight will take it; the first error names its file.
+/// The recordings are read again flight by flight, so that one flight's recording is in memory
+/// at a time.
+pub fn check_flights(args: &HistoryArgs, params: &EmaParams) -> Result<(), CliError> {
+    let profile = resolve_profile(&args.profile)?;
+    check_distinct(&args.files, MAX_FILE_BYTES)?;
+    for path in &args.files {
+        let load = args.recording.load(path, Some(&profile), params)?;
+        model_params(&load.recording, path, params)?;
+    }
+    Ok(())
 }
 
 /// Runs the series: every flight through [`identify_flight`], the history and prognosis after
