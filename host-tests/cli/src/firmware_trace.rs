@@ -54,6 +54,7 @@ use ema_reference::{simulate, Effects, SimConfig};
 use crate::error::CliError;
 use crate::output::{check_file, write_files, OutputArgs, Overwrite};
 use crate::params::ParamsArgs;
+use crate::progress::{self, ProgressArgs};
 use crate::recording::{Recording, RecordingArgs};
 use crate::runtime::recording::check_recording;
 
@@ -90,6 +91,9 @@ pub struct FirmwareTraceArgs {
     /// The manoeuvre of the built-in run (the firmware's `EMA_PROFILE`).
     #[arg(long, value_enum, default_value_t = BuiltInProfile::Standard, conflicts_with = "from")]
     pub profile: BuiltInProfile,
+    /// `--quiet`.
+    #[command(flatten)]
+    pub progress: ProgressArgs,
 }
 
 /// A manoeuvre the firmware can fly (`EMA_PROFILE` at build time).
@@ -231,7 +235,10 @@ pub fn run(args: &FirmwareTraceArgs) -> Result<String, CliError> {
     if let Some(from) = &args.from {
         return run_from(from, &args.recording, &out, overwrite, &params);
     }
-    let bytes = firmware_trace_bytes_for(&params, args.profile)?;
+    let spinner = progress::spinner(format!("simulating {}", out.display()), args.progress.visible());
+    let bytes = firmware_trace_bytes_for(&params, args.profile);
+    spinner.finish_and_clear();
+    let bytes = bytes?;
     let trace = PackedTrace::parse(&bytes)
         .map_err(|e| CliError::Simulation(format!("the packed trace does not read back: {e}")))?;
     write_files(&[(&out, &bytes)], overwrite)?;

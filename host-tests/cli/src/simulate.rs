@@ -32,6 +32,7 @@ use crate::error::{num, CliError};
 use crate::output::{check_file, write_files, OutputArgs};
 use crate::params::ParamsArgs;
 use crate::profile_file::read_profile;
+use crate::progress::{self, ProgressArgs};
 use crate::recording::sidecar::{sidecar_path, Sidecar, SidecarSensors, SidecarUnit, SCHEMA_VERSION};
 use crate::recording::write::csv_bytes;
 use crate::recording::{Recording, HEADER, MAX_TEMPERATURE_C, MIN_TEMPERATURE_C, TEMPERATURE_HEADER};
@@ -107,6 +108,9 @@ pub struct SimulateArgs {
     /// noise; the time column starts at 0 and the manoeuvre at N ms.
     #[arg(long = "pre-trigger-ms", value_name = "N", default_value_t = 0)]
     pub pre_trigger_ms: u32,
+    /// `--quiet`.
+    #[command(flatten)]
+    pub progress: ProgressArgs,
 }
 
 /// Longest `--pre-trigger-ms` ([`ema_reference::MAX_PRE_TRIGGER_S`]).
@@ -293,7 +297,10 @@ pub fn run(args: &SimulateArgs) -> Result<String, CliError> {
     }
     check_file(out, overwrite)?;
     check_file(&side, overwrite)?;
-    let result = simulate(&cfg).map_err(|e| CliError::Simulation(e.to_string()))?;
+    let spinner = progress::spinner(format!("simulating {}", out.display()), args.progress.visible());
+    let result = simulate(&cfg).map_err(|e| CliError::Simulation(e.to_string()));
+    spinner.finish_and_clear();
+    let result = result?;
     let mut rec = Recording::from_reference(&result, Vec::new());
     let mut columns = HEADER.map(str::to_owned).to_vec();
     if let Some(t) = actuator.temperature_c {

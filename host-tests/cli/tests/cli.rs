@@ -342,3 +342,40 @@ fn every_file_error_has_one_format_and_short_numbers() {
         assert!(!err.contains("FILE"), "{args:?}: a placeholder instead of the file: {err}");
     }
 }
+
+/// The flags mean the same everywhere: every command but `params` takes `-q`/`--quiet`, every
+/// command that prints JSON spells it `--json`, every command that writes files takes the shared
+/// `--out` and `--force`, and the diagnosing commands take `--fail-on`.
+#[test]
+fn the_flags_are_the_same_across_commands() {
+    let commands = [
+        "simulate",
+        "identify",
+        "firmware-trace",
+        "compare",
+        "campaign",
+        "discover",
+        "params",
+        "commission",
+        "fleet",
+        "history",
+        "detectability",
+    ];
+    let writes = ["simulate", "firmware-trace", "campaign", "discover", "commission", "fleet", "history"];
+    let prints_json =
+        ["identify", "compare", "campaign", "discover", "commission", "fleet", "history", "detectability"];
+    let diagnoses = ["identify", "history"];
+    for cmd in commands {
+        let help = common::accepted(&[cmd, "--help"]);
+        let has = |flag: &str| help.contains(flag);
+        assert_eq!(has("-q, --quiet"), cmd != "params", "{cmd}: -q, --quiet\n{help}");
+        assert_eq!(has("--json"), prints_json.contains(&cmd), "{cmd}: --json\n{help}");
+        assert_eq!(has("--out <") && has("--force"), writes.contains(&cmd), "{cmd}: --out, --force\n{help}");
+        assert_eq!(has("--fail-on <LEVEL>"), diagnoses.contains(&cmd), "{cmd}: --fail-on\n{help}");
+        assert!(!has("--format") && !has("--output "), "{cmd}: a second spelling\n{help}");
+    }
+    // -q where it was refused before
+    let dir = scratch("cli", "quiet");
+    let out = dir.join("q.csv");
+    common::accepted(&["simulate", "-q", "--noise", "off", "--out", out.to_str().expect("utf-8")]);
+}
