@@ -4,7 +4,7 @@
 //! | status | meaning |
 //! |---|---|
 //! | 0 ([`SUCCESS`]) | a diagnosis (HEALTHY, DEGRADED, FAILING), or a command that is not a diagnosis and succeeded |
-//! | 1 ([`RUNTIME_FAILURE`]) | a failure that is not the input's fault: writing an output or stdout failed |
+//! | 1 ([`RUNTIME_FAILURE`]) | a failure that is not the input's fault: writing an output or stdout failed, no worker thread |
 //! | 2 ([`USAGE_ERROR`]) | a usage or input error: a bad flag, a bad or unusable file (the `error:` line says which) |
 //! | 3 ([`INCONCLUSIVE`]) | the report is INCONCLUSIVE, whatever the reason |
 //! | 4 ([`SENSOR_FAULT`]) | the report is SENSOR_FAULT |
@@ -21,7 +21,8 @@ use ema_monitor::health::Status;
 
 /// A diagnosis, or a command that is not a diagnosis and succeeded.
 pub const SUCCESS: u8 = 0;
-/// A runtime failure that is not the input's fault (writing an output or stdout failed).
+/// A runtime failure that is not the input's fault (writing an output or stdout failed, or the
+/// worker threads could not start).
 pub const RUNTIME_FAILURE: u8 = 1;
 /// A usage or input error: a bad flag, a bad or unusable file.
 pub const USAGE_ERROR: u8 = 2;
