@@ -16,7 +16,7 @@
 //!      built-in test); `PROFILE_NAME` is its name, for the log;
 //!    - `TRACE`: the built-in phase-current trace, `include_bytes!` of `EMA_TRACE` (default
 //!      `traces/standard.ematrace`, or `traces/pbit.ematrace` with `EMA_PROFILE=pbit`), checked
-//!      here to be a packed trace (magic and length);
+//!      here to be a packed trace (magic and length; its checksum is the firmware's to check);
 //!    - `MODEL_CONFIG_SOURCE`, `PARAMS_SOURCE` and `TRACE_SOURCE`: the paths, for the log.
 //!
 //!    Relative paths resolve from the repository root (`CARGO_MANIFEST_DIR`). A bad file stops the
@@ -201,19 +201,23 @@ fn write_model_config(out: &Path) -> Result<(), String> {
     Ok(())
 }
 
-/// The packed-trace header checks that need no decoding (magic `EMA1` or `EMA2`, non-zero rate,
-/// trigger frame within the frames, exact length); the firmware re-checks everything with
-/// `PackedTrace::parse` at start-up.
+/// The packed-trace header checks that need no decoding (magic `EMA1`, `EMA2` or `EMA3`, non-zero
+/// rate, trigger frame within the frames, exact length); the firmware re-checks everything with
+/// `PackedTrace::parse` at start-up, the `EMA3` checksum included: a corrupted trace builds, and
+/// the firmware refuses it as it would on a board (`summary: REFUSED trace Checksum`, which
+/// `scripts/parity` compares with the host's).
 fn check_trace(bytes: &[u8]) -> Result<(), String> {
     if bytes.len() < 12 {
         return Err(format!("{} bytes, shorter than the 12-byte packed-trace header", bytes.len()));
     }
-    let header = match &bytes[..4] {
-        b"EMA1" => 12,
-        b"EMA2" if bytes.len() >= 16 => 16,
+    let (header, checksum) = match &bytes[..4] {
+        b"EMA1" => (12, 0),
+        b"EMA2" if bytes.len() >= 16 => (16, 0),
+        b"EMA3" if bytes.len() >= 20 => (16, 4),
         b"EMA2" => return Err(format!("{} bytes, shorter than the 16-byte EMA2 header", bytes.len())),
+        b"EMA3" => return Err(format!("{} bytes, shorter than the 16-byte EMA3 header and its checksum", bytes.len())),
         _ => {
-            return Err("not a packed trace (does not start with EMA1 or EMA2); pack a recording with \
+            return Err("not a packed trace (does not start with EMA1, EMA2 or EMA3); pack a recording with \
                  `ema firmware-trace --from`"
                 .into())
         }
@@ -226,7 +230,7 @@ fn check_trace(bytes: &[u8]) -> Result<(), String> {
     if header == 16 && word(12) > frames {
         return Err(format!("trigger frame {} past the last of {frames} frames", word(12)));
     }
-    let expected = header + (3 * frames).div_ceil(2) * 3;
+    let expected = header + (3 * frames).div_ceil(2) * 3 + checksum;
     if bytes.len() != expected {
         return Err(format!("{} bytes, but {frames} frames need {expected}", bytes.len()));
     }

@@ -7,7 +7,8 @@
 //! `black_box`, so nothing is folded from the built-in trace) behind the replay ADC → timer-paced
 //! sampler (the interrupt's producer, ticked here from the consumer's wait hook, with a trigger
 //! level and settings of any value) → the flight API (`HealthMonitor`: acquisition, the plan from
-//! a health record decoded from bytes of any content, identification, the report with its
+//! a health record decoded from bytes of any content and held as the firmwares hold it
+//! (`KeptRecord`, a load of any outcome), identification, the report with its
 //! uncertainty, the flight recorded with its pooled evidence) → health report. The calibration, the acquisition and identification settings,
 //! the actuator parameters and the command profile pass through `black_box` too: the proof holds
 //! for any of them (the solver, the polish, model selection and the effect terms included), not
@@ -32,7 +33,7 @@ use ema_monitor::command::ONBOARD_COMMAND_SAMPLES;
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::flight::{Acquired, HealthMonitor, NoHooks};
 use ema_monitor::monitor::{Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
-use ema_monitor::persist::{HealthRecord, RamFlash};
+use ema_monitor::persist::{HealthRecord, KeptRecord, RamFlash, StoreError};
 use ema_monitor::trace::PackedTrace;
 use ema_monitor::{Command, EmaParams, Profile, SampledCommand};
 
@@ -74,11 +75,23 @@ fn main() -> ! {
         live.outcome().ok()?;
         let mut bytes = [0u8; HealthRecord::ENCODED_LEN];
         black_box(&mut bytes);
-        // a record of either version and of any identity, adopted
+        // a record of either version and of any identity, as a load of any outcome gives it
+        // (stored, none, unreadable, not archived), adopted, then the flight on it
         let len = black_box(HealthRecord::ENCODED_LEN);
-        let mut record = bytes.get(..len).and_then(|b| HealthRecord::decode(b).ok()).unwrap_or_default();
-        black_box(monitor.with_unit_serial(black_box(3)).adopt(&mut record));
-        let flight = monitor.diagnose(&measured, &acquired, &mut record, &mut NoHooks).ok()?;
+        let decoded = bytes.get(..len).map(HealthRecord::decode);
+        let loaded = match black_box(decoded) {
+            Some(Ok(r)) => Ok(Some(r)),
+            Some(Err(e)) => Err(StoreError::Record(e)),
+            None => Ok(None),
+        };
+        let mut kept = KeptRecord::from_load(loaded);
+        black_box(monitor.with_unit_serial(black_box(3)).adopt(kept.record_mut()));
+        if black_box(false) {
+            kept.archive_failed(StoreError::Full);
+        }
+        let flight = monitor.diagnose_kept(&measured, &acquired, &mut kept, &mut NoHooks).ok()?;
+        black_box(kept.savable());
+        let record = *kept.record();
         // a commissioning window written and read back as the flash keeps it
         let mut window_bytes = [0u8; ema_monitor::persist::window_encoded_len(ONBOARD_WINDOW)];
         let n = ema_monitor::persist::window::encode_window(&measured, black_box(20.0), &mut window_bytes).unwrap_or(0);
@@ -105,7 +118,8 @@ fn main() -> ! {
 }
 
 /// The health record's path: load a record from bytes of any content, record the flight, encode
-/// it, and write, read and erase it on a RAM flash whose power may be cut at any byte. The
+/// it, and write, read and erase it on a RAM flash whose power may be cut at any byte and whose
+/// reads may fail. The
 /// `HealthStore` itself stays out of the proof: `sequential-storage`'s async state machines and
 /// flash-data-dependent slicing keep panic calls the optimizer cannot remove
 /// (`docs/persistence.md`, "Panic paths").
@@ -127,6 +141,7 @@ fn persist(report: Option<ema_monitor::health::HealthReport>) {
         let _ = flash.write(offset, bytes.get(..n.min(len)).unwrap_or(&[]));
     }
     flash.power_on();
+    flash.fail_reads_after(black_box(1), black_box(2));
     let _ = flash.read(black_box(8), &mut bytes);
     let _ = flash.erase(black_box(0), black_box(4096));
     black_box(flash.flip(black_box(17), 0x10));

@@ -79,11 +79,16 @@ impl FaultMode {
     }
 }
 
-/// Condition of one fault mode.
+/// Condition of one fault mode, ordered from the least to the most severe.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Condition {
-    /// Severity below [`DEGRADED_AT`].
+    /// No fault found, but the recording could not have shown one of DEGRADED size: the mode's
+    /// smallest detectable severity ([`Uncertainty::detectable_below`]) is at or above
+    /// [`DEGRADED_AT`]. Set by [`HealthReport::with_uncertainty`]; never a severity's condition.
+    NotAssessed,
+    /// Severity below [`DEGRADED_AT`] (and, once the report carries its [`Uncertainty`], a
+    /// DEGRADED fault of this mode would have been found).
     Healthy,
     /// Severity in `[DEGRADED_AT, FAILING_AT)`.
     Degraded,
@@ -103,9 +108,10 @@ impl Condition {
         }
     }
 
-    /// Upper-case label.
+    /// Upper-case label: `NOT_ASSESSED`, `HEALTHY`, `DEGRADED`, `FAILING`.
     pub const fn label(self) -> &'static str {
         match self {
+            Condition::NotAssessed => "NOT_ASSESSED",
             Condition::Healthy => "HEALTHY",
             Condition::Degraded => "DEGRADED",
             Condition::Failing => "FAILING",
@@ -132,11 +138,16 @@ pub enum Abstain {
     /// A commissioning flight ([`crate::flight`]): its window is kept to fit the unit's
     /// baseline, and no diagnosis is made until the baseline exists.
     Commissioning,
+    /// No mode could have been seen DEGRADED on this recording: every mode's smallest detectable
+    /// severity is at or above [`DEGRADED_AT`] ([`Condition::NotAssessed`]). The manoeuvre does
+    /// not excite the faults, or the declared noise (the parameters' sensor noise figures) is so
+    /// large that the fit test and model selection accept anything.
+    NothingAssessable,
 }
 
 impl Abstain {
     /// Lower-case reason, as logged: `poor fit`, `partial coverage`, `rate mismatch`,
-    /// `unit mismatch`, `commissioning`.
+    /// `unit mismatch`, `commissioning`, `nothing assessable`.
     pub const fn label(self) -> &'static str {
         match self {
             Abstain::PoorFit => "poor fit",
@@ -144,6 +155,7 @@ impl Abstain {
             Abstain::RateMismatch => "rate mismatch",
             Abstain::UnitMismatch => "unit mismatch",
             Abstain::Commissioning => "commissioning",
+            Abstain::NothingAssessable => "nothing assessable",
         }
     }
 }
@@ -152,7 +164,8 @@ impl Abstain {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Status {
-    /// Every mode below [`DEGRADED_AT`].
+    /// Every mode below [`DEGRADED_AT`], and at least one of them assessed
+    /// ([`Condition::NotAssessed`] names the others).
     Healthy,
     /// The worst mode in `[DEGRADED_AT, FAILING_AT)`.
     Degraded,
@@ -189,9 +202,11 @@ impl Status {
         matches!(self, Status::Healthy | Status::Degraded | Status::Failing)
     }
 
-    /// The status of a diagnosis whose worst mode is `condition`.
+    /// The status of a diagnosis whose worst mode is `condition`: an abstention
+    /// ([`Abstain::NothingAssessable`]) when even the worst mode is not assessed.
     pub const fn of(condition: Condition) -> Self {
         match condition {
+            Condition::NotAssessed => Status::Inconclusive(Abstain::NothingAssessable),
             Condition::Healthy => Status::Healthy,
             Condition::Degraded => Status::Degraded,
             Condition::Failing => Status::Failing,
@@ -489,15 +504,37 @@ impl HealthReport {
         }
     }
 
-    /// The worst condition over all modes.
+    /// The worst condition over all modes ([`Condition::NotAssessed`] only when no mode is
+    /// assessed).
     pub fn overall(&self) -> Condition {
-        let mut worst = Condition::Healthy;
+        let mut worst = Condition::NotAssessed;
         for m in &self.modes {
             if m.condition > worst {
                 worst = m.condition;
             }
         }
         worst
+    }
+
+    /// The report with what the recording can tell, `uncertainty`: each mode found healthy whose
+    /// smallest detectable severity is not below [`DEGRADED_AT`] becomes
+    /// [`Condition::NotAssessed`] (a DEGRADED fault of it could hide in this recording), and a
+    /// diagnosis in which no mode is assessed becomes [`Abstain::NothingAssessable`]. An
+    /// abstention stays as it is. A NaN bound counts as not assessed.
+    pub fn with_uncertainty(self, uncertainty: Uncertainty) -> Self {
+        let mut modes = self.modes;
+        for (m, floor) in modes.iter_mut().zip(uncertainty.detectable_below) {
+            let hidden = floor.is_some_and(|f| f >= DEGRADED_AT || f.is_nan());
+            if m.condition == Condition::Healthy && hidden {
+                m.condition = Condition::NotAssessed;
+            }
+        }
+        let report = Self { modes, uncertainty: Some(uncertainty), ..self };
+        if report.status.is_diagnosis() {
+            Self { status: Status::of(report.overall()), ..report }
+        } else {
+            report
+        }
     }
 
     /// The report with the refused-frame count of `summary`, a [`Status::SensorFault`] when it
@@ -531,18 +568,43 @@ impl core::fmt::Display for HealthReport {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self.status.reason() {
             Some(reason) => writeln!(f, "EMA health: {} ({})", self.status.label(), reason.label())?,
-            None => writeln!(f, "EMA health: {}", self.status.label())?,
+            None => {
+                write!(f, "EMA health: {}", self.status.label())?;
+                let diagnosis = self.status.is_diagnosis();
+                let mut hidden = self.modes.iter().filter(|m| diagnosis && m.condition == Condition::NotAssessed);
+                if let Some(first) = hidden.next() {
+                    write!(f, " (not assessed: {}", first.mode.name())?;
+                    for m in hidden {
+                        write!(f, ", {}", m.mode.name())?;
+                    }
+                    write!(f, ")")?;
+                }
+                writeln!(f)?;
+            }
         }
         if self.refused_frames > 0 {
             writeln!(f, "  refused frames: {} (held at the last good frame)", self.refused_frames)?;
         }
-        if !self.status.is_diagnosis() {
+        let blind = self.status.reason() == Some(Abstain::NothingAssessable);
+        if blind {
+            writeln!(
+                f,
+                "  no mode assessable: a fault of DEGRADED size ({DEGRADED_AT:.2}) would not be seen on this recording"
+            )?;
+        } else if !self.status.is_diagnosis() {
             writeln!(f, "  no diagnosis: the fault values below are withheld from the mode report")?;
         }
-        for (j, m) in self.modes.iter().enumerate().filter(|_| self.status.is_diagnosis()) {
-            write!(f, "  {:<14} {:<9} severity {:.3}", m.mode.name(), m.condition.label(), m.severity)?;
+        let floors = self.uncertainty.map(|u| u.detectable_below);
+        for (j, m) in self.modes.iter().enumerate().filter(|_| self.status.is_diagnosis() || blind) {
+            let floor = floors.and_then(|d| d.get(j).copied().flatten());
+            write!(f, "  {:<14} {:<12} ", m.mode.name(), m.condition.label())?;
+            if m.condition == Condition::NotAssessed {
+                writeln!(f, "not detectable below {:.3}", floor.unwrap_or(f32::INFINITY))?;
+                continue;
+            }
+            write!(f, "severity {:.3}", m.severity)?;
             if let Some(u) = &self.uncertainty {
-                match u.detectable_below.get(j).copied().flatten() {
+                match floor {
                     Some(floor) => write!(f, " (not detectable below {floor:.3})")?,
                     None => write!(f, " ± {:.3}", u.severity_sigma(m))?,
                 }
@@ -655,6 +717,62 @@ mod tests {
         assert_eq!((r2.status, r2.refused_frames), (Status::SensorFault, 200));
         let one = AcquisitionSummary { frames: 8500, refused: 1, longest_refused_run: 1, ..Default::default() };
         assert_eq!(r.with_acquisition(&one).status, Status::Degraded);
+    }
+
+    #[test]
+    fn a_mode_is_healthy_only_when_a_degraded_fault_of_it_would_have_been_seen() {
+        let k = FaultVector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.52]);
+        let r = HealthReport::new(k, &EmaParams::NOMINAL, 0.01, 1, 1, None);
+        assert_eq!(r.status, Status::Healthy);
+        // eccentricity hides below 0.15, friction exactly at the threshold; gain drift was found
+        let bounds = [Some(DEGRADED_AT), Some(0.002), Some(0.01), Some(0.15), None];
+        let u = Uncertainty { sigma: [0.01; 8], detectable_below: bounds };
+        let r = r.with_uncertainty(u);
+        let conditions: std::vec::Vec<_> = r.modes.iter().map(|m| m.condition).collect();
+        assert_eq!(
+            conditions,
+            [
+                Condition::NotAssessed,
+                Condition::Healthy,
+                Condition::Healthy,
+                Condition::NotAssessed,
+                Condition::Healthy
+            ]
+        );
+        assert_eq!((r.status, r.overall()), (Status::Healthy, Condition::Healthy));
+        let text = std::format!("{r}");
+        assert!(text.starts_with("EMA health: HEALTHY (not assessed: friction, eccentricity)\n"), "{text}");
+        assert!(text.contains("eccentricity   NOT_ASSESSED not detectable below 0.150\n"), "{text}");
+        assert!(text.contains("backlash       HEALTHY      severity 0.000 (not detectable below 0.002)"), "{text}");
+        // no mode assessed (a NaN bound counts as not assessed): no diagnosis, the bounds shown
+        let blind = Uncertainty {
+            sigma: [0.5; 8],
+            detectable_below: [Some(22.0), Some(f32::NAN), Some(7.0), Some(119.0), Some(5.3)],
+        };
+        let r = HealthReport::new(k, &EmaParams::NOMINAL, 22.0, 1, 1, None).with_uncertainty(blind);
+        assert_eq!(r.status, Status::Inconclusive(Abstain::NothingAssessable));
+        assert!(r.modes.iter().all(|m| m.condition == Condition::NotAssessed));
+        let text = std::format!("{r}");
+        assert!(text.starts_with("EMA health: INCONCLUSIVE (nothing assessable)\n  no mode assessable"), "{text}");
+        assert!(text.contains("friction       NOT_ASSESSED not detectable below 22.000"), "{text}");
+        // a fault found stays a diagnosis whatever the other modes' bounds
+        let faulty = FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+        let u = Uncertainty { detectable_below: [None, Some(3.0), Some(7.0), Some(119.0), Some(5.3)], ..blind };
+        let r = HealthReport::new(faulty, &EmaParams::NOMINAL, 0.01, 1, 1, None).with_uncertainty(u);
+        assert_eq!(
+            (r.status, r.modes[0].condition, r.modes[1].condition),
+            (Status::Degraded, Condition::Degraded, Condition::NotAssessed)
+        );
+        // a sensor fault names no mode in its headline
+        let fault = HealthReport::new(k, &EmaParams::NOMINAL, 0.01, 1, 1, None)
+            .with_uncertainty(Uncertainty { detectable_below: bounds, sigma: [0.01; 8] })
+            .abstaining(Status::SensorFault);
+        assert!(std::format!("{fault}").starts_with("EMA health: SENSOR_FAULT\n"), "{fault}");
+        // an abstention stays: the modes are marked, the status is not replaced
+        let poor = HealthReport::new(k, &EmaParams::NOMINAL, 0.01, 1, 1, None)
+            .abstaining(Status::Inconclusive(Abstain::PoorFit))
+            .with_uncertainty(blind);
+        assert_eq!(poor.status, Status::Inconclusive(Abstain::PoorFit));
     }
 
     #[test]

@@ -3,10 +3,13 @@
 //! addresses read with `nm`): in the default run, the first region is flight 1's cold
 //! identification and the second flight 2's warm one; in a commissioning run (`--commission`),
 //! the first is the baseline fit of the last commissioning flight and the second that flight's
-//! identification against the baseline.
+//! identification against the baseline. Each objective evaluation (a `step()`) and each of the
+//! flight's later calls ([`FlightCall`]) lies between [`ema_slice_start`] and [`ema_slice_end`]:
+//! the plugin reports the longest step of each identification region and the longest slice of
+//! the run, what an integrator schedules the monitor by.
 
 use ema_monitor::conditioning::MeasuredTrace;
-use ema_monitor::flight::FlightHooks;
+use ema_monitor::flight::{FlightCall, FlightHooks};
 use ema_monitor::monitor::Start;
 use ema_monitor::report_log;
 
@@ -27,6 +30,22 @@ impl FlightHooks for CountedRegion<'_> {
 
     fn identification_end(&mut self) {
         ema_identification_end();
+    }
+
+    fn before_step(&mut self) {
+        ema_slice_start();
+    }
+
+    fn after_step(&mut self) {
+        ema_slice_end();
+    }
+
+    fn before_call(&mut self, _call: FlightCall) {
+        ema_slice_start();
+    }
+
+    fn after_call(&mut self, _call: FlightCall) {
+        ema_slice_end();
     }
 
     fn commissioning_start(&mut self) {
@@ -62,4 +81,21 @@ pub extern "C" fn ema_identification_start() {
 #[no_mangle]
 pub extern "C" fn ema_identification_end() {
     core::hint::black_box(0x454E_4421_u32);
+}
+
+/// Start marker of one uninterrupted slice of the monitor's work: an objective evaluation or a
+/// flight's later call.
+// SAFETY: as for `ema_identification_start`.
+#[inline(never)]
+#[no_mangle]
+pub extern "C" fn ema_slice_start() {
+    core::hint::black_box(0x534C_4331_u32);
+}
+
+/// End marker of a slice.
+// SAFETY: as for `ema_identification_start`.
+#[inline(never)]
+#[no_mangle]
+pub extern "C" fn ema_slice_end() {
+    core::hint::black_box(0x534C_4332_u32);
 }

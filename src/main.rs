@@ -7,10 +7,12 @@
 //! 2. replay the built-in trace (`traces/standard.ematrace`, or `EMA_TRACE` and `EMA_PROFILE`,
 //!    `build.rs`) through the replay ADC, one frame per TIMER0 interrupt (`qemu_live.rs`), into
 //!    the monitor's acquisition, the trigger raised at the trace's trigger frame (the first tick
-//!    for an `EMA1` trace; after the pre-trigger frames of an `EMA2` one);
-//! 3. flight 1, then flight 2 on the same recording, each through [`HealthMonitor::diagnose`]
-//!    with the instruction-count markers around its identification (`insn_markers.rs`), saved to
-//!    the record's flash and read back as the next power-up does;
+//!    for a trace without pre-trigger; after the pre-trigger frames of one with them); a trace
+//!    whose `EMA3` checksum does not match is refused (`summary: REFUSED trace Checksum`);
+//! 3. flight 1, then flight 2 on the same recording, each through
+//!    [`HealthMonitor::diagnose_kept`] with the instruction-count markers around its
+//!    identification (`insn_markers.rs`), saved to the record's flash and read back as the next
+//!    power-up does (a record that did not load is not saved over);
 //! 4. log static RAM and peak stack, then exit through semihosting: 0 with a report, 1 when the
 //!    trace is refused (`summary: REFUSED <stage> <error>`, for `scripts/parity`) or on a panic
 //!    or fault ([`HardFault`]).
@@ -131,10 +133,12 @@ fn main() -> ! {
     exit(ok)
 }
 
-/// One flight: the record loaded from `flash` (a new one when none is stored or it is
-/// unreadable; a record of other parameters archived and a new one started,
-/// [`HealthMonitor::adopt`]), the flight diagnosed and logged, the record saved and read back.
-/// `false` (logged) when the identification or the flash refuses.
+/// One flight: the record loaded from `flash` (a new one when none is stored; a record of other
+/// parameters archived and a new one started, [`HealthMonitor::adopt`]), the flight diagnosed
+/// and logged ([`HealthMonitor::diagnose_kept`]), the record saved and read back. After a failed
+/// load the flight runs cold and nothing is saved, so that the stored record stays for the next
+/// load (`ema_monitor::persist::kept`). `false` (logged) when the identification or the flash
+/// refuses, or the save is withheld.
 #[inline(never)]
 fn fly(
     monitor: &HealthMonitor<'_>,
@@ -142,15 +146,15 @@ fn fly(
     acquired: &Acquired,
     flash: &mut RecordFlash,
 ) -> bool {
-    let Some(mut record) = load_record(flash) else { return false };
-    if !adopt_record(monitor, &mut record, flash) {
+    let Some(mut kept) = load_record(flash) else { return false };
+    if !adopt_record(monitor, &mut kept, flash) {
         return false;
     }
-    match monitor.diagnose(window, acquired, &mut record, &mut CountedRegion { flash: &mut *flash }) {
+    match monitor.diagnose_kept(window, acquired, &mut kept, &mut CountedRegion { flash: &mut *flash }) {
         Ok(flight) => report_log::log_flight(&flight),
         Err(e) => refuse("identification", e),
     }
-    save_record(flash, &record)
+    save_record(flash, &kept)
 }
 
 /// Logs where the trace, the parameters and the model effects come from when they are not the

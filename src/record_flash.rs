@@ -9,7 +9,7 @@ use core::sync::atomic::{AtomicBool, Ordering};
 
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::flight::HealthMonitor;
-use ema_monitor::persist::{window_encoded_len, HealthRecord, HealthStore, RamFlash, StoreError};
+use ema_monitor::persist::{window_encoded_len, HealthStore, KeptRecord, RamFlash, RecordOrigin, StoreError};
 use ema_monitor::report_log;
 
 /// The record's flash: room for the record, an archived one and a commissioning window's twelve
@@ -86,40 +86,32 @@ pub fn maintenance_reset(flash: &mut RecordFlash) -> bool {
     }
 }
 
-/// The health record stored in `flash`, a new one when none is stored or it is unreadable;
-/// `None` (logged) when the flash refuses. Not inlined: the store's buffers stay out of the
+/// The health record stored in `flash` as a [`KeptRecord`]: the stored one, a new one when none
+/// is stored, or a new one that must not be saved when the load fails (logged: the flight runs
+/// cold and the stored record is left as it is, [`ema_monitor::persist::kept`]); `None`
+/// (logged) when the store cannot be opened. Not inlined: the store's buffers stay out of the
 /// identification's stack.
 #[inline(never)]
-pub fn load_record(flash: &mut RecordFlash) -> Option<HealthRecord> {
+pub fn load_record(flash: &mut RecordFlash) -> Option<KeptRecord> {
     let Ok(mut store) = open(flash) else {
         defmt::error!("health record unavailable");
         return None;
     };
-    match store.load() {
-        Ok(r) => Some(r.unwrap_or_default()),
-        Err(e) => {
-            defmt::warn!("health record unreadable ({}): a new record", e);
-            Some(HealthRecord::new())
-        }
+    let kept = KeptRecord::from_load(store.load());
+    if let RecordOrigin::Unreadable(e) = kept.origin() {
+        defmt::warn!("health record unreadable ({}): this flight runs cold, the stored record is left as it is", e);
     }
+    Some(kept)
 }
 
 /// [`HealthMonitor::adopt`]: a record of other parameters is archived in `flash` and a new one
-/// started; `false` (logged) when the flash refuses. Not inlined: the old record stays out of
-/// the identification's stack.
+/// started; `false` (logged) when the flash refuses, and the record is then not to be saved
+/// ([`KeptRecord::archive_failed`]). Not inlined: the old record stays out of the
+/// identification's stack.
 #[inline(never)]
-pub fn adopt_record(monitor: &HealthMonitor<'_>, record: &mut HealthRecord, flash: &mut RecordFlash) -> bool {
-    match monitor.adopt(record) {
-        Some(old) => archive_record(flash, &old),
-        None => true,
-    }
-}
-
-/// Keeps `old`, the record of other parameters or another unit, in the store's archive
-/// ([`HealthStore::archive`]) and logs it; `false` (logged) when the flash refuses.
-#[inline(never)]
-fn archive_record(flash: &mut RecordFlash, old: &HealthRecord) -> bool {
-    match open(flash).and_then(|mut store| store.archive(old)) {
+pub fn adopt_record(monitor: &HealthMonitor<'_>, kept: &mut KeptRecord, flash: &mut RecordFlash) -> bool {
+    let Some(old) = monitor.adopt(kept.record_mut()) else { return true };
+    match open(flash).and_then(|mut store| store.archive(&old)) {
         Ok(()) => {
             defmt::warn!(
                 "health record of other parameters or another unit archived ({=u32} flights); a new record starts",
@@ -129,15 +121,21 @@ fn archive_record(flash: &mut RecordFlash, old: &HealthRecord) -> bool {
         }
         Err(e) => {
             defmt::error!("health record of another unit not archived: {}", e);
+            kept.archive_failed(e);
             false
         }
     }
 }
 
-/// Saves `record` to `flash` and reads it back as the next power-up does; `false` (logged) when
-/// the flash refuses or gives back another record.
+/// Saves the record `kept` holds to `flash` and reads it back as the next power-up does; `false`
+/// (logged) when the policy withholds it (the stored record was unreadable or not archived: it
+/// stays as it is), the flash refuses, or it reads back as another record.
 #[inline(never)]
-pub fn save_record(flash: &mut RecordFlash, record: &HealthRecord) -> bool {
+pub fn save_record(flash: &mut RecordFlash, kept: &KeptRecord) -> bool {
+    let Some(record) = kept.savable() else {
+        defmt::error!("health record not saved ({}): the stored record is left as it is", kept.origin());
+        return false;
+    };
     let saved = open(flash).and_then(|mut store| store.save(record).and_then(|()| store.load()));
     match saved {
         Ok(Some(r)) if r.same_bits(record) => {

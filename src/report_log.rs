@@ -6,7 +6,7 @@
 
 use crate::acquisition::{SensorCheck, ZeroSource};
 use crate::flight::Flight;
-use crate::health::{FaultMode, HealthReport};
+use crate::health::{Abstain, Condition, FaultMode, HealthReport};
 use crate::monitor::evidence::{mode_name, PooledFlight};
 use crate::monitor::{ColdReason, Start};
 use crate::persist::{Commissioning, CommissioningRefusal, StoreError};
@@ -162,7 +162,8 @@ pub fn log_report(r: &HealthReport) {
     if !r.status.is_diagnosis() {
         defmt::warn!("no diagnosis: the fault vector below is not reported as one");
     }
-    for m in r.modes.iter().filter(|_| r.status.is_diagnosis()) {
+    let blind = r.status.reason() == Some(Abstain::NothingAssessable);
+    for m in r.modes.iter().filter(|m| r.status.is_diagnosis() && m.condition != Condition::NotAssessed) {
         match m.mode {
             FaultMode::ShortCircuit => defmt::info!(
                 "  {=str}: {=str}, severity {=f32}, {=f32} {=str} (phase {=char})",
@@ -182,6 +183,9 @@ pub fn log_report(r: &HealthReport) {
                 m.unit()
             ),
         }
+    }
+    if blind {
+        defmt::warn!("no mode assessable: a fault of DEGRADED size would not be seen on this recording");
     }
     log_uncertainty(r);
     let k = &r.faults.0;
@@ -213,17 +217,21 @@ pub fn log_report(r: &HealthReport) {
     log_summary(r);
 }
 
-/// Logs what the recording can tell under a diagnosis, when the report carries it
-/// ([`crate::health::Uncertainty`]): each mode found as `friction 0.25 ± 0.01` (severity and its
-/// 1σ), each mode reported healthy as `eccentricity healthy (not detectable below 0.17)`, then the
-/// 1σ of the 8 parameters.
+/// Logs what the recording can tell under a diagnosis (or when no mode is assessable), when the
+/// report carries it ([`crate::health::Uncertainty`]): each mode found as `friction 0.25 ± 0.01`
+/// (severity and its 1σ), each mode reported healthy as `backlash healthy (not detectable below
+/// 0.002)`, each mode not assessed as `eccentricity NOT_ASSESSED (not detectable below 0.17)`,
+/// then the 1σ of the 8 parameters.
 pub fn log_uncertainty(r: &HealthReport) {
     let Some(u) = &r.uncertainty else { return };
-    if !r.status.is_diagnosis() {
+    if !r.status.is_diagnosis() && r.status.reason() != Some(Abstain::NothingAssessable) {
         return;
     }
     for (m, floor) in r.modes.iter().zip(u.detectable_below) {
         match floor {
+            Some(floor) if m.condition == Condition::NotAssessed => {
+                defmt::warn!("  {=str}: NOT_ASSESSED (not detectable below {=f32})", m.mode.name(), floor)
+            }
             Some(floor) => defmt::info!("  {=str} healthy (not detectable below {=f32})", m.mode.name(), floor),
             None => defmt::info!("  {=str} {=f32} ± {=f32}", m.mode.name(), m.severity, u.severity_sigma(m)),
         }

@@ -127,7 +127,9 @@ fn trace_pack_round_trip() -> Result<(), &'static str> {
         ensure(t.frame(n).is_none(), "frame past the end")?;
     }
     let len = pack(&SMALL[1..2], 1, &mut buf).map_err(|_| "pack failed")?;
-    ensure(buf[12..len] == [0x23, 0x61, 0x45, 0x89, 0x07, 0x00], "byte layout")
+    ensure(buf[..4] == *b"EMA3", "magic")?;
+    ensure(buf[16..len - 4] == [0x23, 0x61, 0x45, 0x89, 0x07, 0x00], "byte layout")?;
+    ensure(buf[len - 4..len] == trace::crc32(&buf[..len - 4]).to_le_bytes(), "checksum")
 }
 
 fn trace_corrupt_input_is_error() -> Result<(), &'static str> {
@@ -142,10 +144,17 @@ fn trace_corrupt_input_is_error() -> Result<(), &'static str> {
     ensure(PackedTrace::parse(&bad[..len]) == Err(TraceError::BadMagic), "bad magic")?;
     let mut bad = buf;
     bad[8..12].copy_from_slice(&0u32.to_le_bytes());
+    ensure(PackedTrace::parse(&bad[..len]) == Err(TraceError::Checksum), "a changed byte, the checksum")?;
+    trace::reseal(&mut bad[..len]).map_err(|_| "reseal failed")?;
     ensure(PackedTrace::parse(&bad[..len]) == Err(TraceError::SampleRate), "zero rate")?;
     let mut bad = buf;
     bad[4..8].copy_from_slice(&u32::MAX.to_le_bytes());
     ensure(PackedTrace::parse(&bad[..len]).is_err(), "huge frame count")?;
+    for bit in 0..8 * len {
+        let mut bad = buf;
+        bad[bit / 8] ^= 1 << (bit % 8);
+        ensure(PackedTrace::parse(&bad[..len]).is_err(), "a flipped bit accepted")?;
+    }
     ensure(pack(&[[0, 4096, 0]], 1, &mut buf) == Err(TraceError::CodeRange), "code range")?;
     ensure(pack(&SMALL, 1, &mut buf[..20]) == Err(TraceError::OutputTooSmall), "small output")
 }

@@ -31,7 +31,11 @@
 //! resistance, EMF constant, friction); without a reading, at the parameters' 20 °C.
 //!
 //! Saving the record to flash stays with the caller: it knows its flash and what an erase
-//! costs it (the board raises its watchdog timeout).
+//! costs it (the board raises its watchdog timeout). What may be saved is the core's policy,
+//! shared by both firmwares ([`crate::persist::kept`]): the firmware holds the loaded record as a
+//! [`KeptRecord`] and flies with [`HealthMonitor::diagnose_kept`]; after a failed load the
+//! flight runs cold on a new record that is not saved, so the stored history is still there for
+//! the next load.
 //!
 //! Nothing here allocates or panics; a refused input is a [`MonitorError`], an unusable recording
 //! an honest `INCONCLUSIVE` or `SENSOR_FAULT` report.
@@ -45,7 +49,7 @@ use crate::monitor::{
     WarmReport, ONBOARD_POPULATION, ONBOARD_WINDOW,
 };
 use crate::optimizer::SearchStatus;
-use crate::persist::{Commissioning, HealthRecord, RecordIdentity};
+use crate::persist::{Commissioning, HealthRecord, KeptRecord, RecordIdentity};
 use crate::unit::Tolerances;
 use crate::{Command, EmaParams, ModelEffects};
 
@@ -66,6 +70,15 @@ pub trait FlightHooks {
     fn after_step(&mut self) {}
     /// After the identification's report, before its uncertainty and the record.
     fn identification_end(&mut self) {}
+    /// Before each of a flight's calls after the identification ([`FlightCall`]): one
+    /// uninterrupted run each, which a firmware times and feeds its watchdog around.
+    fn before_call(&mut self, call: FlightCall) {
+        let _ = call;
+    }
+    /// After each of a flight's calls after the identification.
+    fn after_call(&mut self, call: FlightCall) {
+        let _ = call;
+    }
     /// Before the baseline fit of the last commissioning flight ([`commissioning`]).
     fn commissioning_start(&mut self) {}
     /// Before each evaluation of the baseline fit and each flight's run of its sensitivities
@@ -88,6 +101,16 @@ pub trait FlightHooks {
         let _ = (slot, out);
         None
     }
+}
+
+/// A flight's calls after the identification, each run without a hook inside it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FlightCall {
+    /// The report's uncertainty: the fitness built again and 9 model runs in lockstep.
+    Uncertainty,
+    /// The flight added to the health record with its pooled evidence.
+    Record,
 }
 
 /// Hooks that do nothing: an identification run straight to its end.
@@ -297,13 +320,48 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         record: &mut HealthRecord,
         hooks: &mut impl FlightHooks,
     ) -> Result<Flight, MonitorError> {
+        self.diagnose_on(trace, acquired, record, hooks, true)
+    }
+
+    /// [`HealthMonitor::diagnose`] on the record a firmware keeps in RAM, under the policy of
+    /// [`crate::persist::kept`]. A record that may be saved is diagnosed as it is. One that may
+    /// not (the load failed, or a record it replaces was not archived) is replaced by a new
+    /// record of this monitor's identity, and the flight runs as an ordinary cold one against
+    /// the parameters as given: no commissioning starts, since the unit may be commissioned in
+    /// the record that could not be read, and so no window is written to the flash the policy
+    /// leaves untouched. The caller saves [`KeptRecord::savable`] alone.
+    pub fn diagnose_kept(
+        &self,
+        trace: &MeasuredTrace<W>,
+        acquired: &Acquired,
+        kept: &mut KeptRecord,
+        hooks: &mut impl FlightHooks,
+    ) -> Result<Flight, MonitorError> {
+        let may_save = kept.may_save();
+        let record = kept.record_mut();
+        if !may_save {
+            *record = HealthRecord::for_unit(self.identity());
+        }
+        self.diagnose_on(trace, acquired, record, hooks, may_save)
+    }
+
+    /// [`HealthMonitor::diagnose`], a new record commissioning the unit only when `commission`.
+    fn diagnose_on(
+        &self,
+        trace: &MeasuredTrace<W>,
+        acquired: &Acquired,
+        record: &mut HealthRecord,
+        hooks: &mut impl FlightHooks,
+        commission: bool,
+    ) -> Result<Flight, MonitorError> {
         if record.identity() != self.identity() {
             if record.flights() > 0 {
                 return Err(MonitorError::ForeignRecord);
             }
             *record = HealthRecord::for_unit(self.identity());
         }
-        if record.flights() == 0 && self.commissioning_flights > 0 && record.commissioning() == Commissioning::Off {
+        let commission = commission && self.commissioning_flights > 0;
+        if record.flights() == 0 && commission && record.commissioning() == Commissioning::Off {
             record.set_commissioning(Commissioning::Collecting { planned: self.commissioning_flights, kept: 0 });
         }
         if let Commissioning::Collecting { planned, kept } = record.commissioning() {
@@ -337,14 +395,19 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         let identified = self.identify(trace, &params, prior, hooks);
         hooks.identification_end();
         let (report, warm) = identified?;
-        let report = self.with_uncertainty(trace, &params, report).with_acquisition(&acquired.summary);
+        hooks.before_call(FlightCall::Uncertainty);
+        let report = self.with_uncertainty(trace, &params, report);
+        hooks.after_call(FlightCall::Uncertainty);
+        let report = report.with_acquisition(&acquired.summary);
         let report = if acquired.rate_ok(&self.params) {
             report
         } else {
             report.abstaining(Status::Inconclusive(Abstain::RateMismatch))
         };
         let cold = prior.is_none() || warm.is_some_and(|w| w.cold_fallback);
+        hooks.before_call(FlightCall::Record);
         let pooled = self.record(record, trace, &params, &report, cold);
+        hooks.after_call(FlightCall::Record);
         Ok(Flight {
             number,
             temperature_c: acquired.temperature_c,

@@ -487,3 +487,92 @@ fn a_board_s_flights_accumulate_evidence_across_a_sensor_fault() {
     assert_eq!(evidence, [Some(1), Some(2), None, Some(3)]);
     assert_eq!(record.flights(), 4);
 }
+
+/// A record of `flights` diagnosed flights of `monitor`'s unit, friction growing by 0.01 a
+/// flight, the first cold: a history as the store keeps it.
+fn history_of(monitor: &HealthMonitor<'_>, flights: u32) -> HealthRecord {
+    let mut record = HealthRecord::for_unit(monitor.identity());
+    for f in 0..flights {
+        let k = FaultVector([0.01 * f as f32, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+        record.new_flight(&crate::health::HealthReport::new(k, monitor.params(), 0.0128, 1600, 30, None), f == 0);
+    }
+    record
+}
+
+/// Every byte of the hooks' flash.
+fn image(hooks: &FlashHooks) -> Vec<u8> {
+    (0..crate::persist::RamFlash::<8, 4096>::CAPACITY).map(|i| hooks.flash.byte(i).unwrap()).collect()
+}
+
+/// A flight of `unit` with faults `truth` on the record `kept` holds, as a firmware flies it.
+fn fly_kept(
+    monitor: &HealthMonitor<'_>,
+    unit: &EmaParams,
+    truth: &FaultVector,
+    seed: u64,
+    kept: &mut crate::persist::KeptRecord,
+    hooks: &mut FlashHooks,
+) -> Flight {
+    let mut trace = MeasuredTrace::new();
+    let acquired = monitor.acquire(&mut Frames::of(unit, truth, seed), &mut trace, 10_000.0).unwrap();
+    monitor.diagnose_kept(&trace, &acquired, kept, hooks).unwrap()
+}
+
+/// The board's sequence around a read error, on a unit off nominal whose monitor commissions
+/// new records: a store of twelve flights; one load fails, the flight runs cold on a new record
+/// (no commissioning, no window kept), and nothing is saved, the flash byte for byte as it was;
+/// the next load gives the twelve flights with their history, and the flight after it starts
+/// warm from them and is saved on top. A maintenance reset then erases the history, and the
+/// next flight commissions the unit again.
+#[test]
+fn a_failed_load_flies_cold_saves_nothing_and_the_next_load_keeps_the_history() {
+    use crate::health::FaultMode;
+    use crate::persist::{FlashFault, KeptRecord, RecordOrigin, StoreError};
+    let unit = units()[0];
+    let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE)
+        .unwrap()
+        .with_commissioning(2, crate::unit::Tolerances::TYPICAL)
+        .unwrap();
+    let truth = FaultVector([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+    let k = 12;
+    let history = history_of(&monitor, k);
+    let mut hooks = FlashHooks::new();
+    hooks.store().save(&history).unwrap();
+    let before = (image(&hooks), hooks.flash.touched_bytes());
+
+    // one read fails: a cold flight on a new record, diagnosed, not saved
+    hooks.flash.fail_reads_after(0, 1);
+    let mut kept = KeptRecord::from_load(hooks.store().load());
+    assert_eq!(kept.origin(), RecordOrigin::Unreadable(StoreError::Flash(FlashFault::Other)));
+    let f = fly_kept(&monitor, &unit, &truth, 501, &mut kept, &mut hooks);
+    assert_eq!((f.number, f.start, f.cold, f.commissioning), (1, Start::Cold(ColdReason::NoPrior), true, None));
+    assert!(f.report.status.is_diagnosis(), "{:?}", f.report.status);
+    assert!((f.report.faults.0[0] - 0.2).abs() < 0.03, "{:?}", f.report.faults.0);
+    assert_eq!((kept.record().flights(), kept.record().identity()), (1, monitor.identity()));
+    assert!(kept.savable().is_none());
+    assert_eq!((image(&hooks), hooks.flash.touched_bytes()), before, "nothing written: no window, no record");
+
+    // the next load: the twelve flights; the next flight warm from them, saved on top
+    let mut kept = KeptRecord::from_load(hooks.store().load());
+    assert_eq!(kept.origin(), RecordOrigin::Loaded);
+    assert!(kept.record().same_bits(&history));
+    let f = fly_kept(&monitor, &unit, &truth, 502, &mut kept, &mut hooks);
+    assert_eq!((f.number, f.start, f.commissioning), (k + 1, Start::Warm, None));
+    assert!((f.recorded_report().faults.0[0] - 0.2).abs() < 0.03, "{:?}", f.report.faults.0);
+    hooks.store().save(kept.savable().unwrap()).unwrap();
+    let saved = hooks.store().load().unwrap().unwrap();
+    assert_eq!(saved.flights(), k + 1);
+    let friction = saved.history(FaultMode::Friction);
+    assert!(friction.iter().take(k as usize).eq(history.history(FaultMode::Friction).iter()));
+    assert_eq!(friction.latest().map(|e| e.flight), Some(k + 1));
+
+    // a maintenance reset erases it whatever the reads do; a new record commissions again
+    hooks.flash.fail_reads_after(0, 1);
+    assert!(matches!(KeptRecord::from_load(hooks.store().load()).origin(), RecordOrigin::Unreadable(_)));
+    hooks.store().reset().unwrap();
+    let mut kept = KeptRecord::from_load(hooks.store().load());
+    assert_eq!(kept.origin(), RecordOrigin::Empty);
+    let f = fly_kept(&monitor, &unit, &truth, 503, &mut kept, &mut hooks);
+    assert_eq!(f.report.status, Status::Inconclusive(Abstain::Commissioning));
+    assert!(kept.savable().is_some_and(|r| r.flights() == 1));
+}

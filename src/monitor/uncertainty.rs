@@ -363,7 +363,7 @@ pub fn with_uncertainty<'a, const W: usize>(
     match fit {
         Some(fit) => {
             let u = uncertainty_at(&fit, &params, &report.faults, config.independent_frames_per_block);
-            HealthReport { uncertainty: Some(u), ..report }
+            report.with_uncertainty(u)
         }
         None => report,
     }
@@ -375,7 +375,7 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
     /// the report's evaluations.
     pub fn with_uncertainty(&self, report: HealthReport) -> HealthReport {
         let u = uncertainty_at(&self.fit, &self.params, &report.faults, self.config.independent_frames_per_block);
-        HealthReport { uncertainty: Some(u), ..report }
+        report.with_uncertainty(u)
     }
 }
 

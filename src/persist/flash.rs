@@ -1,7 +1,7 @@
 //! Flash plumbing of the health store: the blocking-to-async adapter [`Blocking`], the executor
 //! [`block_on`] that drives `sequential-storage`'s futures, and [`RamFlash`], a NOR flash in RAM
-//! with erase counters and power-loss and bit-flip injection (QEMU's `mps2-an386` has no writable
-//! flash model, and the tests need a flash that can fail on purpose).
+//! with erase counters and power-loss, bit-flip and read-fault injection (QEMU's `mps2-an386` has
+//! no writable flash model, and the tests need a flash that can fail on purpose).
 //!
 //! **Power-loss model.** A cut planned with [`RamFlash::cut_power_after`] stops the operation at
 //! a byte. By default the cut is clean: the bytes before it are done, the rest untouched. With
@@ -114,6 +114,9 @@ pub enum RamFlashError {
     /// The injected power loss cut the operation; the flash does nothing more until
     /// [`RamFlash::power_on`].
     PowerLoss,
+    /// An injected read fault ([`RamFlash::fail_reads_after`]): the read gives no bytes, as a
+    /// flash whose read path (ECC, bus) reports an error does.
+    ReadFault,
 }
 
 impl blocking::NorFlashError for RamFlashError {
@@ -121,7 +124,7 @@ impl blocking::NorFlashError for RamFlashError {
         match self {
             RamFlashError::NotAligned => blocking::NorFlashErrorKind::NotAligned,
             RamFlashError::OutOfBounds => blocking::NorFlashErrorKind::OutOfBounds,
-            RamFlashError::PowerLoss => blocking::NorFlashErrorKind::Other,
+            RamFlashError::PowerLoss | RamFlashError::ReadFault => blocking::NorFlashErrorKind::Other,
         }
     }
 }
@@ -136,8 +139,10 @@ impl blocking::NorFlashError for RamFlashError {
 /// then cuts the power, so an operation stops midway; the cut is clean (the bytes done so far in
 /// place, the rest untouched) or, after [`RamFlash::set_tearing`], tears the word being written
 /// and leaves the page being erased undefined (the module's power-loss model).
-/// [`RamFlash::flip`] changes stored bits behind the store's back. [`RamFlash::erase_counts`]
-/// gives the erases per page, for the wear figures.
+/// [`RamFlash::flip`] changes stored bits behind the store's back. [`RamFlash::fail_reads_after`]
+/// makes reads fail on demand (once, a few times, or from then on), the contents untouched: a
+/// transient or lasting read error, for the tests of what a failed load may do to the record.
+/// [`RamFlash::erase_counts`] gives the erases per page, for the wear figures.
 #[derive(Clone, Debug)]
 pub struct RamFlash<const PAGES: usize, const PAGE: usize> {
     pages: [[u8; PAGE]; PAGES],
@@ -149,6 +154,12 @@ pub struct RamFlash<const PAGES: usize, const PAGE: usize> {
     touched: u32,
     /// SplitMix64 state of the torn patterns; `None` = clean cuts.
     tearing: Option<u64>,
+    /// Read calls since creation.
+    reads: u32,
+    /// Read calls still let through before the injected read faults start.
+    reads_before_fault: u32,
+    /// Read calls that fail once the faults start (`u32::MAX`: every one from then on).
+    failing_reads: u32,
 }
 
 impl<const PAGES: usize, const PAGE: usize> Default for RamFlash<PAGES, PAGE> {
@@ -170,6 +181,9 @@ impl<const PAGES: usize, const PAGE: usize> RamFlash<PAGES, PAGE> {
             powered: true,
             touched: 0,
             tearing: None,
+            reads: 0,
+            reads_before_fault: 0,
+            failing_reads: 0,
         }
     }
 
@@ -183,6 +197,37 @@ impl<const PAGES: usize, const PAGE: usize> RamFlash<PAGES, PAGE> {
     /// `None`: clean cuts at a byte, the default.
     pub fn set_tearing(&mut self, seed: Option<u64>) {
         self.tearing = seed;
+    }
+
+    /// Lets the next `ok` read calls through, then fails the `failing` read calls after them with
+    /// [`RamFlashError::ReadFault`] (`u32::MAX`: every read from then on, until the next call);
+    /// `fail_reads_after(0, 0)` cancels. Writes and erases are not affected, and nothing stored
+    /// changes.
+    pub fn fail_reads_after(&mut self, ok: u32, failing: u32) {
+        self.reads_before_fault = ok;
+        self.failing_reads = failing;
+    }
+
+    /// Read calls since creation (a sweep of read faults over every read of an operation).
+    pub fn reads(&self) -> u32 {
+        self.reads
+    }
+
+    /// Counts one read call; `Err` when an injected read fault takes it.
+    fn read_fault(&mut self) -> Result<(), RamFlashError> {
+        self.reads = self.reads.wrapping_add(1);
+        if self.reads_before_fault > 0 {
+            self.reads_before_fault -= 1;
+            return Ok(());
+        }
+        match self.failing_reads {
+            0 => Ok(()),
+            u32::MAX => Err(RamFlashError::ReadFault),
+            n => {
+                self.failing_reads = n - 1;
+                Err(RamFlashError::ReadFault)
+            }
+        }
     }
 
     /// Restores the power (the contents stay as the cut left them) and cancels a planned cut.
@@ -320,6 +365,7 @@ impl<const PAGES: usize, const PAGE: usize> blocking::ReadNorFlash for RamFlash<
 
     fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
         let (start, _) = Self::range(offset, bytes.len(), 1)?;
+        self.read_fault()?;
         for (i, b) in bytes.iter_mut().enumerate() {
             *b = self.byte(start + i).ok_or(RamFlashError::OutOfBounds)?;
         }

@@ -252,7 +252,8 @@ impl Default for HealthRecord {
 
 /// The one-byte code of a [`Status`] in the record: 0 healthy, 1 degraded, 2 failing,
 /// 3 inconclusive (poor fit), 4 inconclusive (partial coverage), 5 inconclusive (rate mismatch),
-/// 6 sensor fault, 7 inconclusive (unit mismatch), 8 inconclusive (commissioning).
+/// 6 sensor fault, 7 inconclusive (unit mismatch), 8 inconclusive (commissioning),
+/// 9 inconclusive (nothing assessable).
 pub const fn status_code(status: Status) -> u8 {
     match status {
         Status::Healthy => 0,
@@ -263,6 +264,7 @@ pub const fn status_code(status: Status) -> u8 {
         Status::Inconclusive(Abstain::RateMismatch) => 5,
         Status::Inconclusive(Abstain::UnitMismatch) => 7,
         Status::Inconclusive(Abstain::Commissioning) => 8,
+        Status::Inconclusive(Abstain::NothingAssessable) => 9,
         Status::SensorFault => 6,
     }
 }
@@ -283,6 +285,7 @@ pub const fn status_of_code(code: u8) -> Result<Option<Status>, RecordError> {
         6 => Status::SensorFault,
         7 => Status::Inconclusive(Abstain::UnitMismatch),
         8 => Status::Inconclusive(Abstain::Commissioning),
+        9 => Status::Inconclusive(Abstain::NothingAssessable),
         NO_STATUS => return Ok(None),
         _ => return Err(RecordError::Status(code)),
     }))

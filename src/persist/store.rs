@@ -71,7 +71,7 @@ pub enum StoreError {
     /// pages or more than [`super::pages::MAX_PAGES`], or its pages cannot hold the record.
     Range,
     /// The flash driver failed (for the fakes: a power cut, [`super::RamFlashError::PowerLoss`],
-    /// reads as `Other`).
+    /// or an injected read fault, [`super::RamFlashError::ReadFault`], reads as `Other`).
     Flash(FlashFault),
     /// `sequential-storage` found corruption that its repair could not undo; a
     /// [`HealthStore::reset`] erases the range.

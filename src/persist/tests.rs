@@ -8,10 +8,10 @@ use crate::health::{Abstain, FaultMode, HealthReport, Status};
 use crate::params::EmaParams;
 
 /// The tests' flash: 4 pages of 2 KiB (two records per page, so saves cycle the pages quickly).
-type Flash = RamFlash<4, 2048>;
-const RANGE: core::ops::Range<u32> = 0..Flash::CAPACITY as u32;
+pub(super) type Flash = RamFlash<4, 2048>;
+pub(super) const RANGE: core::ops::Range<u32> = 0..Flash::CAPACITY as u32;
 
-fn report(k: [f32; 8]) -> HealthReport {
+pub(super) fn report(k: [f32; 8]) -> HealthReport {
     HealthReport::new(FaultVector(k), &EmaParams::NOMINAL, 0.01, 100, 10, None)
 }
 
@@ -26,12 +26,12 @@ pub(super) fn record_after(flights: u32) -> HealthRecord {
     r
 }
 
-fn store(flash: Flash) -> HealthStore<Flash> {
+pub(super) fn store(flash: Flash) -> HealthStore<Flash> {
     HealthStore::new(flash, RANGE).expect("valid range")
 }
 
 /// A flash holding the saves of `record_after(1..=n)`.
-fn flash_with(n: u32) -> Flash {
+pub(super) fn flash_with(n: u32) -> Flash {
     let mut s = store(Flash::new());
     for i in 1..=n {
         s.save(&record_after(i)).expect("save");
@@ -164,8 +164,8 @@ fn record_refuses_other_versions_and_bad_fields() {
     bad[0] = RECORD_VERSION + 1;
     assert_eq!(HealthRecord::decode(&bad), Err(RecordError::Version(RECORD_VERSION + 1)));
     let mut bad = buf;
-    bad[1] = 9;
-    assert_eq!(HealthRecord::decode(&bad), Err(RecordError::Status(9)));
+    bad[1] = 10;
+    assert_eq!(HealthRecord::decode(&bad), Err(RecordError::Status(10)));
     let mut bad = buf;
     bad[100] = HISTORY_LEN as u8 + 1;
     assert_eq!(HealthRecord::decode(&bad), Err(RecordError::History));
@@ -203,6 +203,7 @@ fn every_status_has_its_own_code_and_reads_back() {
         Status::Inconclusive(Abstain::RateMismatch),
         Status::Inconclusive(Abstain::UnitMismatch),
         Status::Inconclusive(Abstain::Commissioning),
+        Status::Inconclusive(Abstain::NothingAssessable),
         Status::SensorFault,
     ];
     for (i, &s) in all.iter().enumerate() {

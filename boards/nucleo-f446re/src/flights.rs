@@ -2,18 +2,23 @@
 //! trigger released, the sampler armed, the manoeuvre acquired, the flight diagnosed and
 //! reported (defmt log and the USART2 line), the record saved; then the sampler is re-armed.
 //!
-//! The health record is loaded once at start-up (`health_flash::start`) and kept in RAM between
-//! flights; each diagnosed flight is added to it and saved. Nothing a flight can refuse stops
-//! the loop: a trigger that does not come within the timeout re-arms quietly (a debug-level
-//! line), an acquisition or identification refused re-arms after its log line. Only a lost
-//! interrupt state ends in the safe state.
+//! The health record is loaded at start-up (`health_flash::start`) and kept in RAM between
+//! flights; each diagnosed flight is added to it and saved. A record that may not be saved (its
+//! load failed, or the other unit's record it replaces was not archived: the core's
+//! `persist::kept`) is loaded again before the next flight, so that a passing read error costs
+//! one flight's record, never the stored history; the flight in between runs cold and its line
+//! says `record=unreadable`.
+//!
+//! Nothing a flight can refuse stops the loop: a trigger that does not come within the timeout
+//! re-arms quietly (a debug-level line), an acquisition or identification refused re-arms after
+//! its log line. Only a lost interrupt state ends in the safe state.
 
 use cortex_m::peripheral::DWT;
 use ema_monitor::acquisition::{AcquisitionError, SamplerConfig, SamplerConsumer, TemperatureSensor};
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::flight::{Acquired, Flight, HealthMonitor};
 use ema_monitor::monitor::ONBOARD_WINDOW;
-use ema_monitor::persist::HealthRecord;
+use ema_monitor::persist::KeptRecord;
 use ema_monitor::report_log;
 use stm32f4xx_hal::flash::LockedFlash;
 use stm32f4xx_hal::gpio::{Analog, Input, PA10, PB0};
@@ -45,11 +50,9 @@ const TRIGGER_STUCK_LOG_MS: u32 = 10_000;
 pub struct Board<'a> {
     /// The monitor: parameters, manoeuvre, identification settings, commissioning.
     pub monitor: HealthMonitor<'static>,
-    /// The health record, loaded at start-up and added to by each flight.
-    pub record: HealthRecord,
-    /// `false` when the record replaced one of another unit that could not be archived: the
-    /// record is then not saved, so that the other one stays in flash.
-    pub record_kept: bool,
+    /// The health record, loaded at start-up and added to by each flight, with whether it may
+    /// be saved.
+    pub record: KeptRecord,
     /// The flash of the record and of the commissioning windows.
     pub flash: LockedFlash,
     /// The watchdog.
@@ -126,9 +129,14 @@ pub fn run<W: FnMut()>(
 }
 
 impl Board<'_> {
-    /// One acquired flight: diagnosed, reported (log, then the USART2 line), added to the record
-    /// and saved.
+    /// One acquired flight: the record loaded again when it may not be saved, then the flight
+    /// diagnosed, reported (log, then the USART2 line), added to the record and saved when the
+    /// record may be.
     fn fly(&mut self, trace: &MeasuredTrace<ONBOARD_WINDOW>, acquired: &Acquired) {
+        if self.record.needs_load() {
+            self.record = health_flash::load(&mut self.flash, self.watchdog);
+            health_flash::adopt(&mut self.flash, self.watchdog, &self.monitor, &mut self.record);
+        }
         defmt::info!(
             "refused frames: {=u32} (longest run {=u32}), held at the last good frame; late frames: {=u32}",
             acquired.summary.refused,
@@ -136,7 +144,7 @@ impl Board<'_> {
             acquired.late_frames
         );
         let mut hooks = WatchdogHooks::new(self.watchdog, &mut self.flash);
-        let flight = match self.monitor.diagnose(trace, acquired, &mut self.record, &mut hooks) {
+        let flight = match self.monitor.diagnose_kept(trace, acquired, &mut self.record, &mut hooks) {
             Ok(f) => f,
             Err(e) => {
                 defmt::error!("identification refused: {}; re-arming", e);
@@ -145,11 +153,7 @@ impl Board<'_> {
         };
         report_log::log_flight(&flight);
         self.send_line(&flight, acquired.late_frames);
-        if self.record_kept {
-            health_flash::save(&mut self.flash, self.watchdog, &self.record);
-        } else {
-            defmt::warn!("health record not saved: the other unit's record it replaces is not archived");
-        }
+        health_flash::save(&mut self.flash, self.watchdog, &self.record);
         defmt::info!("ema-monitor: OK (flight {=u32}); re-arming", flight.number);
     }
 
@@ -158,7 +162,7 @@ impl Board<'_> {
     #[inline(never)]
     fn send_line(&mut self, flight: &Flight, late_frames: u32) {
         let Some(uart) = self.uart.as_mut() else { return };
-        match uart.send(&Line::of(flight, late_frames, self.clock), self.watchdog) {
+        match uart.send(&Line::of(flight, late_frames, self.clock, self.record.origin()), self.watchdog) {
             Ok(bytes) => defmt::info!("report line sent on USART2 ({=usize} bytes)", bytes),
             Err(e) => defmt::error!("report line not sent: {}", e),
         }

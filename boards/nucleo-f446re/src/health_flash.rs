@@ -16,9 +16,10 @@
 use core::ops::Range;
 
 use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::flight::HealthMonitor;
 use ema_monitor::persist::store::MAX_KEPT_SAMPLES;
 use ema_monitor::persist::{window_encoded_len, EraseGuard, EraseGuarded, FlashFault};
-use ema_monitor::persist::{HealthRecord, HealthStore, StoreError};
+use ema_monitor::persist::{HealthStore, KeptRecord, RecordOrigin, StoreError};
 use ema_monitor::report_log;
 use stm32f4xx_hal::flash::{FlashExt, LockedFlash, UnlockedFlash};
 
@@ -88,55 +89,66 @@ pub fn with_store<T>(
     result
 }
 
-/// At start-up: the maintenance reset when `maintenance` (the user button B1 held), then the last
-/// flight's record, or a new one for a cold start (logged either way).
-pub fn start(flash: &mut LockedFlash, watchdog: &Watchdog, maintenance: bool) -> HealthRecord {
+/// At start-up: the maintenance reset when `maintenance` (the user button B1 held), then the
+/// record as [`load`] gives it.
+pub fn start(flash: &mut LockedFlash, watchdog: &Watchdog, maintenance: bool) -> KeptRecord {
     if maintenance {
         match with_store(flash, watchdog, |s| s.reset()) {
             Ok(()) => defmt::warn!("maintenance: health record erased; this flight runs cold"),
             Err(e) => defmt::error!("maintenance: erasing the health record failed: {}", e),
         }
     }
-    match with_store(flash, watchdog, |s| s.load()) {
-        Ok(Some(record)) => {
-            defmt::info!(
-                "health record: {=u32} flights, {=u32} since the last cold identification",
-                record.flights(),
-                record.flights_since_cold()
-            );
-            record
-        }
-        Ok(None) => {
-            defmt::info!("health record: none stored, cold start");
-            HealthRecord::new()
-        }
-        Err(e) => {
-            defmt::warn!("health record unreadable ({}), cold start", e);
-            HealthRecord::new()
-        }
-    }
+    load(flash, watchdog)
 }
 
-/// A record of other parameters or another unit (`HealthMonitor::adopt` handed it back): kept in
-/// the store's archive, readable, while a new record starts. `false` (logged) when the flash
-/// refuses: the caller then does not save the new record, so that the old one stays current in
-/// flash and is archived at the next start.
-pub fn archive(flash: &mut LockedFlash, watchdog: &Watchdog, old: &HealthRecord) -> bool {
-    match with_store(flash, watchdog, |s| s.archive(old)) {
+/// The last flight's record, a new one when none is stored, or, when the load fails, a new one
+/// that is not to be saved (the core's `persist::kept`: the flight runs cold and the stored
+/// record stays for the next load); logged either way. Called at start-up and, while the
+/// record may not be saved, before each flight.
+pub fn load(flash: &mut LockedFlash, watchdog: &Watchdog) -> KeptRecord {
+    let kept = KeptRecord::from_load(with_store(flash, watchdog, |s| s.load()));
+    let record = kept.record();
+    match kept.origin() {
+        RecordOrigin::Loaded => defmt::info!(
+            "health record: {=u32} flights, {=u32} since the last cold identification",
+            record.flights(),
+            record.flights_since_cold()
+        ),
+        RecordOrigin::Empty => defmt::info!("health record: none stored, cold start"),
+        RecordOrigin::Unreadable(e) | RecordOrigin::NotArchived(e) => defmt::warn!(
+            "health record unreadable ({}): cold start, the stored record is kept and not saved over; loaded again before the next flight",
+            e
+        ),
+    }
+    kept
+}
+
+/// Makes the record `monitor`'s (`HealthMonitor::adopt`): a record of other parameters or
+/// another unit is kept in the store's archive, readable, while a new record starts. When the
+/// flash refuses the archive (logged), the new record is not to be saved
+/// ([`KeptRecord::archive_failed`]), so that the other one stays current in flash; the next
+/// flight loads and archives it again.
+pub fn adopt(flash: &mut LockedFlash, watchdog: &Watchdog, monitor: &HealthMonitor<'_>, kept: &mut KeptRecord) {
+    let Some(old) = monitor.adopt(kept.record_mut()) else { return };
+    match with_store(flash, watchdog, |s| s.archive(&old)) {
         Ok(()) => {
-            defmt::warn!("health record of another unit or other parameters archived ({=u32} flights)", old.flights());
-            true
+            defmt::warn!("health record of another unit or other parameters archived ({=u32} flights)", old.flights())
         }
         Err(e) => {
             defmt::error!("health record of another unit not archived ({}): this flight's record is not saved", e);
-            false
+            kept.archive_failed(e);
         }
     }
 }
 
-/// After the flight (which the core's `HealthMonitor::diagnose` added to `record`): the record
-/// is saved (a failure is logged; the monitor goes on).
-pub fn save(flash: &mut LockedFlash, watchdog: &Watchdog, record: &HealthRecord) {
+/// After the flight (which the core's `HealthMonitor::diagnose_kept` added to the record): the
+/// record is saved when it may be ([`KeptRecord::savable`]); a save withheld or refused is
+/// logged, and the monitor goes on.
+pub fn save(flash: &mut LockedFlash, watchdog: &Watchdog, kept: &KeptRecord) {
+    let Some(record) = kept.savable() else {
+        defmt::warn!("health record not saved ({}): the stored record is left as it is", kept.origin());
+        return;
+    };
     match with_store(flash, watchdog, |s| s.save(record)) {
         Ok(()) => defmt::info!("health record saved: flight {=u32}", record.flights()),
         Err(e) => defmt::error!("health record not saved: {}", e),

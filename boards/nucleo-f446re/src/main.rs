@@ -9,7 +9,8 @@
 //!    log's timestamps (`timestamp.rs`); the brown-out reset at level 3 (`flash_control.rs`);
 //! 2. the health record from flash sectors 6–7 (`health_flash.rs`), erased first when the user
 //!    button B1 (PC13) is held at start-up; a new record (the first start, or after that
-//!    maintenance reset) commissions the unit over its first `COMMISSIONING_FLIGHTS` flights;
+//!    maintenance reset) commissions the unit over its first `COMMISSIONING_FLIGHTS` flights; a
+//!    record that does not load is not saved over, and is loaded again before the next flight;
 //! 3. ADC1–3 sampling PA0, PA1, PC0 (phases A, B, C) at one instant on TIM2's trigger every
 //!    `FRAME_PERIOD_US`, DMA2 reading them and its interrupt ticking the sampler with the start
 //!    trigger on PA10 (`triple_adc.rs`, `dma_sampling.rs`), the sensors' zero points measured
@@ -103,10 +104,7 @@ fn main() -> ! {
         Ok(m) => m,
         Err(e) => refused("monitor refused", e, &watchdog),
     };
-    let record_kept = match monitor.adopt(&mut record) {
-        Some(old) => health_flash::archive(&mut flash, &watchdog, &old),
-        None => true,
-    };
+    health_flash::adopt(&mut flash, &watchdog, &monitor, &mut record);
 
     // 5. The sampler: DMA2's interrupt queues the frames, thread mode consumes them, sleeping
     //    (`wfi`) and feeding the watchdog while it waits; then the flights, one after another.
@@ -118,7 +116,6 @@ fn main() -> ! {
         cortex_m::asm::wfi();
         watchdog.feed();
     });
-    let board =
-        flights::Board { monitor, record, record_kept, flash, watchdog: &watchdog, uart, temperature_pin, clock };
+    let board = flights::Board { monitor, record, flash, watchdog: &watchdog, uart, temperature_pin, clock };
     flights::run(board, Isr { producer, timer, trigger }, &mut live, config)
 }

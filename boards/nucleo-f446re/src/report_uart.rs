@@ -3,7 +3,7 @@
 //! (docs/board.md, "Report line"):
 //!
 //! ```text
-//! EMA-REPORT v1 flight=12 status=DEGRADED reason=- mode=friction friction=0.2497 … commissioning=-*4768
+//! EMA-REPORT v3 flight=12 status=DEGRADED reason=- mode=friction friction=0.2497 … commissioning=- record=ok*F555
 //! ```
 //!
 //! - ASCII, one space between fields, every field `key=value` in a fixed order, every key always
@@ -16,14 +16,14 @@
 //!   `-inf`, and `ovf` from 1e9 on.
 //!
 //! The writes block, each byte bounded by [`BYTE_TIMEOUT_CYCLES`]; the watchdog is fed every
-//! [`FEED_EVERY`] bytes. A line (about 350 bytes, at most about 470) takes 30–40 ms at 115200
+//! [`FEED_EVERY`] bytes. A line (about 360 bytes, at most about 490) takes 30–40 ms at 115200
 //! baud.
 
 use cortex_m::peripheral::DWT;
 use ema_monitor::acquisition::{SensorCheck, SensorFault};
 use ema_monitor::flight::Flight;
 use ema_monitor::health::{Condition, FaultMode, HealthReport, ModeReport};
-use ema_monitor::persist::Commissioning;
+use ema_monitor::persist::{Commissioning, RecordOrigin};
 use stm32f4xx_hal::gpio::PA2;
 use stm32f4xx_hal::nb;
 use stm32f4xx_hal::pac::USART2;
@@ -35,12 +35,12 @@ use crate::rcc::{ClockSource, SYSCLK_HZ};
 use crate::watchdog::Watchdog;
 
 /// The line's format version.
-pub const VERSION: &str = "v2";
+pub const VERSION: &str = "v3";
 
 /// Baud rate (8 data bits, no parity, 1 stop bit).
 const BAUD: u32 = 115_200;
 
-/// Longest line: the fields at their longest come to about 470 bytes.
+/// Longest line: the fields at their longest come to about 490 bytes.
 const LINE_LEN: usize = 512;
 
 /// Bytes sent between two watchdog feeds (5.6 ms at 115200 baud).
@@ -127,8 +127,9 @@ pub struct Line {
 
 impl Line {
     /// The line of `flight`, whose acquisition had `late_frames` late frames, sampled on the
-    /// clock `clock` (fields: docs/board.md, "Report line").
-    pub fn of(flight: &Flight, late_frames: u32, clock: ClockSource) -> Self {
+    /// clock `clock`, flown on a health record of origin `record` (fields: docs/board.md,
+    /// "Report line").
+    pub fn of(flight: &Flight, late_frames: u32, clock: ClockSource, record: RecordOrigin) -> Self {
         let r = &flight.report;
         let diagnosis = r.status.is_diagnosis();
         let mut l = Self { buf: [0; LINE_LEN], len: 0, overflow: false };
@@ -150,7 +151,11 @@ impl Line {
         }
         for (m, key) in r.modes.iter().zip(MODE_KEYS) {
             l.key(key);
-            l.real_or_dash(diagnosis.then_some(m.severity), 4);
+            if m.condition == Condition::NotAssessed {
+                l.text("na");
+            } else {
+                l.real_or_dash(diagnosis.then_some(m.severity), 4);
+            }
         }
         for (m, key) in r.modes.iter().zip(SIGMA_KEYS) {
             l.key(key);
@@ -182,6 +187,8 @@ impl Line {
         l.text(clock.name());
         l.key("commissioning");
         l.commissioning(flight.commissioning);
+        l.key("record");
+        l.text(if record.may_save() { "ok" } else { record.label() });
         let crc = crc16(l.buf.get(..l.len).unwrap_or(&[]));
         l.text("*");
         for shift in [12, 8, 4, 0] {
@@ -333,11 +340,11 @@ impl Line {
     }
 }
 
-/// The mode of the highest severity when it is degraded or failing; `None` when all are healthy.
+/// The mode of the highest severity when it is degraded or failing; `None` when none is.
 fn worst_mode(r: &HealthReport) -> Option<FaultMode> {
     r.modes
         .iter()
-        .filter(|m| m.condition != Condition::Healthy)
+        .filter(|m| m.condition >= Condition::Degraded)
         .fold(None, |worst: Option<&ModeReport>, m| match worst {
             Some(w) if w.severity >= m.severity => Some(w),
             _ => Some(m),

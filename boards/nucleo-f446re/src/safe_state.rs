@@ -6,7 +6,7 @@
 use cortex_m::peripheral::DWT;
 use cortex_m_rt::{exception, ExceptionFrame};
 use ema_monitor::conditioning::MeasuredTrace;
-use ema_monitor::flight::FlightHooks;
+use ema_monitor::flight::{FlightCall, FlightHooks};
 use ema_monitor::monitor::Start;
 use ema_monitor::report_log;
 use stm32f4xx_hal::flash::LockedFlash;
@@ -77,9 +77,10 @@ unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
     park()
 }
 
-/// The board's flight hooks: the watchdog fed before each objective evaluation, and each
-/// evaluation timed by the DWT cycle counter (32-bit, read per step: a step lasts far less than
-/// the 23.8 s wrap at 180 MHz).
+/// The board's flight hooks: the watchdog fed before each objective evaluation, and raised to
+/// [`CALL_WATCHDOG_MS`] for each of the flight's later calls (the uncertainty, the record), which
+/// run without a hook inside; each evaluation and call timed by the DWT cycle counter (32-bit,
+/// read per step: a step or a call lasts far less than the 23.8 s wrap at 180 MHz).
 pub struct WatchdogHooks<'a> {
     /// The watchdog, fed before each evaluation.
     watchdog: &'a Watchdog,
@@ -131,6 +132,21 @@ impl FlightHooks for WatchdogHooks<'_> {
         );
     }
 
+    fn before_call(&mut self, call: FlightCall) {
+        if let Err(e) = self.watchdog.set_timeout_ms(CALL_WATCHDOG_MS) {
+            defmt::error!("{}: watchdog not raised ({})", call, e);
+        }
+        self.step_start = DWT::cycle_count();
+    }
+
+    fn after_call(&mut self, call: FlightCall) {
+        let cycles = DWT::cycle_count().wrapping_sub(self.step_start);
+        defmt::info!("{}: {=u32} cycles", call, cycles);
+        if let Err(e) = self.watchdog.set_timeout_ms(WATCHDOG_MS) {
+            defmt::error!("{}: watchdog timeout not set back ({})", call, e);
+        }
+    }
+
     fn commissioning_start(&mut self) {
         self.before_commissioning_ms = self.watchdog.timeout_ms();
         match self.watchdog.set_timeout_ms(COMMISSIONING_WATCHDOG_MS) {
@@ -157,6 +173,13 @@ impl FlightHooks for WatchdogHooks<'_> {
         crate::health_flash::load_window(self.flash, self.watchdog, slot, out)
     }
 }
+
+/// Watchdog timeout during each of a flight's later calls ([`FlightCall`]), which run without a
+/// feed inside: the longest, the record's pooled evidence, is 8.4e7 instructions in the QEMU
+/// build (`scripts/check-budgets`, `longest_call_instructions`), 1.0e8 at this crate's
+/// `opt-level = "s"`, 1.4 s at 2.5 cycles per instruction and 180 MHz; 4 s leaves a margin near
+/// 3, and 2 at the LSI's fastest (docs/board.md, "Scheduling beside a control law").
+const CALL_WATCHDOG_MS: u32 = 4_000;
 
 /// Watchdog timeout during the commissioning's baseline fit: the longest stretch between two
 /// feeds is one flight's lockstep run of 12 models, about 1.4e8 instructions at `opt-level =

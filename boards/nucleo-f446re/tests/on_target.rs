@@ -34,7 +34,7 @@ mod tests {
     use cortex_m::peripheral::DWT;
     use ema_monitor::acquisition::{manoeuvre_frames, AcquisitionError, PhaseCurrents, SamplerConfig};
     use ema_monitor::health::HealthReport;
-    use ema_monitor::persist::{EraseGuard, EraseGuarded, HealthRecord, StoreError};
+    use ema_monitor::persist::{EraseGuard, EraseGuarded, HealthRecord, KeptRecord, RecordOrigin, StoreError};
     use ema_monitor::trace::ADC_MAX;
     use ema_monitor::{FaultVector, Profile};
     use embedded_storage::nor_flash::NorFlash;
@@ -362,14 +362,16 @@ mod tests {
     /// The maintenance reset (the firmware's start with B1 held) erases both sectors and gives a
     /// fresh record; a saved record loads back bit for bit; the next flight's save through the
     /// firmware's own `health_flash::save` replaces it, and the firmware's start-up load gives
-    /// it; the watchdog is back at the flight's 500 ms after each store operation.
+    /// it; a record whose load failed is not saved over it; the watchdog is back at the flight's
+    /// 500 ms after each store operation.
     #[test]
     #[timeout(60)]
     fn flash_store_round_trip(bench: Bench) {
         let Bench { watchdog, flash, .. } = bench;
         let mut flash = LockedFlash::new(flash);
-        let fresh = health_flash::start(&mut flash, &watchdog, true);
-        assert!(fresh.same_bits(&HealthRecord::new()), "a fresh record after the maintenance reset");
+        let mut kept = health_flash::start(&mut flash, &watchdog, true);
+        assert_eq!(kept.origin(), RecordOrigin::Empty, "none stored after the maintenance reset");
+        assert!(kept.record().same_bits(&HealthRecord::new()), "a fresh record after the maintenance reset");
         assert!(erased(&flash, &SECTOR_6) && erased(&flash, &SECTOR_7), "both sectors erased");
         assert_eq!(load(&mut flash, &watchdog), Ok(None), "none stored");
         let first = record_after(7);
@@ -377,10 +379,15 @@ mod tests {
         assert!(same(&load(&mut flash, &watchdog), &first), "the record loads back bit for bit");
         assert!(erased(&flash, &SECTOR_7), "one record in sector 6 alone");
         let second = record_after(8);
-        health_flash::save(&mut flash, &watchdog, &second);
+        *kept.record_mut() = second;
+        health_flash::save(&mut flash, &watchdog, &kept);
         assert!(same(&load(&mut flash, &watchdog), &second), "the newest record loads");
         let at_start = health_flash::start(&mut flash, &watchdog, false);
-        assert!(at_start.same_bits(&second), "the start-up load gives the newest record");
+        assert_eq!(at_start.origin(), RecordOrigin::Loaded);
+        assert!(at_start.record().same_bits(&second), "the start-up load gives the newest record");
+        // a record whose load failed is not saved over the stored one
+        health_flash::save(&mut flash, &watchdog, &KeptRecord::from_load(Err(StoreError::Corrupt)));
+        assert!(same(&load(&mut flash, &watchdog), &second), "a withheld save leaves the record");
         assert_eq!(watchdog.in_force().map(|f| f.timeout_ms), Ok(WATCHDOG_MS), "the flight's timeout set back");
         defmt::info!("flash store: maintenance reset, 2 records saved and loaded back bit for bit");
     }

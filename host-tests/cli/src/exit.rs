@@ -13,8 +13,8 @@
 //! The diagnosing commands are `ema identify` (one recording, several pooled, or
 //! `--firmware-trace`: the report's status) and `ema history FILE…` (the last flight's report as
 //! the health record keeps it: the actuator's current state; [`crate::history`]). Every other
-//! command, and `ema history --simulate` (a measurement of the method, like `ema campaign`),
-//! exits 0 when it succeeds. This module is a leaf: it depends on no other module of the crate.
+//! command, and `ema history --simulate` (a measurement of the method, like `ema campaign` and
+//! `ema pod`), exits 0 when it succeeds. This module is a leaf: it depends on no other module of the crate.
 
 use clap::ValueEnum;
 use ema_monitor::health::Status;

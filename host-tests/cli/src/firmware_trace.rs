@@ -20,10 +20,10 @@
 //! [`FIRMWARE_TRACE_FAULTS`] (a small friction fault, so the on-board demo has something to
 //! diagnose). The file holds the three phase currents exactly as the reference model's 12-bit ADC
 //! coded them (`Sample::adc_counts`, not re-quantized amperes), 10 kHz, packed with
-//! [`ema_monitor::trace::pack`]: 8500 frames, 38 262 bytes.
+//! [`ema_monitor::trace::pack`] as `EMA3`, with its CRC-32: 8500 frames, 38 270 bytes.
 //!
 //! `--profile pbit` records the pre-flight built-in test ([`Profile::PBIT`], 0.88 s) instead,
-//! with the same actuator, faults and seed: `traces/pbit.ematrace`, 8800 frames, 39 612 bytes,
+//! with the same actuator, faults and seed: `traces/pbit.ematrace`, 8800 frames, 39 620 bytes,
 //! which the firmware replays when built with `EMA_PROFILE=pbit`.
 //!
 //! The same recording as CSV: `ema simulate --faults 0.25,0,0,0,0,0,0.5,0.5 --seed 1 --out FILE.csv`
@@ -40,9 +40,9 @@
 //! A recording that opens before the manoeuvre (a bench's pre-trigger, `ema simulate
 //! --pre-trigger-ms`) keeps up to [`MAX_PRE_TRIGGER_FRAMES`] (100 ms) of it: the frames on the
 //! 10 kHz grid just before the aligned start ([`RecordingArgs::load_with_pre_trigger`]), packed
-//! in an `EMA2` trace whose trigger frame is their count, so that the firmware raises its trigger
-//! at the manoeuvre's first frame and its self-calibration can read the sensors' zero points from
-//! the frames before. Without such frames the trace is `EMA1`.
+//! in a trace whose trigger frame is their count, so that the firmware raises its trigger at the
+//! manoeuvre's first frame and its self-calibration can read the sensors' zero points from the
+//! frames before. Without such frames the trigger frame is 0.
 
 use std::path::{Path, PathBuf};
 
@@ -77,8 +77,8 @@ pub struct FirmwareTraceArgs {
     #[command(flatten)]
     pub output: OutputArgs,
     /// Pack this recording CSV (10 kHz, standard profile, 8500 rows of the manoeuvre) instead of the
-    /// built-in run; up to 100 ms of rows before the manoeuvre are kept as pre-trigger frames (an
-    /// EMA2 trace whose trigger frame is the manoeuvre's first).
+    /// built-in run; up to 100 ms of rows before the manoeuvre are kept as pre-trigger frames (the
+    /// trace's trigger frame is the manoeuvre's first).
     #[arg(long, value_name = "RECORDING")]
     pub from: Option<PathBuf>,
     /// The actuator's parameters: the built-in run simulates it (pair the trace with the same
@@ -179,7 +179,7 @@ pub fn firmware_trace_bytes_for(params: &EmaParams, profile: BuiltInProfile) -> 
 }
 
 /// Packs a recording read from `path` (named in messages) into a firmware trace, after the rows
-/// of `pre_trigger` (at most [`MAX_PRE_TRIGGER_FRAMES`]; none gives an `EMA1` trace): checks the
+/// of `pre_trigger` (at most [`MAX_PRE_TRIGGER_FRAMES`]; none gives trigger frame 0): checks the
 /// sample rate and the standard profile's command, requires [`FIRMWARE_TRACE_FRAMES`] rows of the
 /// manoeuvre.
 pub fn recording_trace_bytes(

@@ -39,6 +39,7 @@ pub mod params;
 pub mod params_file;
 pub mod parity_traces;
 pub mod plots;
+pub mod pod;
 pub mod pooled;
 pub mod profile_file;
 pub mod progress;

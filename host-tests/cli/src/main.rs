@@ -1,7 +1,8 @@
 //! `ema`: host tools of ema-monitor. Subcommands: `simulate` (reference model → recording CSV),
 //! `identify` (core → health report), `firmware-trace`, `compare`, `campaign`, `discover` (missing
 //! effects), `params` (the actuator parameter and tolerance templates), `commission` (a unit's own parameters), `fleet` (units
-//! drawn, commissioned and flown), `history` (trend and remaining useful life), `detectability` (what a manoeuvre can tell).
+//! drawn, commissioned and flown), `history` (trend and remaining useful life), `detectability` (what a manoeuvre can tell), `pod`
+//! (detection curves and false alarms).
 //!
 //! The exit status follows the contract of [`ema_cli::exit`]: 0 for a diagnosis or a command that
 //! succeeded, 1 when writing failed, 2 for a usage or input error, 3 for INCONCLUSIVE, 4 for
@@ -24,6 +25,7 @@ use ema_cli::fleet::{self, FleetArgs};
 use ema_cli::history::{self, HistoryArgs};
 use ema_cli::identify::{self, IdentifyArgs};
 use ema_cli::params::{self, ParamsCommandArgs};
+use ema_cli::pod::{self, PodArgs};
 use ema_cli::simulate::{self, SimulateArgs};
 
 /// Host tools of the EMA on-board health monitor.
@@ -58,6 +60,8 @@ enum Command {
     History(HistoryArgs),
     /// What a manoeuvre can tell: the 1σ (Cramér–Rao) and minimum detectable severity per fault mode.
     Detectability(DetectabilityArgs),
+    /// Probability of detection against severity per fault mode (a90/95), and false alarms on healthy recordings.
+    Pod(PodArgs),
 }
 
 fn main() -> ExitCode {
@@ -77,6 +81,7 @@ fn main() -> ExitCode {
         Command::Fleet(args) => fleet::run(args).map(Done::success),
         Command::History(args) => history::run(args),
         Command::Detectability(args) => detectability::run(args).map(Done::success),
+        Command::Pod(args) => pod::run(args).map(Done::success),
     };
     match result {
         // A reader that stops early (`ema discover FILE | head`) is not an error: the status stays
@@ -104,7 +109,7 @@ fn clap_error(e: &clap::Error) -> ExitCode {
         }
         ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
             eprintln!(
-                "error: a subcommand is required (simulate, identify, firmware-trace, compare, campaign, discover, params, commission, fleet, history, detectability); try 'ema --help'"
+                "error: a subcommand is required (simulate, identify, firmware-trace, compare, campaign, discover, params, commission, fleet, history, detectability, pod); try 'ema --help'"
             );
             ExitCode::from(USAGE_ERROR)
         }

@@ -13,12 +13,13 @@
 //! | `backlash-short-viscous-8khz.ematrace` | a full identification of another fault, with a model effect on: `INCONCLUSIVE(rate mismatch)` from the header's 8 kHz (at 10 kHz the same codes read `DEGRADED`) |
 //! | `stuck-phase-b.ematrace` | phase B frozen for 40 ms in the step transient: `SENSOR_FAULT` |
 //! | `too-short.ematrace` | 10 ms of recording: refused by conditioning, `Conditioning(TooShort)` |
-//! | `bad-padding.ematrace` | a non-zero padding nibble: refused by the packed format, `Padding` |
+//! | `bad-padding.ematrace` | a non-zero padding nibble (its checksum written over it): refused by the packed format, `Padding` |
+//! | `bad-checksum.ematrace` | one bit of a code flipped after packing: refused by the checksum, `Checksum` |
 //!
 //! The built-in trace (`traces/standard.ematrace`, [`crate::firmware_trace`]) is the first trace
 //! of the check; it is not repeated here.
 
-use ema_monitor::trace::{pack, packed_len, SAMPLE_RATE_HZ};
+use ema_monitor::trace::{pack, packed_len, reseal, CHECKSUM_LEN, SAMPLE_RATE_HZ};
 use ema_monitor::FaultVector;
 use ema_reference::{simulate, Effect, Effects, SimConfig};
 
@@ -61,16 +62,27 @@ pub const STUCK_LEN: usize = 400;
 pub const SHORT_FRAMES: usize = 100;
 
 /// Frames of the bad-padding trace: 101, an odd number of codes, so the last 3-byte pair holds one
-/// code and a padding nibble, set to 1 here.
+/// code and a padding nibble, set to 1 here, the checksum written again over the change so that
+/// the padding check is what refuses it.
 pub const PADDING_FRAMES: usize = 101;
 
+/// Frames of the bad-checksum trace: the first 100 of the built-in recording, the bit
+/// [`CHECKSUM_FLIP_BIT`] of byte [`CHECKSUM_FLIP_AT`] flipped after packing (a code in the step
+/// transient: without the checksum, another current that still decodes).
+pub const CHECKSUM_FRAMES: usize = 100;
+/// The byte of the bad-checksum trace whose bit is flipped: one of the codes' bytes.
+pub const CHECKSUM_FLIP_AT: usize = 100;
+/// The bit flipped there.
+pub const CHECKSUM_FLIP_BIT: u8 = 3;
+
 /// The files of the parity set, in the order [`parity_traces`] returns them.
-pub const PARITY_FILES: [&str; 5] = [
+pub const PARITY_FILES: [&str; 6] = [
     "backlash-short-viscous-8khz.ematrace",
     "viscous.conf",
     "stuck-phase-b.ematrace",
     "too-short.ematrace",
     "bad-padding.ematrace",
+    "bad-checksum.ematrace",
 ];
 
 /// One file of the parity set.
@@ -113,10 +125,13 @@ pub fn parity_traces() -> Result<Vec<ParityFile>, CliError> {
     let stuck = packed(&stuck, SAMPLE_RATE_HZ)?;
     let short = packed(&standard[..SHORT_FRAMES], SAMPLE_RATE_HZ)?;
     let mut padding = packed(&standard[..PADDING_FRAMES], SAMPLE_RATE_HZ)?;
-    if let Some(last) = padding.last_mut() {
-        *last |= 1;
-    }
+    // the last byte before the checksum holds the padding's high byte
+    let last_code_byte = padding.len() - CHECKSUM_LEN - 1;
+    padding[last_code_byte] |= 1;
+    reseal(&mut padding).map_err(|e| CliError::Simulation(format!("the padding trace cannot be resealed: {e}")))?;
+    let mut checksum = packed(&standard[..CHECKSUM_FRAMES], SAMPLE_RATE_HZ)?;
+    checksum[CHECKSUM_FLIP_AT] ^= 1 << CHECKSUM_FLIP_BIT;
 
-    let contents = [second, SECOND_MODEL_CONFIG.as_bytes().to_vec(), stuck, short, padding];
+    let contents = [second, SECOND_MODEL_CONFIG.as_bytes().to_vec(), stuck, short, padding, checksum];
     Ok(PARITY_FILES.into_iter().zip(contents).map(|(name, bytes)| ParityFile { name, bytes }).collect())
 }

@@ -356,6 +356,60 @@ fn draw_severity(
     Ok(())
 }
 
+/// One fault mode's detection curve: the fitted probability of detection and its lower 95 %
+/// bound against severity, and the fraction of recordings detected at each severity tested.
+#[derive(Clone, Debug)]
+pub struct PodCurve<'a> {
+    /// Its name in the legend.
+    pub name: &'a str,
+    /// Its colour, `(r, g, b)`.
+    pub colour: (u8, u8, u8),
+    /// `(severity, POD)` of the fitted curve (empty when none).
+    pub fitted: &'a [(f64, f64)],
+    /// `(severity, lower 95 % bound)` of the fitted curve.
+    pub lower: &'a [(f64, f64)],
+    /// `(severity, hits / recordings)` observed.
+    pub observed: &'a [(f64, f64)],
+}
+
+/// Probability of detection against severity on a logarithmic axis from `lo` to `hi`: per mode
+/// its fitted curve (solid), the curve's lower 95 % bound (thin) and the observed hit fractions
+/// (points); 0.9 as a horizontal line.
+pub fn pod_plot(title: &str, curves: &[PodCurve], lo: f64, hi: f64) -> io::Result<String> {
+    render_svg((960, 480), |root| draw_pod(root, title, curves, lo, hi))
+}
+
+fn draw_pod(root: &DrawingArea<SVGBackend, Shift>, title: &str, curves: &[PodCurve], lo: f64, hi: f64) -> Drawn {
+    root.fill(&WHITE)?;
+    let colour = |c: &PodCurve| RGBColor(c.colour.0, c.colour.1, c.colour.2);
+    let mut items: Vec<(&str, Swatch)> = curves.iter().map(|c| (c.name, Swatch::Line(colour(c)))).collect();
+    items.push(("thin: lower 95 % bound; points: hits / recordings", Swatch::Line(ZERO)));
+    items.push(("POD 0.9", Swatch::Line(ZERO)));
+    let plot = with_legend(root, 960, 480, &items)?;
+    let (lo, hi) = if lo > 0.0 && hi > lo { (lo, hi) } else { (1e-3, 1.0) };
+    let mut chart = ChartBuilder::on(&plot)
+        .caption(title, ("sans-serif", 16))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((lo..hi).log_scale(), 0.0..1.0)?;
+    chart
+        .configure_mesh()
+        .x_desc("severity")
+        .y_desc("probability of detection")
+        .y_labels(10)
+        .light_line_style(RGBColor(240, 240, 240))
+        .draw()?;
+    chart.draw_series(LineSeries::new([(lo, 0.9), (hi, 0.9)], ZERO.stroke_width(1)))?;
+    for c in curves {
+        let col = colour(c);
+        chart.draw_series(LineSeries::new(c.fitted.iter().copied(), col.stroke_width(2)))?;
+        chart.draw_series(LineSeries::new(c.lower.iter().copied(), col.mix(0.7).stroke_width(1)))?;
+        chart.draw_series(c.observed.iter().map(|&p| Circle::new(p, 3, col.filled())))?;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

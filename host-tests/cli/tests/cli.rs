@@ -360,10 +360,11 @@ fn the_flags_are_the_same_across_commands() {
         "fleet",
         "history",
         "detectability",
+        "pod",
     ];
-    let writes = ["simulate", "firmware-trace", "campaign", "discover", "commission", "fleet", "history"];
+    let writes = ["simulate", "firmware-trace", "campaign", "discover", "commission", "fleet", "history", "pod"];
     let prints_json =
-        ["identify", "compare", "campaign", "discover", "commission", "fleet", "history", "detectability"];
+        ["identify", "compare", "campaign", "discover", "commission", "fleet", "history", "detectability", "pod"];
     let diagnoses = ["identify", "history"];
     for cmd in commands {
         let help = common::accepted(&[cmd, "--help"]);

@@ -337,7 +337,7 @@ fn a_bad_input_leaves_no_output_directory() {
 
 #[test]
 fn help_documents_force_and_the_default_trace_location() {
-    for cmd in ["simulate", "firmware-trace", "campaign", "discover", "history", "commission", "fleet"] {
+    for cmd in ["simulate", "firmware-trace", "campaign", "discover", "history", "commission", "fleet", "pod"] {
         let help = accepted(&[cmd, "--help"]);
         assert!(help.contains("--force"), "{cmd} --help lacks --force: {help}");
         assert!(help.contains("regular file"), "{cmd} --help does not say what --force replaces: {help}");

@@ -99,6 +99,7 @@ fn no_diagnosis_exits_3_for_inconclusive_and_4_for_a_sensor_fault_whatever_fail_
     // a packed trace declaring 1 kHz: INCONCLUSIVE (rate mismatch)
     let mut bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../traces/standard.ematrace")).unwrap();
     bytes[8..12].copy_from_slice(&1000u32.to_le_bytes());
+    ema_monitor::trace::reseal(&mut bytes).expect("an EMA3 trace");
     let trace = dir.join("1khz.ematrace");
     std::fs::write(&trace, bytes).unwrap();
     for flags in [&[][..], &["--fail-on", "degraded"], &["--bits"]] {

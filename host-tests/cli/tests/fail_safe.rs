@@ -85,6 +85,7 @@ fn a_trace_declaring_1_khz_is_inconclusive() {
     let dir = scratch("fail-safe", "rate");
     let mut bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../traces/standard.ematrace")).unwrap();
     bytes[8..12].copy_from_slice(&1000u32.to_le_bytes());
+    ema_monitor::trace::reseal(&mut bytes).expect("an EMA3 trace");
     let path = dir.join("1khz.ematrace");
     std::fs::write(&path, bytes).unwrap();
     let out = accepted(&["identify", "--firmware-trace", s(&path), "--json"]);

@@ -52,7 +52,8 @@ fn committed_trace_matches_the_reference_model() {
     assert_eq!(default_out(None), PathBuf::from("standard.ematrace"));
     assert_eq!(default_out(Some(Path::new("runs/rec.csv"))), PathBuf::from("rec.ematrace"));
     let t = PackedTrace::parse(&fresh).expect("valid packed trace");
-    assert_eq!((t.frames(), t.sample_rate_hz(), fresh.len()), (8500, SAMPLE_RATE_HZ, 38_262));
+    assert_eq!((t.frames(), t.sample_rate_hz(), fresh.len()), (8500, SAMPLE_RATE_HZ, 38_270));
+    assert!(t.has_checksum(), "EMA3: the trace carries its checksum");
 }
 
 /// The codes are the reference model's ADC output: the CSV of the same run (`ema simulate` with the
@@ -98,7 +99,7 @@ fn firmware_trace_command_writes_the_trace_and_one_summary_line() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(o.stderr.is_empty(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(stdout.lines().count(), 1, "{stdout}");
-    for needle in ["8500 frames", "10000 Hz", "38262 bytes", "t.ematrace", &faults_csv(), "seed 1", "noise on"] {
+    for needle in ["8500 frames", "10000 Hz", "38270 bytes", "t.ematrace", &faults_csv(), "seed 1", "noise on"] {
         assert!(stdout.contains(needle), "'{needle}' missing from {stdout}");
     }
     assert!(
@@ -125,7 +126,7 @@ fn readme_documents_the_command_faults_and_seed() {
         format!("`{}`", faults_csv()),
         format!("seed `{FIRMWARE_TRACE_SEED}`"),
         "8500 frames".to_owned(),
-        "38 262 bytes".to_owned(),
+        "38 270 bytes".to_owned(),
     ] {
         assert!(readme.contains(&needle), "traces/README.md does not mention {needle}");
     }
@@ -147,7 +148,7 @@ fn the_pbit_trace_passes_the_on_board_path() {
         std::fs::read(&path).unwrap_or_else(|e| panic!("cannot read {}: {e}; {REGENERATE_PBIT}", path.display()));
     assert!(fresh == on_disk, "traces/pbit.ematrace differs from the reference model's recording; {REGENERATE_PBIT}");
     let t = PackedTrace::parse(&fresh).expect("valid packed trace");
-    assert_eq!((t.frames(), t.sample_rate_hz(), fresh.len()), (8800, SAMPLE_RATE_HZ, 39_612));
+    assert_eq!((t.frames(), t.sample_rate_hz(), fresh.len()), (8800, SAMPLE_RATE_HZ, 39_620));
     let report = firmware_trace_outcome_for(
         &fresh,
         &ema_monitor::EmaParams::NOMINAL,

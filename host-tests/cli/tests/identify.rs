@@ -151,10 +151,65 @@ fn bad_firmware_traces_are_refused_naming_the_file() {
     refused(&["identify", "--firmware-trace", s(&p)], &["magic.ematrace", "does not start with EMA1"]);
     let p = dir.join("truncated.ematrace");
     std::fs::write(&p, &good[..good.len() - 100]).expect("writable");
-    refused(&["identify", "--firmware-trace", s(&p)], &["truncated.ematrace", "length does not match its frame count"]);
+    refused(&["identify", "--firmware-trace", s(&p)], &["truncated.ematrace", "checksum does not match", "truncated"]);
     let p = dir.join("header.ematrace");
     std::fs::write(&p, &good[..7]).expect("writable");
     refused(&["identify", "--firmware-trace", s(&p)], &["header.ematrace", "shorter than its 12-byte header"]);
+    // one bit of one code flipped: the checksum refuses it, naming the file
+    let mut flipped = good.clone();
+    flipped[20_000] ^= 0x04;
+    let p = dir.join("flipped.ematrace");
+    std::fs::write(&p, &flipped).expect("writable");
+    refused(&["identify", "--firmware-trace", s(&p)], &["flipped.ematrace", "checksum does not match", "corrupted"]);
+}
+
+/// The committed trace as the writers before EMA3 wrote it: `EMA1` (header, codes) or `EMA2`
+/// (with the trigger frame), without the checksum.
+fn without_checksum(ema3: &[u8], version: u8) -> Vec<u8> {
+    assert_eq!(&ema3[..4], b"EMA3");
+    let mut out = if version == 1 { b"EMA1".to_vec() } else { b"EMA2".to_vec() };
+    out.extend_from_slice(&ema3[4..if version == 1 { 12 } else { 16 }]);
+    out.extend_from_slice(&ema3[16..ema3.len() - 4]);
+    out
+}
+
+/// An EMA1 or EMA2 trace, which carries no checksum, is still identified, with one warning line
+/// on stderr naming the file; its flipped bit goes unnoticed (the diagnosis changes, nothing
+/// refuses it). An EMA3 trace gives no warning.
+#[test]
+fn traces_without_checksum_are_read_with_a_warning() {
+    let dir = scratch("identify", "legacy-trace");
+    let good = std::fs::read(committed_trace()).expect("committed trace");
+    let run = |path: &Path| {
+        let args = ["identify", "--firmware-trace", s(path), "--max-iterations", "2", "--bits"];
+        let out = common::ema(&args);
+        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+        let expected = common::contract_status(&args, &stdout);
+        assert_eq!(out.status.code(), Some(expected), "{}", String::from_utf8_lossy(&out.stderr));
+        let summary = stdout.lines().find(|l| l.starts_with("summary: ")).map(str::to_owned);
+        (
+            summary.unwrap_or_else(|| panic!("no summary line in {stdout}")),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let (reference, quiet) = run(&committed_trace());
+    assert!(quiet.is_empty(), "EMA3: no warning, got {quiet:?}");
+    for version in [1u8, 2] {
+        let p = dir.join(format!("ema{version}.ematrace"));
+        std::fs::write(&p, without_checksum(&good, version)).expect("writable");
+        let (stdout, stderr) = run(&p);
+        assert_eq!(stdout, reference, "EMA{version}: the same frames, the same summary");
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        let needles = [format!("warning: '{}': ", p.display()), format!("EMA{version}"), "no checksum".to_owned()];
+        assert!(needles.iter().all(|n| stderr.contains(n)), "{stderr}");
+    }
+    let mut flipped = without_checksum(&good, 1);
+    flipped[20_000] ^= 0x04;
+    let p = dir.join("ema1-flipped.ematrace");
+    std::fs::write(&p, &flipped).expect("writable");
+    let (stdout, stderr) = run(&p);
+    assert_ne!(stdout, reference, "a corrupted EMA1 is identified as another recording");
+    assert!(stderr.contains("no checksum"), "{stderr}");
 }
 
 #[test]

@@ -62,6 +62,7 @@ fn the_second_fault_is_a_diagnosis_at_10_khz_and_inconclusive_as_declared() {
     // the same frames declared at 10 kHz: a diagnosis (backlash and a short on phase C, both
     // DEGRADED), and the declared rate changes nothing but the status
     bytes[8..12].copy_from_slice(&SAMPLE_RATE_HZ.to_le_bytes());
+    ema_monitor::trace::reseal(&mut bytes).expect("an EMA3 trace");
     let at_rate = firmware_trace_outcome(&bytes, &ema_monitor::EmaParams::NOMINAL, &config).expect("identified").report;
     assert_eq!(at_rate.status, Status::Degraded, "{at_rate}");
     let k = at_rate.faults.0;
@@ -89,6 +90,13 @@ fn too_short_and_malformed_traces_are_refused_with_the_firmware_summary() {
     assert_eq!(short.summary_line(), "summary: REFUSED acquisition Conditioning(TooShort)");
     let padding = refusal("bad-padding.ematrace");
     assert_eq!(padding.summary_line(), "summary: REFUSED trace Padding");
+    let checksum = refusal("bad-checksum.ematrace");
+    assert_eq!(checksum.summary_line(), "summary: REFUSED trace Checksum");
+    // the same bytes with the checksum written again: the flipped bit reads as another current
+    let mut resealed = committed("bad-checksum.ematrace");
+    ema_monitor::trace::reseal(&mut resealed).expect("an EMA3 trace");
+    let accepted = firmware_trace_outcome(&resealed, &ema_monitor::EmaParams::NOMINAL, &onboard(None));
+    assert!(!matches!(&accepted, Err(r) if r.stage == "trace"), "the packed format accepts it: {accepted:?}");
 
     // the command prints the summary on stdout, then its one error line, exit status 2
     let path = parity_dir().join("bad-padding.ematrace");
@@ -101,4 +109,13 @@ fn too_short_and_malformed_traces_are_refused_with_the_firmware_summary() {
     // without --bits, a refusal is the usual single error line
     let out = ema(&["identify", "--firmware-trace", s(&path)]);
     assert!(out.stdout.is_empty() && out.status.code() == Some(2));
+    // a bad checksum, the same way, the message naming the file
+    let path = parity_dir().join("bad-checksum.ematrace");
+    let out = ema(&["identify", "--firmware-trace", s(&path), "--bits"]);
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert_eq!(stdout, "summary: REFUSED trace Checksum\n");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.starts_with("error: ") && stderr.contains("bad-checksum.ematrace"), "{stderr}");
+    assert!(stderr.contains("checksum does not match"), "{stderr}");
 }

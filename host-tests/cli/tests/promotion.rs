@@ -85,7 +85,7 @@ fn packing_the_builtin_run_reproduces_the_committed_trace() {
     let out = dir.join("same.ematrace");
     let summary = accepted(&["firmware-trace", "--from", s(&csv), "--out", s(&out)]);
     assert_eq!(summary.lines().count(), 1, "{summary}");
-    for needle in ["8500 frames", "10000 Hz", "38262 bytes", "same.csv", "EMA_TRACE="] {
+    for needle in ["8500 frames", "10000 Hz", "38270 bytes", "same.csv", "EMA_TRACE="] {
         assert!(summary.contains(needle), "'{needle}' missing from {summary}");
     }
     let committed = std::fs::read(committed_trace()).expect("committed trace");

@@ -1,7 +1,8 @@
 //! `ema simulate --sensors` and `--pre-trigger-ms` on a unit drawn off nominal: each effect of
 //! the current sensors' chain where it belongs in the recording, the pre-trigger at rest before
 //! the manoeuvre the run without one records, `ema identify` finding the start and the same
-//! diagnosis, and `ema firmware-trace --from` packing the pre-trigger into an EMA2 trace.
+//! diagnosis, and `ema firmware-trace --from` packing the pre-trigger into a trace with its
+//! trigger frame.
 
 use std::path::{Path, PathBuf};
 
@@ -228,7 +229,7 @@ fn identify_finds_the_start_and_the_same_diagnosis() {
 }
 
 #[test]
-fn a_pre_trigger_recording_packs_to_an_ema2_trace() {
+fn a_pre_trigger_recording_packs_to_a_trace_with_its_trigger_frame() {
     let dir = scratch("sensors", "ema2");
     let (plain_csv, ..) = record(&dir, "plain", &["--sensors", "nucleo-f446re"]);
     let (pre_csv, pre, _) = record(&dir, "pre", &["--sensors", "nucleo-f446re", "--pre-trigger-ms", "50"]);
@@ -247,7 +248,7 @@ fn a_pre_trigger_recording_packs_to_an_ema2_trace() {
         PackedTrace::parse(&pre_bytes).expect("valid"),
         PackedTrace::parse(&long_bytes).expect("valid"),
     );
-    assert_eq!((&plain_bytes[..4], &pre_bytes[..4]), (&b"EMA1"[..], &b"EMA2"[..]));
+    assert_eq!((&plain_bytes[..4], &pre_bytes[..4]), (&b"EMA3"[..], &b"EMA3"[..]));
     assert_eq!((plain_t.trigger_frame(), pre_t.trigger_frame(), pre_t.frames()), (0, 500, 9000));
     // a longer rest keeps the last 100 ms of it
     assert_eq!((long_t.trigger_frame(), long_t.frames()), (1000, 9500));

@@ -125,6 +125,7 @@ fn identify_pooled<'a, const W: usize>(
         warm: None,
         unit_check: None,
         sensors: ema_monitor::acquisition::SensorCheck::DECLARED,
+        position: None,
     })
 }
 

@@ -57,7 +57,9 @@ pub struct IdentifyArgs {
     /// How to read the recording.
     #[command(flatten)]
     pub recording: RecordingArgs,
-    /// Identify the firmware's packed trace instead, exactly as the firmware does.
+    /// Identify the firmware's packed trace instead, exactly as the firmware does. An EMA3 trace's
+    /// checksum is checked (a corrupted file is refused); an EMA1 or EMA2 trace has none, and a
+    /// warning on stderr says so.
     #[arg(long, value_name = "FILE")]
     pub firmware_trace: Option<PathBuf>,
     /// Optimizer.

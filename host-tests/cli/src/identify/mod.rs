@@ -60,7 +60,8 @@ pub use crate::runtime::command::{
     HOST_COMMAND_SAMPLES,
 };
 pub use crate::runtime::firmware::{
-    bits_line, firmware_trace_outcome, firmware_trace_outcome_for, summary_line, Refusal, MAX_FIRMWARE_TRACE_BYTES,
+    bits_line, checksum_warning, firmware_trace_outcome, firmware_trace_outcome_for, summary_line, Refusal,
+    MAX_FIRMWARE_TRACE_BYTES,
 };
 pub use crate::runtime::identification::{
     identify_recording, identify_recording_with, identify_trace, identify_unit_recording, run_to_end, Outcome,
@@ -102,17 +103,25 @@ pub fn run(args: &IdentifyArgs) -> Result<Done, CliError> {
         return Ok(Done::report(pooled::render(&pooled, &config.effects, args), status, args.fail_on));
     }
     let (outcome, command) = match (&args.firmware_trace, args.files.first()) {
-        (Some(path), _) => match firmware_trace_outcome(&read_firmware_trace(path)?, &params, &config) {
-            Ok(outcome) => (outcome, ModelCommand::Profile { profile: Profile::STANDARD, name: "standard".to_owned() }),
-            Err(refusal) => {
-                if args.bits {
-                    // the firmware's summary of the refusal, on stdout as an accepted report's;
-                    // a closed stdout changes nothing: the error line follows on stderr
-                    let _ = writeln!(std::io::stdout().lock(), "{}", refusal.summary_line());
-                }
-                return Err(CliError::input(path, refusal.message));
+        (Some(path), _) => {
+            let bytes = read_firmware_trace(path)?;
+            if let Some(warning) = checksum_warning(path, &bytes) {
+                eprintln!("{warning}");
             }
-        },
+            match firmware_trace_outcome(&bytes, &params, &config) {
+                Ok(outcome) => {
+                    (outcome, ModelCommand::Profile { profile: Profile::STANDARD, name: "standard".to_owned() })
+                }
+                Err(refusal) => {
+                    if args.bits {
+                        // the firmware's summary of the refusal, on stdout as an accepted report's;
+                        // a closed stdout changes nothing: the error line follows on stderr
+                        let _ = writeln!(std::io::stdout().lock(), "{}", refusal.summary_line());
+                    }
+                    return Err(CliError::input(path, refusal.message));
+                }
+            }
+        }
         (None, Some(path)) => {
             let resolved = resolve_command(args.command, &args.profile)?;
             let load = args.recording.load(path, resolved.as_ref().and_then(ModelCommand::profile), &params)?;

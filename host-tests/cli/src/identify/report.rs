@@ -13,6 +13,7 @@ use crate::runtime::command::{CommandJson, ModelCommand};
 use crate::runtime::firmware::{bits_line, summary_line};
 use crate::runtime::identification::Outcome;
 use crate::runtime::model_config::effects_label;
+use crate::runtime::position_check::PositionCheck;
 use crate::runtime::unit_check::UnitCheck;
 use crate::schema::Document;
 
@@ -23,7 +24,7 @@ pub struct ModeJson {
     pub mode: &'static str,
     /// Severity in [0, 1].
     pub severity: f32,
-    /// `HEALTHY`, `DEGRADED` or `FAILING`.
+    /// `HEALTHY`, `DEGRADED`, `FAILING` or `NOT_ASSESSED`.
     pub condition: &'static str,
     /// The physical value, in `unit`.
     pub value: f32,
@@ -130,7 +131,8 @@ pub struct FitTestJson {
 
 /// The report of `ema identify --json`; `docs/output-schema.md` documents every key. Under
 /// `INCONCLUSIVE` or `SENSOR_FAULT` the fault values are no diagnosis: `k` moves to
-/// `k_not_a_diagnosis`, and `overall` and `modes` are left out.
+/// `k_not_a_diagnosis`, and `overall` and `modes` are left out (`modes` stays when no mode is
+/// assessable: it carries each mode's bound).
 #[derive(Clone, Debug, Serialize)]
 pub struct IdentifyJson {
     /// `HEALTHY`, `DEGRADED`, `FAILING`, `INCONCLUSIVE` or `SENSOR_FAULT`.
@@ -162,7 +164,7 @@ pub struct IdentifyJson {
     /// The worst mode's condition, under a diagnosis.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub overall: Option<&'static str>,
-    /// The five fault modes, under a diagnosis.
+    /// The five fault modes, under a diagnosis or when no mode is assessable.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub modes: Option<Vec<ModeJson>>,
     /// The fault vector when the status is no diagnosis.
@@ -177,6 +179,9 @@ pub struct IdentifyJson {
     /// How the recording file was read (rate, resampling, trimmed start), for a recording.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub recording: Option<LoadSummary>,
+    /// The position column against the command and the identified model, for a recording.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub position_check: Option<PositionCheck>,
     /// The recording's mean temperature (°C), at which the monitor model took the actuator's
     /// parameters (or the estimated one under `--estimate-temperature`); null without a
     /// temperature column (the parameters as given).
@@ -220,6 +225,7 @@ pub fn json_body(
 ) -> IdentifyJson {
     let r = &outcome.report;
     let diagnosis = r.status.is_diagnosis();
+    let blind = r.status.reason() == Some(ema_monitor::health::Abstain::NothingAssessable);
     let modes = r
         .modes
         .iter()
@@ -259,11 +265,12 @@ pub fn json_body(
         identification_s: outcome.seconds,
         k: diagnosis.then_some(r.faults.0),
         overall: diagnosis.then(|| r.overall().label()),
-        modes: diagnosis.then_some(modes),
+        modes: (diagnosis || blind).then_some(modes),
         k_not_a_diagnosis: (!diagnosis).then_some(r.faults.0),
         sigma: r.uncertainty.map(|u| u.sigma),
         command: command.to_json(),
         recording: loaded.cloned(),
+        position_check: outcome.position,
         temperature_c,
         model_effects: effects.active().map(|(e, s)| (e.id(), s)).collect(),
         start: if outcome.warm.is_some() { "warm" } else { "cold" },
@@ -347,6 +354,9 @@ pub fn render(
         if let Some(c) = &outcome.unit_check {
             text.push_str(&format!("\n  {}", unit_check_line(c)));
         }
+        if let Some(p) = &outcome.position {
+            text.push_str(&format!("\n  {}", position_line(p)));
+        }
         if let Some(l) = loaded {
             text.push_str(&format!("\n  {}", l.line()));
         }
@@ -359,6 +369,17 @@ pub fn render(
         out.push_str(&summary_line(&outcome.report));
     }
     out
+}
+
+/// The position check in one line: the column is used only for it.
+pub fn position_line(p: &PositionCheck) -> String {
+    let figures = format!("RMS {:.2} % of the model's swing, gain {:.3}", 100.0 * p.ratio, p.gain);
+    match p.likely_cause() {
+        None => format!("position: agrees with the command and the model ({figures}); not used by the diagnosis"),
+        Some(cause) => format!(
+            "position: DISAGREES with the command and the model ({figures}): {cause}; the diagnosis does not use it, check the file's columns"
+        ),
+    }
 }
 
 /// The unit check in one line: the best healthy unit's fitness against the diagnosis's, its

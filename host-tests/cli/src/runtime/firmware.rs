@@ -16,7 +16,7 @@ use ema_monitor::trace::{PackedTrace, TraceHeader};
 use ema_monitor::{Command, EmaParams, Profile};
 
 use super::identification::{run_identification, Outcome};
-use crate::error::CliError;
+use crate::error::{CliError, Place};
 use crate::input;
 
 /// Most pre-trigger frames of a packed trace `ema firmware-trace --from` writes: 100 ms at
@@ -24,10 +24,11 @@ use crate::input;
 /// `src/main.rs`).
 pub const MAX_PRE_TRIGGER_FRAMES: usize = 1000;
 
-/// Largest packed trace the on-board window takes, in bytes: an `EMA2` header,
+/// Largest packed trace the on-board window takes, in bytes: an `EMA3` header and checksum,
 /// [`MAX_PRE_TRIGGER_FRAMES`], then [`ONBOARD_WINDOW`] blocks of [`DECIMATION`] frames and a
 /// trailing partial block (which conditioning drops); a longer one would stop acquisition with a
-/// full window anyway, so a larger file is refused unread.
+/// full window anyway, so a larger file is refused unread. (An `EMA1` or `EMA2` trace of as many
+/// frames is smaller.)
 pub const MAX_FIRMWARE_TRACE_BYTES: usize =
     TraceHeader::new(1, 1).packed_len(MAX_PRE_TRIGGER_FRAMES + ONBOARD_WINDOW * DECIMATION + DECIMATION - 1);
 
@@ -54,6 +55,19 @@ impl Refusal {
     pub fn summary_line(&self) -> String {
         format!("summary: REFUSED {} {}", self.stage, self.error)
     }
+}
+
+/// The warning line for a packed trace that carries no checksum (`EMA1`, `EMA2`: nothing detects
+/// its corruption, the core's `trace` module); `None` for an `EMA3` trace and for bytes that do
+/// not parse (the refusal says why).
+pub fn checksum_warning(path: &Path, bytes: &[u8]) -> Option<String> {
+    let t = PackedTrace::parse(bytes).ok().filter(|t| !t.has_checksum())?;
+    Some(format!(
+        "warning: {}: an EMA{} packed trace carries no checksum, so a corrupted code would read as a current \
+         unnoticed; `ema firmware-trace` writes EMA3, which carries one",
+        Place::file(path),
+        t.version()
+    ))
 }
 
 /// Reads a packed trace file (`--firmware-trace`), at most [`MAX_FIRMWARE_TRACE_BYTES`].

@@ -22,6 +22,7 @@ use ema_monitor::{Command, EmaParams, Profile};
 use rayon::prelude::*;
 
 use super::command::ModelCommand;
+use super::position_check::{check_position, PositionCheck};
 use super::recording::condition_recording_checked_for;
 use super::unit_check::{check_unit, with_unit_check, UnitCheck};
 use crate::error::CliError;
@@ -42,6 +43,9 @@ pub struct Outcome {
     /// What the current sensors' self-calibration found (the declared calibration where the
     /// recording was not acquired through the frame checks).
     pub sensors: SensorCheck,
+    /// The recording's position column against its command and the identified model
+    /// ([`super::position_check`]; `None`: not checked, a trace without a position column).
+    pub position: Option<PositionCheck>,
 }
 
 /// The prior of a warm start and what its stages did ([`ema_monitor::monitor::WarmReport`]).
@@ -120,7 +124,8 @@ pub fn identify_unit_recording(
     let check = check_unit(&trace, params, command.command(), config, tolerances, &outcome.report);
     let report = with_unit_check(outcome.report, check.as_ref()).with_acquisition(&acquired);
     let seconds = outcome.seconds + start.elapsed().as_secs_f64();
-    Ok((Outcome { report, seconds, unit_check: check, sensors: acquired.sensors, ..outcome }, temperature_c))
+    let position = check_position(recording, params, &report.faults);
+    Ok((Outcome { report, seconds, unit_check: check, sensors: acquired.sensors, position, ..outcome }, temperature_c))
 }
 
 /// Identifies a conditioned trace (any window size) of the actuator `params`, the model driven by
@@ -157,6 +162,7 @@ pub fn run_identification<const W: usize>(
         warm,
         unit_check: None,
         sensors: SensorCheck::DECLARED,
+        position: None,
     })
 }
 
@@ -214,5 +220,6 @@ pub fn identify_pooled<const W: usize>(
         warm: None,
         unit_check: None,
         sensors: SensorCheck::DECLARED,
+        position: None,
     })
 }

@@ -24,6 +24,7 @@ pub mod command;
 pub mod firmware;
 pub mod identification;
 pub mod model_config;
+pub mod position_check;
 pub mod recording;
 pub mod source;
 pub mod temperature;
