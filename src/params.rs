@@ -470,14 +470,29 @@ impl ParamsError {
     }
 }
 
+/// A value in a message: Rust's shortest round-trip form, in exponent form outside 1e-6 to 1e9
+/// (`1e38`, not its 39 digits).
+struct Shown(f32);
+
+impl fmt::Display for Shown {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let x = self.0;
+        if x == 0.0 || !x.is_finite() || (1e-6..1e9).contains(&x.abs()) {
+            write!(f, "{x}")
+        } else {
+            write!(f, "{x:e}")
+        }
+    }
+}
+
 impl fmt::Display for ParamsError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match *self {
             ParamsError::NotFinite { field } => write!(f, "{field} must be a finite number"),
             ParamsError::OutOfRange { field, value, min, max } => {
-                write!(f, "{field} = {value} is outside its range [{min}, {max}]")
+                write!(f, "{field} = {} is outside its range [{}, {}]", Shown(value), Shown(min), Shown(max))
             }
-            ParamsError::NotInteger { field, value } => write!(f, "{field} = {value} must be a whole number"),
+            ParamsError::NotInteger { field, value } => write!(f, "{field} = {} must be a whole number", Shown(value)),
             ParamsError::Relation { field, rule } => write!(f, "{field}: {rule}"),
         }
     }
@@ -638,6 +653,11 @@ mod tests {
         let mut text = heapless::String::<128>::new();
         core::fmt::write(&mut text, format_args!("{e}")).unwrap();
         assert_eq!(text.as_str(), "phase_resistance_ohm = 500 is outside its range [0.001, 100]");
+        // a value far out of range prints in exponent form, not at full length
+        let e = with("phase_resistance_ohm", 1e38).unwrap_err();
+        text.clear();
+        core::fmt::write(&mut text, format_args!("{e}")).unwrap();
+        assert_eq!(text.as_str(), "phase_resistance_ohm = 1e38 is outside its range [0.001, 100]");
     }
 
     #[test]

@@ -14,6 +14,8 @@
 //! beside it `NAME.tolerances.toml`, the 1σ commissioning left on each parameter, which `ema
 //! identify --tolerances` takes for its unit check.
 //!
+//! A recording given twice (the same file, or the same bytes) is refused: it is one flight.
+//!
 //! Nothing is written when the recordings do not look like a healthy unit within its
 //! tolerances, because a fault present at commissioning must not become the baseline:
 //! - a resolved parameter more than 3σ from nominal (a friction fault reads as friction far
@@ -36,11 +38,12 @@ use ema_monitor::{Command, EmaParams};
 use serde::Serialize;
 
 use crate::error::CliError;
+use crate::input::check_distinct;
 use crate::output::{check_file, write_files, OutputArgs};
 use crate::params::ParamsArgs;
 use crate::params_file::template;
 use crate::progress::ProgressArgs;
-use crate::recording::RecordingArgs;
+use crate::recording::{RecordingArgs, MAX_FILE_BYTES};
 use crate::runtime::command::{command_for, resolve_command, CommandArg, ModelCommand};
 use crate::runtime::identification::identify_trace;
 use crate::runtime::recording::condition_recording_checked_for;
@@ -122,11 +125,12 @@ pub fn run(args: &CommissionArgs) -> Result<String, CliError> {
     let overwrite = args.output.overwrite();
     let out = args.output.out.as_deref().ok_or_else(|| CliError::flag("--out", "give the unit's parameter file"))?;
     if args.files.len() > MAX_COMMISSIONING_FLIGHTS {
-        return Err(CliError::flag(
-            "FILE",
-            format!("{} recordings; commissioning takes at most {MAX_COMMISSIONING_FLIGHTS}", args.files.len()),
-        ));
+        return Err(CliError::usage(format!(
+            "{} recordings; commissioning takes at most {MAX_COMMISSIONING_FLIGHTS}",
+            args.files.len()
+        )));
     }
+    check_distinct(&args.files, MAX_FILE_BYTES)?;
     let posterior_out = tolerances_path(out);
     check_file(out, overwrite)?;
     check_file(&posterior_out, overwrite)?;
@@ -231,7 +235,7 @@ pub fn commission_recordings(
     config: &IdentifyConfig,
 ) -> Result<Baseline, CliError> {
     let Some(first) = recordings.first().map(|r| r.path) else {
-        return Err(CliError::flag("FILE", "give at least one recording"));
+        return Err(CliError::usage("give at least one recording"));
     };
     let fits = recordings
         .iter()
@@ -243,7 +247,7 @@ pub fn commission_recordings(
         .map(|(fit, r)| CommissioningFlight { fit, temperature_c: r.temperature_c })
         .collect();
     let mut objective = BaselineFit::new(&flights, *base, *tolerances, config.independent_frames_per_block)
-        .map_err(|e| CliError::flag("FILE", e.to_string()))?;
+        .map_err(|e| CliError::usage(e.to_string()))?;
     let baseline =
         commission::<HOST_WINDOW, SWARM_PARTICLES>(&mut objective, SWARM_ITERATIONS, config.seed, &mut || {})
             .map_err(|e| CliError::input(first, e.to_string()))?;

@@ -24,6 +24,7 @@ use serde::Serialize;
 
 use crate::error::CliError;
 use crate::params::ParamsArgs;
+use crate::progress::{self, ProgressArgs};
 use crate::runtime::source::HOST_WINDOW;
 use crate::schema::Document;
 
@@ -42,6 +43,9 @@ pub struct CompareArgs {
     /// The actuator's parameters (both models).
     #[command(flatten)]
     pub params: ParamsArgs,
+    /// `--quiet`.
+    #[command(flatten)]
+    pub progress: ProgressArgs,
 }
 
 /// The rotor angle the monitor model runs with in `ema compare`.
@@ -233,10 +237,18 @@ pub struct CompareJson<'a> {
 /// Runs `ema compare`.
 pub fn run(args: &CompareArgs) -> Result<String, CliError> {
     let params = args.params.load()?;
-    let results: Vec<CaseResult> = cases()
+    let cases = cases();
+    let bar = progress::bar(cases.len() as u64, "cases", args.progress.visible());
+    let results = cases
         .into_iter()
-        .map(|(name, k)| compare_case(&name, k, args.seed, args.rotor_angle, &params))
-        .collect::<Result<_, _>>()?;
+        .map(|(name, k)| {
+            let result = compare_case(&name, k, args.seed, args.rotor_angle, &params);
+            bar.inc(1);
+            result
+        })
+        .collect::<Result<Vec<CaseResult>, _>>();
+    bar.finish_and_clear();
+    let results = results?;
     if args.json {
         let cases = results
             .iter()

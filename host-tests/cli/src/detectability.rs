@@ -27,6 +27,7 @@ use serde::Serialize;
 
 use crate::error::CliError;
 use crate::params::ParamsArgs;
+use crate::progress::{self, ProgressArgs};
 use crate::recording::Recording;
 use crate::runtime::recording::condition_recording;
 use crate::schema::Document;
@@ -53,6 +54,9 @@ pub struct DetectabilityArgs {
     /// The actuator's parameters.
     #[command(flatten)]
     pub params: ParamsArgs,
+    /// `--quiet`.
+    #[command(flatten)]
+    pub progress: ProgressArgs,
 }
 
 /// One case of the table: a fault vector and what its recording can tell.
@@ -215,10 +219,18 @@ pub fn run(args: &DetectabilityArgs) -> Result<String, CliError> {
     let profile = resolve_profile(&args.profile)?;
     let params = args.params.load()?;
     let noise = args.noise == Noise::On;
-    let cases = cases(args.severity)
+    let all = cases(args.severity);
+    let bar = progress::bar(all.len() as u64, "cases", args.progress.visible());
+    let cases = all
         .iter()
-        .map(|(name, k)| case(name, k, &params, &profile, noise, args.seed))
-        .collect::<Result<Vec<_>, _>>()?;
+        .map(|(name, k)| {
+            let result = case(name, k, &params, &profile, noise, args.seed);
+            bar.inc(1);
+            result
+        })
+        .collect::<Result<Vec<_>, _>>();
+    bar.finish_and_clear();
+    let cases = cases?;
     let doc = DetectabilityJson {
         profile: args.profile.clone(),
         severity: args.severity,

@@ -54,6 +54,7 @@ use ema_reference::{simulate, Effects, SimConfig};
 use crate::error::CliError;
 use crate::output::{check_file, write_files, OutputArgs, Overwrite};
 use crate::params::ParamsArgs;
+use crate::progress::{self, ProgressArgs};
 use crate::recording::{Recording, RecordingArgs};
 use crate::runtime::recording::check_recording;
 
@@ -90,6 +91,9 @@ pub struct FirmwareTraceArgs {
     /// The manoeuvre of the built-in run (the firmware's `EMA_PROFILE`).
     #[arg(long, value_enum, default_value_t = BuiltInProfile::Standard, conflicts_with = "from")]
     pub profile: BuiltInProfile,
+    /// `--quiet`.
+    #[command(flatten)]
+    pub progress: ProgressArgs,
 }
 
 /// A manoeuvre the firmware can fly (`EMA_PROFILE` at build time).
@@ -186,24 +190,24 @@ pub fn recording_trace_bytes(
 ) -> Result<Vec<u8>, CliError> {
     check_recording(recording, path, &Profile::STANDARD, params)?;
     if recording.len() != FIRMWARE_TRACE_FRAMES {
-        return Err(CliError::Input {
-            path: path.to_path_buf(),
-            message: format!(
+        return Err(CliError::input(
+            path,
+            format!(
                 "{} rows, but a firmware trace holds exactly {FIRMWARE_TRACE_FRAMES} frames (the standard profile, \
                  {} s at {SAMPLE_RATE_HZ} Hz)",
                 recording.len(),
                 Profile::STANDARD.duration_s()
             ),
-        });
+        ));
     }
     if pre_trigger.len() > MAX_PRE_TRIGGER_FRAMES {
-        return Err(CliError::Input {
-            path: path.to_path_buf(),
-            message: format!(
+        return Err(CliError::input(
+            path,
+            format!(
                 "{} rows before the manoeuvre, but a firmware trace keeps at most {MAX_PRE_TRIGGER_FRAMES}",
                 pre_trigger.len()
             ),
-        });
+        ));
     }
     let codes = |r: &Recording, k: usize| [r.ia_a[k], r.ib_a[k], r.ic_a[k]].map(|i| amps_to_counts(i as f32));
     let frames: Vec<[u16; 3]> = (0..pre_trigger.len())
@@ -213,10 +217,8 @@ pub fn recording_trace_bytes(
     // at most MAX_PRE_TRIGGER_FRAMES: fits a u32
     let header = TraceHeader::new(SAMPLE_RATE_HZ, pre_trigger.len() as u32);
     let mut bytes = vec![0u8; header.packed_len(frames.len())];
-    let n = pack(&frames, header, &mut bytes).map_err(|e| CliError::Input {
-        path: path.to_path_buf(),
-        message: format!("the recording cannot be packed: {e}"),
-    })?;
+    let n = pack(&frames, header, &mut bytes)
+        .map_err(|e| CliError::input(path, format!("the recording cannot be packed: {e}")))?;
     bytes.truncate(n);
     Ok(bytes)
 }
@@ -233,7 +235,10 @@ pub fn run(args: &FirmwareTraceArgs) -> Result<String, CliError> {
     if let Some(from) = &args.from {
         return run_from(from, &args.recording, &out, overwrite, &params);
     }
-    let bytes = firmware_trace_bytes_for(&params, args.profile)?;
+    let spinner = progress::spinner(format!("simulating {}", out.display()), args.progress.visible());
+    let bytes = firmware_trace_bytes_for(&params, args.profile);
+    spinner.finish_and_clear();
+    let bytes = bytes?;
     let trace = PackedTrace::parse(&bytes)
         .map_err(|e| CliError::Simulation(format!("the packed trace does not read back: {e}")))?;
     write_files(&[(&out, &bytes)], overwrite)?;

@@ -5,9 +5,19 @@
 //! `/dev/zero` has none) and refuses a file longer than `limit`; [`read_text`] adds the UTF-8
 //! check of the text formats. [`BoundedLines`] hands out the lines of a text file one by one, each
 //! refused beyond [`BoundedLines::max_line_bytes`] before it is stored.
+//!
+//! [`check_distinct`] refuses a file given twice to a command that takes each file as one flight
+//! (`ema identify A B …`, `ema history`, `ema commission`): the same file under two names, or two
+//! files of identical content.
 
+use std::collections::hash_map::DefaultHasher;
 use std::fmt;
-use std::io::{BufRead, Read};
+use std::fs::File;
+use std::hash::Hasher;
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+
+use crate::error::{CliError, Place};
 
 /// Why a bounded read failed.
 #[derive(Debug)]
@@ -45,6 +55,98 @@ impl fmt::Display for ReadError {
 }
 
 impl std::error::Error for ReadError {}
+
+impl ReadError {
+    /// The 1-based line at fault, when one is.
+    pub fn line(&self) -> Option<usize> {
+        match self {
+            ReadError::NotUtf8 { line } | ReadError::LineTooLong { line, .. } => Some(*line),
+            ReadError::Io(_) | ReadError::TooLarge { .. } => None,
+        }
+    }
+
+    /// What is wrong, without the line.
+    pub fn message(&self) -> String {
+        match self {
+            ReadError::NotUtf8 { .. } => "not UTF-8 text".to_owned(),
+            ReadError::LineTooLong { limit, .. } => format!("longer than {limit} bytes"),
+            other => other.to_string(),
+        }
+    }
+
+    /// The error about the file `path`, at its line ([`CliError::Input`]).
+    pub fn at(&self, path: &Path) -> CliError {
+        CliError::input_at(Place::at(path, self.line(), None), self.message())
+    }
+}
+
+/// What identifies a file's content: its canonical path, and for a regular file its length and a
+/// hash of its first `limit + 1` bytes (a pipe or a device is not read: reading would consume it).
+struct Identity {
+    canonical: PathBuf,
+    content: Option<(u64, u64)>,
+}
+
+/// The [`Identity`] of `path`; an error names the file when it cannot be opened or read.
+fn identity(path: &Path, limit: usize) -> Result<Identity, CliError> {
+    let canonical = std::fs::canonicalize(path).map_err(|e| CliError::input(path, format!("cannot read: {e}")))?;
+    let meta = std::fs::metadata(&canonical).map_err(|e| CliError::input(path, format!("cannot read: {e}")))?;
+    if !meta.is_file() {
+        return Ok(Identity { canonical, content: None });
+    }
+    let file = File::open(&canonical).map_err(|e| CliError::input(path, format!("cannot read: {e}")))?;
+    let cap = u64::try_from(limit).unwrap_or(u64::MAX).saturating_add(1);
+    let mut reader = BufReader::new(file.take(cap));
+    let mut hasher = DefaultHasher::new();
+    let mut length = 0u64;
+    loop {
+        let chunk = reader.fill_buf().map_err(|e| CliError::input(path, format!("cannot read: {e}")))?;
+        if chunk.is_empty() {
+            break;
+        }
+        hasher.write(chunk);
+        let n = chunk.len();
+        length += n as u64;
+        reader.consume(n);
+    }
+    Ok(Identity { canonical, content: Some((length, hasher.finish())) })
+}
+
+/// `true` when the regular files `a` and `b` hold the same first `limit + 1` bytes (the check
+/// behind equal hashes).
+fn same_bytes(a: &Path, b: &Path, limit: usize) -> bool {
+    let read = |p: &Path| File::open(p).ok().and_then(|f| read_bounded(f, limit).ok());
+    matches!((read(a), read(b)), (Some(x), Some(y)) if x == y)
+}
+
+/// Refuses a file given twice among `paths` (the inputs of one command, each one flight): the
+/// same file under two names (one canonical path) or two regular files of identical content (the
+/// first `limit + 1` bytes, `limit` the most the command reads of one). The error names both
+/// arguments and their places on the command line; an unreadable file is an error naming it.
+pub fn check_distinct(paths: &[PathBuf], limit: usize) -> Result<(), CliError> {
+    let mut seen: Vec<Identity> = Vec::with_capacity(paths.len());
+    for (j, path) in paths.iter().enumerate() {
+        let id = identity(path, limit)?;
+        for (i, other) in seen.iter().enumerate() {
+            let same_file = other.canonical == id.canonical;
+            let same_content = id.content.is_some()
+                && other.content == id.content
+                && same_bytes(&other.canonical, &id.canonical, limit);
+            if same_file || same_content {
+                return Err(CliError::usage(format!(
+                    "recordings {} ('{}') and {} ('{}') are {}: each recording is one flight; give each once",
+                    i + 1,
+                    paths[i].display(),
+                    j + 1,
+                    path.display(),
+                    if same_file { "the same file" } else { "identical (the same bytes)" }
+                )));
+            }
+        }
+        seen.push(id);
+    }
+    Ok(())
+}
 
 /// All bytes of `reader`, at most `limit` of them: a longer input is [`ReadError::TooLarge`]
 /// after reading `limit + 1` bytes, never more.

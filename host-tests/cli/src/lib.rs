@@ -4,13 +4,16 @@
 //! own acquisition and identification run over recordings and packed traces), plus the shared
 //! recording reader/writer ([`recording`]), profile files ([`profile_file`]), the bounded reading
 //! of every input file ([`input`]), the plots ([`plots`], plotters' SVG backend), the JSON
-//! envelope ([`schema`]), the progress bars ([`progress`]) and the error type ([`error`]). No
+//! envelope ([`schema`]), the progress bars ([`progress`]), the error type ([`error`]) and the
+//! exit statuses ([`exit`]). No
 //! file imports itself back through another (no import cycle). Every input file is read within a
 //! stated size, so no file drives an allocation. Every output file goes
-//! through [`output`]: checked before the work, an existing file replaced only with `--force`,
-//! written to a temporary file and renamed into place.
+//! through [`output`]: checked before the work (and after the inputs), an existing regular file
+//! replaced only with `--force` and no other node ever (a symlink, FIFO or device), written to a
+//! temporary file and renamed into place.
 //! The binary (`src/main.rs`) parses the command line with clap and prints every error as a
-//! single `error: …` line on stderr with exit status 2.
+//! single `error: …` line on stderr; its exit status is the contract of [`exit`] (2 for a usage or
+//! input error, 1 when writing failed, 3 and 4 for a report that is no diagnosis).
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
@@ -24,6 +27,7 @@ pub mod compare;
 pub mod detectability;
 pub mod discover;
 pub mod error;
+pub mod exit;
 pub mod firmware_trace;
 pub mod fleet;
 pub mod flights;

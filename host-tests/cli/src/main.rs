@@ -3,6 +3,10 @@
 //! effects), `params` (the actuator parameter and tolerance templates), `commission` (a unit's own parameters), `fleet` (units
 //! drawn, commissioned and flown), `history` (trend and remaining useful life), `detectability` (what a manoeuvre can tell), `pod`
 //! (detection curves and false alarms).
+//!
+//! The exit status follows the contract of [`ema_cli::exit`]: 0 for a diagnosis or a command that
+//! succeeded, 1 when writing failed, 2 for a usage or input error, 3 for INCONCLUSIVE, 4 for
+//! SENSOR_FAULT, 5 for a diagnosis at or above `--fail-on`.
 
 use std::io::{ErrorKind as IoErrorKind, Write};
 use std::process::ExitCode;
@@ -14,7 +18,8 @@ use ema_cli::commission::{self, CommissionArgs};
 use ema_cli::compare::{self, CompareArgs};
 use ema_cli::detectability::{self, DetectabilityArgs};
 use ema_cli::discover::{self, DiscoverArgs};
-use ema_cli::error::{CliError, EXIT_FAILURE};
+use ema_cli::error::CliError;
+use ema_cli::exit::{Done, RUNTIME_FAILURE, USAGE_ERROR};
 use ema_cli::firmware_trace::{self, FirmwareTraceArgs};
 use ema_cli::fleet::{self, FleetArgs};
 use ema_cli::history::{self, HistoryArgs};
@@ -64,32 +69,33 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(e) => return clap_error(&e),
     };
-    let result: Result<String, CliError> = match &cli.command {
-        Command::Simulate(args) => simulate::run(args),
+    let result: Result<Done, CliError> = match &cli.command {
+        Command::Simulate(args) => simulate::run(args).map(Done::success),
         Command::Identify(args) => identify::run(args),
-        Command::FirmwareTrace(args) => firmware_trace::run(args),
-        Command::Compare(args) => compare::run(args),
-        Command::Campaign(args) => campaign::run(args),
-        Command::Discover(args) => discover::run(args),
-        Command::Params(args) => params::run(args),
-        Command::Commission(args) => commission::run(args),
-        Command::Fleet(args) => fleet::run(args),
+        Command::FirmwareTrace(args) => firmware_trace::run(args).map(Done::success),
+        Command::Compare(args) => compare::run(args).map(Done::success),
+        Command::Campaign(args) => campaign::run(args).map(Done::success),
+        Command::Discover(args) => discover::run(args).map(Done::success),
+        Command::Params(args) => params::run(args).map(Done::success),
+        Command::Commission(args) => commission::run(args).map(Done::success),
+        Command::Fleet(args) => fleet::run(args).map(Done::success),
         Command::History(args) => history::run(args),
-        Command::Detectability(args) => detectability::run(args),
-        Command::Pod(args) => pod::run(args),
+        Command::Detectability(args) => detectability::run(args).map(Done::success),
+        Command::Pod(args) => pod::run(args).map(Done::success),
     };
     match result {
-        // A reader that stops early (`ema discover FILE | head`) is not an error.
-        Ok(summary) => match writeln!(std::io::stdout().lock(), "{summary}") {
+        // A reader that stops early (`ema discover FILE | head`) is not an error: the status stays
+        // the command's.
+        Ok(done) => match writeln!(std::io::stdout().lock(), "{}", done.stdout) {
             Err(e) if e.kind() != IoErrorKind::BrokenPipe => {
                 eprintln!("error: writing to stdout: {e}");
-                ExitCode::from(EXIT_FAILURE)
+                ExitCode::from(RUNTIME_FAILURE)
             }
-            _ => ExitCode::SUCCESS,
+            _ => ExitCode::from(done.code),
         },
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::from(EXIT_FAILURE)
+            ExitCode::from(e.exit_code())
         }
     }
 }
@@ -105,7 +111,7 @@ fn clap_error(e: &clap::Error) -> ExitCode {
             eprintln!(
                 "error: a subcommand is required (simulate, identify, firmware-trace, compare, campaign, discover, params, commission, fleet, history, detectability, pod); try 'ema --help'"
             );
-            ExitCode::from(EXIT_FAILURE)
+            ExitCode::from(USAGE_ERROR)
         }
         _ => {
             let text = e.to_string();
@@ -126,7 +132,7 @@ fn clap_error(e: &clap::Error) -> ExitCode {
             } else {
                 eprintln!("error: {line}");
             }
-            ExitCode::from(EXIT_FAILURE)
+            ExitCode::from(USAGE_ERROR)
         }
     }
 }

@@ -1,14 +1,24 @@
 //! Output files of every command: checked before the work starts, written whole or not at all.
 //!
-//! Two rules hold for every file the `ema` commands write (`simulate --out`, `firmware-trace`,
-//! `campaign --out DIR`, `discover --out DIR`):
+//! Three rules hold for every file the `ema` commands write (`simulate --out`, `firmware-trace`,
+//! `campaign --out DIR`, `discover --out DIR`, `history --out DIR`, `commission --out`,
+//! `fleet --out`):
 //!
 //! 1. **Checked up front.** [`check_file`] and [`prepare_dir`] run before any simulation or
-//!    identification: the directory exists (an output directory is created), is a directory, and
-//!    accepts a new file (one is created and removed); the output path is not a directory; an
-//!    existing file is refused unless the command was given `--force` ([`Overwrite::Replace`]),
-//!    with [`CliError::Exists`] naming it. A long run never ends in an error about its output.
-//! 2. **Atomic replacement.** [`write_files`] and [`write_with`] write each file to a temporary
+//!    identification (and, in a command that reads inputs, once they are checked: a bad input
+//!    leaves no output directory behind): the directory exists (an output directory is created),
+//!    is a directory, and accepts a new file (one is created and removed); the output path is not
+//!    a directory; an existing file is refused unless the command was given `--force`
+//!    ([`Overwrite::Replace`]), with [`CliError::Exists`] naming it. A long run never ends in an
+//!    error about its output.
+//! 2. **Only a regular file is replaced.** Whatever is at the output path that is not a regular
+//!    file — a symlink (to a file, a directory or a device alike: the link itself is looked at,
+//!    never followed), a FIFO, a character or block device, a socket — is refused with or without
+//!    `--force` ([`CliError::Unwritable`], naming the path and what it is): a rename over it would
+//!    replace the node by a regular file (as root, `/dev/full` would become a file). The check
+//!    runs up front and again just before each rename; a node that appeared in between is refused
+//!    there, its temporary file removed.
+//! 3. **Atomic replacement.** [`write_files`] and [`write_with`] write each file to a temporary
 //!    file in the same directory (`.NAME.PID.N.tmp`, created exclusively), flush it to the disk
 //!    (`fsync`) and only then rename it over the destination. A rename within one directory is
 //!    atomic (POSIX `rename(2)`), so a reader sees the old file or the complete new one, never a
@@ -18,7 +28,8 @@
 //!    them. A replaced file keeps its permissions.
 //!
 //! A process killed between the write and the rename leaves its `.NAME.PID.N.tmp` file behind,
-//! and the destination untouched.
+//! and the destination untouched. An error up front (a path that cannot be used) exits 2, a
+//! failed write 1 ([`crate::exit`]).
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter, Write};
@@ -37,8 +48,8 @@ pub struct OutputArgs {
     /// Where the command writes its output files (a file or a directory: see the command's help).
     #[arg(long, value_name = "PATH")]
     pub out: Option<PathBuf>,
-    /// Replace the output files if they exist (without it, an existing one stops the command
-    /// before it does any work).
+    /// Replace the output files if they exist as regular files (without it, an existing one stops
+    /// the command before it does any work; a symlink, FIFO or device is never replaced).
     #[arg(long)]
     pub force: bool,
 }
@@ -87,14 +98,34 @@ fn temp_path(dir: &Path, name: &str) -> PathBuf {
     dir.join(format!(".{name}.{}.{n}.tmp", std::process::id()))
 }
 
-/// An I/O error about `path`, with the operating system's or our reason.
+/// A failed write of `path` (the disk's fault: exit status 1).
 fn io_error(path: &Path, source: io::Error) -> CliError {
     CliError::Io { path: path.to_path_buf(), source }
 }
 
-/// An I/O error about `path` with a reason of ours.
-fn refusal(path: &Path, reason: String) -> CliError {
-    io_error(path, io::Error::other(reason))
+/// `path` cannot be used as an output, for `reason` (the command line's fault: exit status 2).
+fn refusal(path: &Path, reason: impl Into<String>) -> CliError {
+    CliError::Unwritable { path: path.to_path_buf(), reason: reason.into() }
+}
+
+/// What a file type that is not a regular file is, for a message: `a symlink`, `a FIFO`, ….
+fn node_kind(t: fs::FileType) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    if t.is_symlink() {
+        "a symlink"
+    } else if t.is_dir() {
+        "a directory"
+    } else if t.is_fifo() {
+        "a FIFO"
+    } else if t.is_char_device() {
+        "a character device"
+    } else if t.is_block_device() {
+        "a block device"
+    } else if t.is_socket() {
+        "a socket"
+    } else {
+        "not a regular file"
+    }
 }
 
 /// Checks that `dir` is an existing directory in which a file can be created (creates and
@@ -106,32 +137,39 @@ fn check_writable_dir(dir: &Path, target: &Path) -> Result<(), CliError> {
         Err(e) if e.kind() == io::ErrorKind::NotFound => {
             return Err(refusal(target, format!("directory '{}' does not exist", dir.display())))
         }
-        Err(e) => return Err(io_error(target, e)),
+        Err(e) => return Err(refusal(target, e.to_string())),
     }
     let probe = temp_path(dir, "ema-write-probe");
-    OpenOptions::new().write(true).create_new(true).open(&probe).map_err(|e| io_error(target, e))?;
-    fs::remove_file(&probe).map_err(|e| io_error(target, e))
+    OpenOptions::new().write(true).create_new(true).open(&probe).map_err(|e| refusal(target, e.to_string()))?;
+    fs::remove_file(&probe).map_err(|e| refusal(target, e.to_string()))
 }
 
-/// Checks the destination itself: not a directory, and no existing file unless `overwrite` allows it.
+/// Checks the destination itself, without following a symlink: nothing there, or a regular file
+/// that `overwrite` allows to replace. A directory, a symlink, a FIFO, a device or a socket is
+/// refused whatever `overwrite` says.
 fn check_destination(path: &Path, overwrite: Overwrite) -> Result<(), CliError> {
-    match fs::metadata(path) {
-        Ok(m) if m.is_dir() => Err(refusal(path, "it is a directory, not a file".to_string())),
+    match fs::symlink_metadata(path) {
+        Ok(m) if m.is_dir() => Err(refusal(path, "it is a directory, not a file")),
+        Ok(m) if !m.file_type().is_file() => Err(refusal(
+            path,
+            format!("it is {}, not a regular file; not replaced, with or without --force", node_kind(m.file_type())),
+        )),
         Ok(_) if overwrite == Overwrite::Refuse => Err(CliError::Exists { path: path.to_path_buf() }),
         Ok(_) => Ok(()),
         Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(()),
-        Err(e) => Err(io_error(path, e)),
+        Err(e) => Err(refusal(path, e.to_string())),
     }
 }
 
 /// The file name of an output path, or an error if it has none (`dir/..`, `/`).
 fn file_name(path: &Path) -> Result<&str, CliError> {
-    path.file_name().and_then(|n| n.to_str()).ok_or_else(|| refusal(path, "not a file name".to_string()))
+    path.file_name().and_then(|n| n.to_str()).ok_or_else(|| refusal(path, "not a file name"))
 }
 
 /// Checks, before any work, that `path` can be written: its directory exists and accepts a new
-/// file, `path` is not a directory, and an existing file is replaced only with
-/// [`Overwrite::Replace`].
+/// file, `path` is not a directory nor any other node than a regular file (a symlink, FIFO or
+/// device is refused, with or without `--force`), and an existing regular file is replaced only
+/// with [`Overwrite::Replace`].
 pub fn check_file(path: &Path, overwrite: Overwrite) -> Result<(), CliError> {
     file_name(path)?;
     check_writable_dir(parent_dir(path), path)?;
@@ -143,9 +181,9 @@ pub fn check_file(path: &Path, overwrite: Overwrite) -> Result<(), CliError> {
 /// into it as [`check_file`] does.
 pub fn prepare_dir(dir: &Path, names: &[&str], overwrite: Overwrite) -> Result<(), CliError> {
     match fs::metadata(dir) {
-        Ok(m) if !m.is_dir() => return Err(refusal(dir, "it is a file, not a directory".to_string())),
+        Ok(m) if !m.is_dir() => return Err(refusal(dir, "it is a file, not a directory")),
         Ok(_) => {}
-        Err(_) => fs::create_dir_all(dir).map_err(|e| io_error(dir, e))?,
+        Err(_) => fs::create_dir_all(dir).map_err(|e| refusal(dir, e.to_string()))?,
     }
     check_writable_dir(dir, dir)?;
     for name in names {
@@ -189,7 +227,7 @@ fn stage(
     write(&mut w).map_err(|e| io_error(target, e))?;
     let file = w.into_inner().map_err(|e| io_error(target, e.into_error()))?;
     file.sync_all().map_err(|e| io_error(target, e))?;
-    if let Ok(m) = fs::metadata(target) {
+    if let Ok(m) = fs::symlink_metadata(target) {
         if let Some(temp) = &staged.temp {
             fs::set_permissions(temp, m.permissions()).map_err(|e| io_error(target, e))?;
         }
@@ -198,6 +236,9 @@ fn stage(
 }
 
 /// Renames every staged file into place, then flushes their directories' entries (best effort).
+/// Every destination is checked again first (so that a refusal replaces none of them), and each
+/// once more just before its own rename, the narrowest window this side of the kernel: a node
+/// that is not a regular file is never renamed over, and its temporary file is removed.
 fn commit(mut staged: Vec<Staged>, overwrite: Overwrite) -> Result<(), CliError> {
     for s in &staged {
         // a file that appeared during the run is not replaced without --force either
@@ -205,6 +246,7 @@ fn commit(mut staged: Vec<Staged>, overwrite: Overwrite) -> Result<(), CliError>
     }
     for s in &mut staged {
         if let Some(temp) = &s.temp {
+            check_destination(&s.target, overwrite)?;
             fs::rename(temp, &s.target).map_err(|e| io_error(&s.target, e))?;
             s.temp = None;
         }
@@ -333,6 +375,62 @@ mod tests {
         assert!(e.to_string().contains("a.csv"), "{e}");
         assert_eq!(entries(&dir), ["a.csv", "out"]);
         assert_eq!(entries(&out), ["x.json"]);
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    /// A FIFO at `path` (`mkfifo`, as the crate forbids `unsafe` and so `libc::mkfifo`).
+    fn mkfifo(path: &Path) {
+        let status = std::process::Command::new("mkfifo").arg(path).status().expect("mkfifo runs");
+        assert!(status.success(), "mkfifo {}", path.display());
+    }
+
+    #[test]
+    fn only_a_regular_file_is_replaced() {
+        use std::os::unix::fs::symlink;
+        let dir = scratch("nodes");
+        let target = dir.join("target.txt");
+        fs::write(&target, "kept").unwrap();
+        let link = dir.join("link.csv");
+        symlink(&target, &link).unwrap();
+        let dangling = dir.join("dangling.csv");
+        symlink(dir.join("nowhere"), &dangling).unwrap();
+        let fifo = dir.join("fifo.csv");
+        mkfifo(&fifo);
+        for (path, kind) in [(&link, "a symlink"), (&dangling, "a symlink"), (&fifo, "a FIFO")] {
+            for overwrite in [Overwrite::Refuse, Overwrite::Replace] {
+                let e = check_file(path, overwrite).expect_err("not a regular file");
+                assert!(matches!(e, CliError::Unwritable { .. }), "{e}");
+                let shown = e.to_string();
+                assert!(shown.contains(&path.display().to_string()) && shown.contains(kind), "{shown}");
+                assert!(shown.contains("not replaced"), "{shown}");
+                let e = write_files(&[(path, b"new")], overwrite).expect_err("refused at the write too");
+                assert!(e.to_string().contains(kind), "{e}");
+            }
+        }
+        // in an output directory too
+        let e = prepare_dir(&dir, &["fifo.csv"], Overwrite::Replace).expect_err("a FIFO inside");
+        assert!(e.to_string().contains("a FIFO"), "{e}");
+        assert!(fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert!(fs::symlink_metadata(&dangling).unwrap().file_type().is_symlink());
+        assert_eq!(fs::read_to_string(&target).unwrap(), "kept");
+        assert_eq!(entries(&dir), ["dangling.csv", "fifo.csv", "link.csv", "target.txt"]);
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_node_that_appears_during_the_write_is_not_renamed_over() {
+        use std::os::unix::fs::FileTypeExt;
+        let dir = scratch("race");
+        let path = dir.join("out.csv");
+        // the destination is free when checked, and a FIFO by the time the file is renamed
+        let e = write_with(&path, Overwrite::Replace, |w| {
+            mkfifo(&path);
+            w.write_all(b"time_s\n")
+        })
+        .expect_err("refused before the rename");
+        assert!(matches!(e, CliError::Unwritable { .. }) && e.to_string().contains("a FIFO"), "{e}");
+        assert!(fs::symlink_metadata(&path).unwrap().file_type().is_fifo());
+        assert_eq!(entries(&dir), ["out.csv"], "the temporary file is removed");
         let _ = fs::remove_dir_all(&dir);
     }
 }

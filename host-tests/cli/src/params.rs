@@ -47,10 +47,10 @@ impl ParamsArgs {
 
 /// Reads and checks a parameter file; errors name the file, line and key.
 pub fn read_params(path: &Path) -> Result<EmaParams, CliError> {
-    let input = |message: String| CliError::Input { path: path.to_path_buf(), message };
-    let file = std::fs::File::open(path).map_err(|e| input(format!("cannot read the parameter file: {e}")))?;
-    let text = read_text(file, MAX_PARAMS_BYTES).map_err(|e| input(e.to_string()))?;
-    parse_params(&text).map_err(|e| CliError::Input { path: path.to_path_buf(), message: e.to_string() })
+    let file =
+        std::fs::File::open(path).map_err(|e| CliError::input(path, format!("cannot read the parameter file: {e}")))?;
+    let text = read_text(file, MAX_PARAMS_BYTES).map_err(|e| e.at(path))?;
+    parse_params(&text).map_err(|e| CliError::input_line(path, e.line, e.key.as_deref(), e.message))
 }
 
 /// Arguments of `ema params`.

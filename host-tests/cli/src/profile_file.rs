@@ -22,6 +22,7 @@ use std::path::{Path, PathBuf};
 use ema_monitor::profile::{ProfileError, Segment, MAX_SEGMENTS};
 use ema_monitor::{EmaParams, Profile};
 
+use crate::error::{num, CliError, Place};
 use crate::input;
 
 /// Longest profile duration (s): the reference model's limit, [`ema_reference::MAX_DURATION_S`].
@@ -42,15 +43,19 @@ pub struct ProfileFileError {
 }
 
 impl fmt::Display for ProfileFileError {
+    /// `'PATH' line N: what is wrong` ([`Place`]).
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self.line {
-            Some(l) => write!(f, "profile file '{}' line {l}: {}", self.path.display(), self.message),
-            None => write!(f, "profile file '{}': {}", self.path.display(), self.message),
-        }
+        write!(f, "{}: {}", Place::at(&self.path, self.line, None), self.message)
     }
 }
 
 impl std::error::Error for ProfileFileError {}
+
+impl From<ProfileFileError> for CliError {
+    fn from(e: ProfileFileError) -> Self {
+        CliError::input_at(Place::at(&e.path, e.line, None), e.message)
+    }
+}
 
 /// Reads and validates a profile file against the nominal end stops.
 pub fn read_profile(path: &Path) -> Result<Profile, ProfileFileError> {
@@ -135,19 +140,23 @@ pub fn parse_profile(text: &str, path: &Path, end_stop_rad: f32) -> Result<Profi
         let start = seg.start_s();
         match segments.last() {
             None if start != 0.0 => {
-                return Err(err(Some(line), format!("the first segment must start at 0, not {start}")))
+                return Err(err(Some(line), format!("the first segment must start at 0, not {}", num(start))))
             }
             Some((prev, _)) if start <= prev.start_s() => {
                 return Err(err(
                     Some(line),
-                    format!("start time {start} s does not come after the previous segment's {} s", prev.start_s()),
+                    format!(
+                        "start time {} s does not come after the previous segment's {} s",
+                        num(start),
+                        num(prev.start_s())
+                    ),
                 ))
             }
             _ => {}
         }
         if let Segment::Sine { frequency_hz, .. } = seg {
             if frequency_hz < 0.0 {
-                return Err(err(Some(line), format!("FREQUENCY {frequency_hz} Hz is negative")));
+                return Err(err(Some(line), format!("FREQUENCY {} Hz is negative", num(frequency_hz))));
             }
         }
         segments.push((seg, line));
@@ -161,7 +170,11 @@ pub fn parse_profile(text: &str, path: &Path, end_stop_rad: f32) -> Result<Profi
     if duration <= last.start_s() {
         return Err(err(
             Some(end_line),
-            format!("duration {duration} s does not come after the last segment's start {} s", last.start_s()),
+            format!(
+                "duration {} s does not come after the last segment's start {} s",
+                num(duration),
+                num(last.start_s())
+            ),
         ));
     }
     if duration > MAX_DURATION_S {
@@ -180,7 +193,7 @@ pub fn parse_profile(text: &str, path: &Path, end_stop_rad: f32) -> Result<Profi
                 if Profile::new(&segs[..=i], stop, end_stop_rad).is_err() {
                     let message = match e {
                         ProfileError::SinePhase => format!("FREQUENCY: {e}"),
-                        _ => format!("{e} (end stops ±{end_stop_rad} rad, the value must stay strictly inside)"),
+                        _ => format!("{e} (end stops ±{} rad, the value must stay strictly inside)", num(end_stop_rad)),
                     };
                     return Err(err(Some(segments[i].1), message));
                 }

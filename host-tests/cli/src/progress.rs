@@ -1,5 +1,7 @@
-//! Progress bars of the long commands (`campaign`, `discover`; a spinner for `identify` of a
-//! recording, whose core runs to its end in one call), drawn with indicatif on stderr.
+//! Progress bars of the commands (a bar for `campaign`, `discover`, `history`, `fleet`, `compare`
+//! and `detectability`; a spinner for `identify`, `commission`, `simulate` and `firmware-trace`,
+//! whose work runs in one call), drawn with indicatif on stderr. Every command but `params`
+//! (which prints a template at once) takes `-q`/`--quiet` ([`ProgressArgs`]).
 //!
 //! A bar is shown only when the user can see it: not with `--quiet`, and not when stdout is not
 //! a terminal ([`std::io::IsTerminal`]), since a command whose output goes to a file or a pipe is

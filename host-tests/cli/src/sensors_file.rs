@@ -61,10 +61,10 @@ pub fn resolve_sensors(name: &str, control_period_s: f64) -> Result<SensorChain,
 
 /// Reads and checks a sensor file; errors name the file, line and key.
 pub fn read_sensors(path: &Path, control_period_s: f64) -> Result<SensorChain, CliError> {
-    let input = |message: String| CliError::Input { path: path.to_path_buf(), message };
-    let file = std::fs::File::open(path).map_err(|e| input(format!("cannot read the sensor file: {e}")))?;
-    let text = read_text(file, MAX_SENSORS_BYTES).map_err(|e| input(e.to_string()))?;
-    parse_sensors(&text, control_period_s).map_err(|e| input(e.to_string()))
+    let file =
+        std::fs::File::open(path).map_err(|e| CliError::input(path, format!("cannot read the sensor file: {e}")))?;
+    let text = read_text(file, MAX_SENSORS_BYTES).map_err(|e| e.at(path))?;
+    parse_sensors(&text, control_period_s).map_err(|e| CliError::input_line(path, e.line, e.key.as_deref(), e.message))
 }
 
 /// An error at `entry`'s value.

@@ -28,10 +28,11 @@ use clap::{Args, ValueEnum};
 use ema_monitor::{EffectId, EmaParams, FaultVector, ModelEffects, Profile, Tolerances, FAULT_COUNT};
 use ema_reference::{simulate, Effect, Effects, SimConfig};
 
-use crate::error::CliError;
+use crate::error::{num, CliError};
 use crate::output::{check_file, write_files, OutputArgs};
 use crate::params::ParamsArgs;
 use crate::profile_file::read_profile;
+use crate::progress::{self, ProgressArgs};
 use crate::recording::sidecar::{sidecar_path, Sidecar, SidecarSensors, SidecarUnit, SCHEMA_VERSION};
 use crate::recording::write::csv_bytes;
 use crate::recording::{Recording, HEADER, MAX_TEMPERATURE_C, MIN_TEMPERATURE_C, TEMPERATURE_HEADER};
@@ -107,6 +108,9 @@ pub struct SimulateArgs {
     /// noise; the time column starts at 0 and the manoeuvre at N ms.
     #[arg(long = "pre-trigger-ms", value_name = "N", default_value_t = 0)]
     pub pre_trigger_ms: u32,
+    /// `--quiet`.
+    #[command(flatten)]
+    pub progress: ProgressArgs,
 }
 
 /// Longest `--pre-trigger-ms` ([`ema_reference::MAX_PRE_TRIGGER_S`]).
@@ -137,12 +141,12 @@ impl Actuator {
 /// `--temperature C`: finite and within [`MIN_TEMPERATURE_C`] and [`MAX_TEMPERATURE_C`].
 pub fn check_temperature(c: f64) -> Result<f64, CliError> {
     if !c.is_finite() {
-        return Err(CliError::flag("--temperature", format!("{c} is not a temperature; give degrees Celsius")));
+        return Err(CliError::flag("--temperature", format!("{} is not a temperature; give degrees Celsius", num(c))));
     }
     if !(MIN_TEMPERATURE_C..=MAX_TEMPERATURE_C).contains(&c) {
         return Err(CliError::flag(
             "--temperature",
-            format!("{c} °C is outside {MIN_TEMPERATURE_C} to {MAX_TEMPERATURE_C} °C"),
+            format!("{} °C is outside {MIN_TEMPERATURE_C} to {MAX_TEMPERATURE_C} °C", num(c)),
         ));
     }
     Ok(c)
@@ -293,7 +297,10 @@ pub fn run(args: &SimulateArgs) -> Result<String, CliError> {
     }
     check_file(out, overwrite)?;
     check_file(&side, overwrite)?;
-    let result = simulate(&cfg).map_err(|e| CliError::Simulation(e.to_string()))?;
+    let spinner = progress::spinner(format!("simulating {}", out.display()), args.progress.visible());
+    let result = simulate(&cfg).map_err(|e| CliError::Simulation(e.to_string()));
+    spinner.finish_and_clear();
+    let result = result?;
     let mut rec = Recording::from_reference(&result, Vec::new());
     let mut columns = HEADER.map(str::to_owned).to_vec();
     if let Some(t) = actuator.temperature_c {

@@ -71,10 +71,10 @@ pub fn parse_tolerances(text: &str) -> Result<Tolerances, ParamsFileError> {
 
 /// Reads and checks a tolerance file; errors name the file, line and key.
 pub fn read_tolerances(path: &Path) -> Result<Tolerances, CliError> {
-    let input = |message: String| CliError::Input { path: path.to_path_buf(), message };
-    let file = std::fs::File::open(path).map_err(|e| input(format!("cannot read the tolerance file: {e}")))?;
-    let text = read_text(file, MAX_TOLERANCES_BYTES).map_err(|e| input(e.to_string()))?;
-    parse_tolerances(&text).map_err(|e| input(e.to_string()))
+    let file =
+        std::fs::File::open(path).map_err(|e| CliError::input(path, format!("cannot read the tolerance file: {e}")))?;
+    let text = read_text(file, MAX_TOLERANCES_BYTES).map_err(|e| e.at(path))?;
+    parse_tolerances(&text).map_err(|e| CliError::input_line(path, e.line, e.key.as_deref(), e.message))
 }
 
 /// The commented TOML template of `tolerances`: a header (what a value means and how a unit is

@@ -75,7 +75,8 @@ fn bad_profile_files_name_file_and_line() {
             &["simulate", "--profile", p.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8")],
             &[name, line, msg],
         );
-        assert!(err.contains("profile file"), "{err}");
+        // the place every file error opens with: 'PATH' line N
+        assert!(err.starts_with(&format!("error: '{}'", p.display())), "{err}");
     }
 }
 
@@ -273,4 +274,109 @@ fn reader_refuses_bad_files_naming_file_line_and_field() {
     std::fs::write(&p, format!("# a\n\n{header}\n{good_rows}\n")).expect("writable");
     let r = read_recording(&p).expect("valid");
     assert_eq!((r.len(), r.comments.clone()), (3, vec!["a".to_owned()]));
+}
+
+/// One error format for every file the commands read (docs/cli.md, "Errors"):
+/// `error: 'PATH' line N, field 'NAME': message` (the line, the field when known), and numbers
+/// to their meaningful digits, never at full length.
+#[test]
+fn every_file_error_has_one_format_and_short_numbers() {
+    let dir = scratch("cli", "format");
+    let p = |name: &str, text: &str| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).expect("writable");
+        path.to_str().expect("utf-8").to_owned()
+    };
+    let header = HEADER.join(",");
+    let good = dir.join("good.csv");
+    let good = good.to_str().expect("utf-8");
+    common::accepted(&["simulate", "--out", good]);
+    let out = dir.join("out.csv");
+    let out = out.to_str().expect("utf-8");
+    let csv = p("text.csv", &format!("{header}\n0,0,0,0,0,0\n0.0001,0,0,x,0,0\n"));
+    let huge = p("huge.csv", &format!("{header}\n0,0,0,0,0,0\n1e308,0,0,0,0,0\n"));
+    let params = p("params.toml", "\nphase_resistance_ohm = 1e38\n");
+    let tolerances = p("tol.toml", "static_friction = 0.1\n");
+    let sensors = p("sensors.toml", "offset_a = 1e300\n");
+    let profile = p("profile.txt", "hold 0 0\nhold 1e30 0\nend 2\n");
+    let config = p("model.conf", "effect viscous 0.3\neffect viscous 1e300\n");
+    let trace = p("garbage.ematrace", "not a trace");
+    let cases: Vec<(Vec<&str>, String, &str)> = vec![
+        (vec!["identify", &csv], format!("'{csv}' line 3, field 'ia_A' (column 4): "), "'x' is not a number"),
+        (vec!["identify", &huge], format!("'{huge}' line 3, field 'time_s' (column 1): "), "span 1e308 s"),
+        (
+            vec!["identify", "--params", &params, good],
+            format!("'{params}' line 2, field 'phase_resistance_ohm': "),
+            "= 1e38 is outside",
+        ),
+        (
+            vec!["simulate", "--unit", "1", "--tolerances", &tolerances, "--out", out],
+            format!("'{tolerances}' line 1, field 'static_friction': "),
+            "did you mean",
+        ),
+        (
+            vec!["simulate", "--sensors", &sensors, "--out", out],
+            format!("'{sensors}' line 1, field 'offset_a': "),
+            "1e300 A is not inside",
+        ),
+        (vec!["simulate", "--profile", &profile, "--out", out], format!("'{profile}' line 3: "), "start 1e30 s"),
+        (
+            vec!["identify", "--model-config", &config, good],
+            format!("'{config}' line 2, field 'severity': "),
+            "outside",
+        ),
+        (vec!["identify", "--firmware-trace", &trace], format!("'{trace}': "), "packed trace"),
+        (vec!["history", good, "/nonexistent/flight.csv"], "'/nonexistent/flight.csv': ".to_owned(), "cannot"),
+        (
+            vec!["commission", good, "/nonexistent/flight.csv", "--out", out],
+            "'/nonexistent/flight.csv': ".to_owned(),
+            "cannot",
+        ),
+    ];
+    for (args, place, message) in cases {
+        let err = refused(&args, &[message]);
+        assert!(err.starts_with(&format!("error: {place}")), "{args:?}: not '{place}': {err}");
+        // no number at full length: no run of more than 12 digits
+        let longest = err.split(|c: char| !c.is_ascii_digit()).map(str::len).max().unwrap_or(0);
+        assert!(longest <= 12, "{args:?}: a number at full length: {err}");
+        assert!(!err.contains("FILE"), "{args:?}: a placeholder instead of the file: {err}");
+    }
+}
+
+/// The flags mean the same everywhere: every command but `params` takes `-q`/`--quiet`, every
+/// command that prints JSON spells it `--json`, every command that writes files takes the shared
+/// `--out` and `--force`, and the diagnosing commands take `--fail-on`.
+#[test]
+fn the_flags_are_the_same_across_commands() {
+    let commands = [
+        "simulate",
+        "identify",
+        "firmware-trace",
+        "compare",
+        "campaign",
+        "discover",
+        "params",
+        "commission",
+        "fleet",
+        "history",
+        "detectability",
+        "pod",
+    ];
+    let writes = ["simulate", "firmware-trace", "campaign", "discover", "commission", "fleet", "history", "pod"];
+    let prints_json =
+        ["identify", "compare", "campaign", "discover", "commission", "fleet", "history", "detectability", "pod"];
+    let diagnoses = ["identify", "history"];
+    for cmd in commands {
+        let help = common::accepted(&[cmd, "--help"]);
+        let has = |flag: &str| help.contains(flag);
+        assert_eq!(has("-q, --quiet"), cmd != "params", "{cmd}: -q, --quiet\n{help}");
+        assert_eq!(has("--json"), prints_json.contains(&cmd), "{cmd}: --json\n{help}");
+        assert_eq!(has("--out <") && has("--force"), writes.contains(&cmd), "{cmd}: --out, --force\n{help}");
+        assert_eq!(has("--fail-on <LEVEL>"), diagnoses.contains(&cmd), "{cmd}: --fail-on\n{help}");
+        assert!(!has("--format") && !has("--output "), "{cmd}: a second spelling\n{help}");
+    }
+    // -q where it was refused before
+    let dir = scratch("cli", "quiet");
+    let out = dir.join("q.csv");
+    common::accepted(&["simulate", "-q", "--noise", "off", "--out", out.to_str().expect("utf-8")]);
 }

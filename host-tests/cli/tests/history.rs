@@ -5,12 +5,13 @@ mod common;
 #[path = "common/schema.rs"]
 mod schema;
 
-use common::{ema, refused, s, scratch};
+use common::{contract_status, ema, refused, s, scratch};
 
 /// Runs `ema` expecting success; returns stdout as JSON.
 fn json(args: &[&str]) -> serde_json::Value {
     let out = ema(args);
-    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    let expected = contract_status(args, &String::from_utf8_lossy(&out.stdout));
+    assert_eq!(out.status.code(), Some(expected), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
     serde_json::from_slice(&out.stdout).expect("JSON on stdout")
 }
 

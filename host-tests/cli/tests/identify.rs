@@ -97,7 +97,7 @@ fn bad_recordings_are_refused_naming_file_line_and_field() {
     let p = dir.join("2khz.csv");
     let fifth: Vec<String> = csv.rows.iter().step_by(5).cloned().collect();
     csv.write(&p, &fifth);
-    refused(&["identify", s(&p)], &["2khz.csv", "time_s", "sample rate 2000.0 Hz", "5 to 100 kHz", "record at 5 kHz"]);
+    refused(&["identify", s(&p)], &["2khz.csv", "time_s", "sample rate 2000 Hz", "5 to 100 kHz", "record at 5 kHz"]);
 
     // 100 rows of the standard profile: the command matches, but 25 window samples are too few
     let p = dir.join("short.csv");
@@ -115,12 +115,12 @@ fn command_column_must_match_the_profile() {
     // the standard profile steps to 0.05 rad at 10 ms, this file's profile to 0.02 rad (f32 values)
     let err = refused(
         &["identify", s(&rec)],
-        &["step.csv", "field 'command_rad'", "0.01999999", "commands 0.0500000", "--profile"],
+        &["step.csv", "field 'command_rad'", "0.02 but the profile commands 0.05", "--profile"],
     );
     let line: usize = err
         .split("line ")
         .nth(1)
-        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.split([' ', ',']).next())
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("no line in {err}"));
     // the named line of the file is the first row where the two profiles differ: t = 10 ms
@@ -181,9 +181,11 @@ fn traces_without_checksum_are_read_with_a_warning() {
     let dir = scratch("identify", "legacy-trace");
     let good = std::fs::read(committed_trace()).expect("committed trace");
     let run = |path: &Path| {
-        let out = common::ema(&["identify", "--firmware-trace", s(path), "--max-iterations", "2", "--bits"]);
-        assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+        let args = ["identify", "--firmware-trace", s(path), "--max-iterations", "2", "--bits"];
+        let out = common::ema(&args);
         let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+        let expected = common::contract_status(&args, &stdout);
+        assert_eq!(out.status.code(), Some(expected), "{}", String::from_utf8_lossy(&out.stderr));
         let summary = stdout.lines().find(|l| l.starts_with("summary: ")).map(str::to_owned);
         (
             summary.unwrap_or_else(|| panic!("no summary line in {stdout}")),
@@ -198,7 +200,7 @@ fn traces_without_checksum_are_read_with_a_warning() {
         let (stdout, stderr) = run(&p);
         assert_eq!(stdout, reference, "EMA{version}: the same frames, the same summary");
         assert_eq!(stderr.lines().count(), 1, "{stderr}");
-        let needles = [format!("warning: {}", p.display()), format!("EMA{version}"), "no checksum".to_owned()];
+        let needles = [format!("warning: '{}': ", p.display()), format!("EMA{version}"), "no checksum".to_owned()];
         assert!(needles.iter().all(|n| stderr.contains(n)), "{stderr}");
     }
     let mut flipped = without_checksum(&good, 1);

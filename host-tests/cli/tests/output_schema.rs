@@ -8,7 +8,7 @@ mod schema;
 
 use std::path::PathBuf;
 
-use common::{ema, s, scratch};
+use common::{contract_status, ema, s, scratch};
 
 fn committed_trace() -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../traces/standard.ematrace"))
@@ -18,7 +18,8 @@ fn committed_trace() -> PathBuf {
 fn json_quietly(args: &[&str]) -> serde_json::Value {
     let out = ema(args);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{args:?}: {err}");
+    let expected = contract_status(args, &String::from_utf8_lossy(&out.stdout));
+    assert_eq!(out.status.code(), Some(expected), "{args:?}: {err}");
     assert!(err.is_empty(), "{args:?}: stderr is not empty (a progress bar without a terminal?): {err:?}");
     serde_json::from_slice(&out.stdout).expect("JSON on stdout")
 }

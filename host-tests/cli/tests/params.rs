@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{ema, refused, s, scratch};
+use common::{contract_status, ema, refused, s, scratch};
 use ema_cli::params::read_params;
 use ema_cli::params_file::{parse_params, template};
 use ema_monitor::params::FIELDS;
@@ -89,7 +89,8 @@ fn identify(file: &str, params: Option<&str>, truth: &FaultVector) -> (f32, Stri
         args.extend(["--params", p]);
     }
     let out = ema(&args);
-    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    let expected = contract_status(&args, &String::from_utf8_lossy(&out.stdout));
+    assert_eq!(out.status.code(), Some(expected), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
     let k = v.get("k").or_else(|| v.get("k_not_a_diagnosis")).expect("a fault vector");
     let mut est = [0.0f32; 8];

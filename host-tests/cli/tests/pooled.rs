@@ -62,3 +62,30 @@ fn several_recordings_give_one_report_that_says_so() {
     args.extend(many);
     common::refused(&args, &["at most 10"]);
 }
+
+/// A recording given twice is one flight, not two: refused, naming both arguments, whether it is
+/// the same path, the same file by another path (a symlink, `dir/../`), or a copy of the same
+/// bytes; the same for the other commands that take each recording as a flight.
+#[test]
+fn a_recording_given_twice_is_refused_naming_both() {
+    let a = recording("twice", 3);
+    let b = recording("twice", 4);
+    let dir = a.parent().expect("a directory").to_path_buf();
+    let link = dir.join("link.csv");
+    std::os::unix::fs::symlink(&a, &link).expect("symlink");
+    let dotted = dir.join("..").join(dir.file_name().expect("a name")).join("rec.csv");
+    let copy = dir.join("copy.csv");
+    std::fs::copy(&a, &copy).expect("copy");
+    for (twin, what) in
+        [(&a, "the same file"), (&link, "the same file"), (&dotted, "the same file"), (&copy, "identical")]
+    {
+        let needles = ["recordings 1", "and 3", s(&a), s(twin), what, "give each once"];
+        common::refused(&["identify", s(&a), s(&b), s(twin), "--max-iterations", "3"], &needles);
+        let out = dir.join("unit.toml");
+        common::refused(&["commission", s(&a), s(&b), s(twin), "--out", s(&out)], &needles);
+        common::refused(&["history", s(&a), s(&b), s(twin)], &needles);
+        assert!(!out.exists());
+    }
+    // different recordings of one actuator are accepted
+    accepted(&["identify", s(&a), s(&b), "--max-iterations", "3"]);
+}

@@ -26,16 +26,16 @@ fn bad_model_configs_are_refused_naming_file_line_and_field() {
         (
             "unknown.conf",
             "# c\neffect dead_time 0.4\neffect compliance 0.5\n",
-            &["line 3", "field effect", "'compliance'"],
+            &["line 3", "field 'effect'", "'compliance'"],
         ),
-        ("number.conf", "effect viscous 0,3\n", &["line 1", "field severity", "'0,3' is not a number"]),
-        ("range.conf", "\neffect viscous 1.5\n", &["line 2", "field severity", "outside [0, 1.25]"]),
-        ("keyword.conf", "viscous 0.3\n", &["line 1", "field keyword", "'viscous'"]),
-        ("missing.conf", "effect viscous\n", &["line 1", "field severity", "missing severity"]),
+        ("number.conf", "effect viscous 0,3\n", &["line 1", "field 'severity'", "'0,3' is not a number"]),
+        ("range.conf", "\neffect viscous 1.5\n", &["line 2", "field 'severity'", "outside [0, 1.25]"]),
+        ("keyword.conf", "viscous 0.3\n", &["line 1", "field 'keyword'", "'viscous'"]),
+        ("missing.conf", "effect viscous\n", &["line 1", "field 'severity'", "missing severity"]),
         (
             "twice.conf",
             "effect viscous 0.1\neffect viscous 0.2\n",
-            &["line 2", "field effect", "already set on line 1"],
+            &["line 2", "field 'effect'", "already set on line 1"],
         ),
     ];
     for (name, text, needles) in cases {
@@ -47,7 +47,7 @@ fn bad_model_configs_are_refused_naming_file_line_and_field() {
     }
     // a recording CSV as input reads the same file the same way; a missing file is named too
     let p = dir.join("range.conf");
-    refused(&["identify", "any.csv", "--model-config", s(&p)], &["range.conf", "line 2", "field severity"]);
+    refused(&["identify", "any.csv", "--model-config", s(&p)], &["range.conf", "line 2", "field 'severity'"]);
     refused(&["identify", "--firmware-trace", s(&trace), "--model-config", "nope.conf"], &["nope.conf", "cannot read"]);
 }
 

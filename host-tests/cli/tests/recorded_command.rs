@@ -90,7 +90,7 @@ fn the_standard_profile_refuses_another_manoeuvre() {
     let e = identify_recording(&r, Path::new("other.csv"), &EmaParams::NOMINAL, &Profile::STANDARD, &config(1))
         .unwrap_err()
         .to_string();
-    assert!(e.contains("field command_rad") && e.contains("--profile"), "{e}");
+    assert!(e.contains("field 'command_rad'") && e.contains("--profile"), "{e}");
 }
 
 /// The recorded command's limits, stated in the errors: the buffer's length and the end stops.
@@ -110,7 +110,7 @@ fn the_recorded_command_has_stated_limits() {
     beyond.time_s.truncate(100);
     beyond.command_rad[42] = 0.7;
     let e = recorded_command(&beyond, path, &EmaParams::NOMINAL).unwrap_err().to_string();
-    assert!(e.contains("line 44, field command_rad: 0.7 rad") && e.contains("end stops"), "{e}");
+    assert!(e.contains("line 44, field 'command_rad': 0.7 rad") && e.contains("end stops"), "{e}");
 }
 
 /// The binary end to end: a recording of the other manoeuvre from `ema simulate --profile FILE`

@@ -61,6 +61,7 @@ fn a_zero_beyond_self_calibration_is_a_sensor_fault_naming_its_phase() {
     // 1000 counts on phase C: ten times the 100 counts self-calibration corrects
     std::fs::write(&broken, with_pretrigger(&text, 600, [0.0, 0.0, 1000.0 * 40.0 / 4096.0])).expect("writable");
     let out = common::ema(&["identify", s(&broken), "--json"]);
+    assert_eq!(out.status.code(), Some(4), "SENSOR_FAULT exits 4 (docs/cli.md)");
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     assert_eq!(json["status"], "SENSOR_FAULT", "{json}");
     assert_eq!(json["sensors"]["fault"]["phase"], "C", "{json}");

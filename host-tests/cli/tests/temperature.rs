@@ -143,9 +143,9 @@ fn recordings_identified_together_share_a_temperature() {
     assert_eq!((&v["pooled_recordings"], &v["temperature_c"]), (&2.into(), &(-39.0).into()), "{v}");
     refused(
         &["identify", s(&a), s(&c), "--params", p],
-        &["c.csv: mean temperature -30.0 °C, 10.0 K above the -40.0 °C of", "a.csv", "within 5 K"],
+        &["c.csv': mean temperature -30.0 °C, 10.0 K above the -40.0 °C of", "a.csv", "within 5 K"],
     );
-    refused(&["identify", s(&a), s(&d), "--params", p], &["d.csv: no temperature column, but", "a.csv", "has one"]);
+    refused(&["identify", s(&a), s(&d), "--params", p], &["d.csv': no temperature column, but", "a.csv", "has one"]);
     // ema history models each flight at its own temperature
     let v: serde_json::Value =
         serde_json::from_str(accepted(&["history", s(&a), s(&c), s(&d), "--params", p, "--json", "--quiet"]).trim())

@@ -81,7 +81,7 @@ fn bad_tolerance_files_name_the_file_line_and_key() {
         all.extend(needles);
         refused(&["simulate", "--unit", "1", "--tolerances", s(&path), "--out", s(&out)], &all);
         let e = read_tolerances(&path).expect_err(name).to_string();
-        assert!(e.starts_with(s(&path)), "{e}");
+        assert!(e.starts_with(&format!("'{}' line ", s(&path))), "{e}");
     }
     refused(
         &["simulate", "--unit", "1", "--tolerances", s(&dir.join("absent.toml")), "--out", s(&out)],

@@ -251,32 +251,57 @@ impl SensorChain {
         if !(fs.is_finite() && fs > 0.0 && fs <= CurrentAdc::MAX_FULL_SCALE_A) {
             return adc(
                 "full_scale_a",
-                format!("{fs} A is outside (0, {}] A (the ADC spans ±full_scale_a)", CurrentAdc::MAX_FULL_SCALE_A),
+                format!(
+                    "{} A is outside (0, {}] A (the ADC spans ±full_scale_a)",
+                    Shown(fs),
+                    CurrentAdc::MAX_FULL_SCALE_A
+                ),
             );
         }
         for (j, p) in self.phases.iter().enumerate() {
             let bad = |field, message: String| Err(SensorChainError { field, phase: Some(j), message });
             if !(p.offset_a.is_finite() && p.offset_a.abs() < fs) {
-                return bad("offset_a", format!("{} A is not inside the full scale ±{fs} A", p.offset_a));
+                return bad(
+                    "offset_a",
+                    format!("{} A is not inside the full scale ±{} A", Shown(p.offset_a), Shown(fs)),
+                );
             }
             if !(p.gain_error.is_finite() && p.gain_error.abs() <= 0.5) {
-                return bad("gain_error", format!("{} is outside ±0.5 (a relative error: 0.01 is 1 %)", p.gain_error));
+                return bad(
+                    "gain_error",
+                    format!("{} is outside ±0.5 (a relative error: 0.01 is 1 %)", Shown(p.gain_error)),
+                );
             }
             if !(p.bandwidth_hz.is_finite() && p.bandwidth_hz > 0.0) {
-                return bad("bandwidth_hz", format!("{} Hz is not a positive bandwidth", p.bandwidth_hz));
+                return bad("bandwidth_hz", format!("{} Hz is not a positive bandwidth", Shown(p.bandwidth_hz)));
             }
             if !(p.skew_s.is_finite() && p.skew_s >= 0.0 && p.skew_s < control_period_s) {
                 return bad(
                     "skew_us",
                     format!(
                         "{} µs is outside [0, {}) µs (after the frame instant, within one control period)",
-                        micro(p.skew_s),
-                        micro(control_period_s)
+                        Shown(micro(p.skew_s)),
+                        Shown(micro(control_period_s))
                     ),
                 );
             }
         }
         Ok(())
+    }
+}
+
+/// A value in a message: Rust's shortest round-trip form, in exponent form outside 1e-6 to 1e9
+/// (`1e308`, not its 309 digits).
+struct Shown(f64);
+
+impl fmt::Display for Shown {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let x = self.0;
+        if x == 0.0 || !x.is_finite() || (1e-6..1e9).contains(&x.abs()) {
+            write!(f, "{x}")
+        } else {
+            write!(f, "{x:e}")
+        }
     }
 }
 

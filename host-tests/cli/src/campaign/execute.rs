@@ -146,7 +146,7 @@ pub fn run_all(
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads.max(1))
         .build()
-        .map_err(|e| CliError::Simulation(format!("cannot start {threads} campaign workers: {e}")))?;
+        .map_err(|e| CliError::Runtime(format!("cannot start {threads} campaign workers: {e}")))?;
     let results: Vec<Result<RunResult, CliError>> = pool.install(|| {
         plans
             .par_iter()

@@ -46,7 +46,8 @@
 //!
 //! `--out DIR` writes `discovery.json`, `residual.csv`, `fit.svg`, `residual.svg` and
 //! `model-config.txt` (the promoted model: `effect ID SEVERITY` lines for the firmware build;
-//! [`OUTPUT_FILES`]). It is checked before the fits start (an existing file there is replaced only
+//! [`OUTPUT_FILES`]). It is created once the inputs are checked (a bad recording or flag leaves
+//! no directory behind) and checked before the fits start (an existing file there is replaced only
 //! with `--force`), and its files are written whole or not at all ([`crate::output`]).
 
 pub mod discovery;
@@ -335,10 +336,6 @@ fn discover_in_pool<const W: usize>(
 pub fn run(args: &DiscoverArgs) -> Result<String, CliError> {
     let resolved = resolve_command(args.command, &args.profile)?;
     let truth = args.truth.as_deref().map(parse_faults).transpose()?;
-    let overwrite = args.output.overwrite();
-    if let Some(dir) = &args.output.out {
-        prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
-    }
     let params = args.params.load()?;
     let recording =
         args.recording.load(&args.file, resolved.as_ref().and_then(ModelCommand::profile), &params)?.recording;
@@ -346,6 +343,11 @@ pub fn run(args: &DiscoverArgs) -> Result<String, CliError> {
     let params = model_params(&recording, &args.file, &params)?.params;
     let command = command_for(resolved, &recording, &args.file, &params)?;
     let trace = condition_recording_for(&recording, &args.file, &params, &command)?;
+    // every input is checked: only now is the output directory created (and its files checked)
+    let overwrite = args.output.overwrite();
+    if let Some(dir) = &args.output.out {
+        prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
+    }
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let bar = progress::bar(4, "fits", args.progress.visible());
     let d =

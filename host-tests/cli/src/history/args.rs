@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use crate::exit::FailOn;
 use crate::output::OutputArgs;
 use crate::params::ParamsArgs;
 use crate::progress::ProgressArgs;
@@ -12,7 +13,7 @@ use crate::recording::RecordingArgs;
 /// Arguments of `ema history`.
 #[derive(Args, Debug, Clone)]
 #[command(mut_arg("out", |a| a.value_name("DIR").help("Write history.json and severity.svg here \
-    (created if needed; checked before the first flight)")))]
+    (created if needed, once every recording is checked; checked before the first flight)")))]
 pub struct HistoryArgs {
     /// Recordings of successive flights of one actuator, oldest first.
     #[arg(required_unless_present = "simulate", conflicts_with = "simulate")]
@@ -33,6 +34,10 @@ pub struct HistoryArgs {
     /// Print JSON instead of the tables.
     #[arg(long)]
     pub json: bool,
+    /// Exit with status 5 when the last flight's diagnosis is at or above LEVEL (`degraded`:
+    /// DEGRADED or FAILING; `failing`: FAILING), for a CI pipeline (docs/cli.md).
+    #[arg(long, value_enum, value_name = "LEVEL", conflicts_with = "simulate")]
+    pub fail_on: Option<FailOn>,
     /// How to read the recordings.
     #[command(flatten)]
     pub recording: RecordingArgs,

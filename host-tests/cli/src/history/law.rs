@@ -3,7 +3,7 @@
 
 use ema_monitor::FaultVector;
 
-use crate::error::CliError;
+use crate::error::{num, CliError};
 
 /// A degradation law of one mode (`MODE=START[+RATE][@ONSET]`).
 #[derive(Clone, Debug, PartialEq)]
@@ -60,7 +60,7 @@ impl Law {
             if (0.0..=1.0).contains(&v) {
                 Ok(v)
             } else {
-                Err(bad(format!("{what} {v} is outside [0, 1]")))
+                Err(bad(format!("{what} {} is outside [0, 1]", num(v))))
             }
         };
         Ok(Self { name: name.to_owned(), index, start: number(start, "start")?, rate: number(rate, "rate")?, onset })

@@ -6,7 +6,9 @@
 //! ema history --simulate LAW… [--flights N] [--seed S] [--json] [--out DIR]
 //! ```
 //!
-//! Each recording is one flight, in the order given. Every flight runs the on-board sequence
+//! Each recording is one flight, in the order given. Every recording is read and checked before
+//! the first flight is identified, and before `--out DIR` is created ([`check_flights`]); one
+//! given twice (the same file, or the same bytes) is refused. Every flight runs the on-board sequence
 //! through [`identify_flight`]: the core identifies the recording (the first flight cold, a later
 //! flight warm from the previous diagnosis, with new-fault probes, unless the core's plan asks
 //! for a cold one) with the on-board settings
@@ -38,6 +40,11 @@
 //! for declarations by pooled evidence), and the prognosis at the last flight against the true
 //! crossing of the failing threshold.
 //!
+//! **Exit status** (docs/cli.md): for recordings, that of the last flight's report as the health
+//! record keeps it (with any mode declared by pooled evidence refitted in): the actuator's
+//! current state, 0 for a diagnosis, 3 for INCONCLUSIVE, 4 for SENSOR_FAULT, 5 at or above
+//! `--fail-on LEVEL`. Under `--simulate` (a measurement of the method) it is 0.
+//!
 //! `--out DIR` writes `history.json` (the `--json` document) and `severity.svg` (severity against
 //! flight per mode as the record keeps it, the flights a mode was declared by pooled evidence
 //! ringed, the trend lines, the failing threshold and the RUL band).
@@ -57,6 +64,7 @@ pub mod series;
 pub mod text;
 
 use crate::error::CliError;
+use crate::exit::Done;
 use crate::output::{prepare_dir, write_files};
 use crate::schema::Document;
 
@@ -66,19 +74,25 @@ pub use flight::{identify_flight, FlightResult, Start};
 pub use json::{CampaignJson, FlightJson, HistoryJson, ModeJson};
 pub use law::{true_crossing, truth_at, Law, LAW_MODES};
 pub use plot::plot;
-pub use series::{run_series, Series};
+pub use series::{check_flights, run_series, Series};
 pub use text::text;
 
 /// The files `--out DIR` receives.
 pub const OUTPUT_FILES: [&str; 2] = ["history.json", "severity.svg"];
 
-/// Runs `ema history`.
-pub fn run(args: &HistoryArgs) -> Result<String, CliError> {
+/// Runs `ema history`: every input checked (the laws, the parameters, the profile, and every
+/// recording read as its flight will read it, [`check_flights`]) before `--out` is created and
+/// before the first flight. Its exit status: for recordings, the last flight's as the health
+/// record keeps it ([`Series::current`], under `--fail-on`); under `--simulate`, 0.
+pub fn run(args: &HistoryArgs) -> Result<Done, CliError> {
     let laws = args.simulate.iter().map(|l| Law::parse(l)).collect::<Result<Vec<_>, _>>()?;
     if laws.is_empty() && args.files.is_empty() {
-        return Err(CliError::flag("FILES", "give recordings of successive flights or --simulate LAW…"));
+        return Err(CliError::usage("give recordings of successive flights or --simulate LAW…"));
     }
     let params = args.params.load()?;
+    if laws.is_empty() {
+        check_flights(args, &params)?;
+    }
     let overwrite = args.output.overwrite();
     if let Some(dir) = &args.output.out {
         prepare_dir(dir, &OUTPUT_FILES, overwrite)?;
@@ -91,5 +105,9 @@ pub fn run(args: &HistoryArgs) -> Result<String, CliError> {
         let paths = OUTPUT_FILES.map(|name| dir.join(name));
         write_files(&[(&paths[0], json.as_bytes()), (&paths[1], svg.as_bytes())], overwrite)?;
     }
-    Ok(if args.json { json } else { text(&doc) })
+    let stdout = if args.json { json } else { text(&doc) };
+    Ok(match series.current {
+        Some(status) if laws.is_empty() => Done::report(stdout, status, args.fail_on),
+        _ => Done::success(stdout),
+    })
 }

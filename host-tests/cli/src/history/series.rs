@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use ema_monitor::health::{FaultMode, HealthReport};
+use ema_monitor::health::{FaultMode, HealthReport, Status};
 use ema_monitor::monitor::evidence::{self, PooledFlight, EVIDENCE_MODES};
 use ema_monitor::monitor::{self as core_monitor, group_present, IdentifyConfig, FAULT_GROUPS};
 use ema_monitor::optimizer::rng::{splitmix64_mix, SPLITMIX_GAMMA};
@@ -18,8 +18,9 @@ use super::flight::{identify_flight, Start};
 use super::json::FlightJson;
 use super::law::{truth_at, Law};
 use crate::error::CliError;
+use crate::input::check_distinct;
 use crate::progress;
-use crate::recording::Recording;
+use crate::recording::{Recording, MAX_FILE_BYTES};
 use crate::runtime::command::ModelCommand;
 use crate::runtime::temperature::model_params;
 use crate::simulate::resolve_profile;
@@ -90,6 +91,25 @@ pub struct Series {
     pub probe_misses: u32,
     /// The flights a mode was declared by pooled evidence, per mode.
     pub declared: [Vec<u32>; 5],
+    /// The status of the last flight's report as the record keeps it (the flight's own, with
+    /// each mode declared by pooled evidence refitted in): the actuator's current state; `None`
+    /// without flights.
+    pub current: Option<Status>,
+}
+
+/// Checks every recording of `ema history FILE…` before the first flight: no file given twice
+/// ([`check_distinct`]), and each read (`--column`, `--start`, … and the profile's alignment) and
+/// taken at its temperature exactly as its flight will take it; the first error names its file.
+/// The recordings are read again flight by flight, so that one flight's recording is in memory
+/// at a time.
+pub fn check_flights(args: &HistoryArgs, params: &EmaParams) -> Result<(), CliError> {
+    let profile = resolve_profile(&args.profile)?;
+    check_distinct(&args.files, MAX_FILE_BYTES)?;
+    for path in &args.files {
+        let load = args.recording.load(path, Some(&profile), params)?;
+        model_params(&load.recording, path, params)?;
+    }
+    Ok(())
 }
 
 /// Runs the series: every flight through [`identify_flight`], the history and prognosis after
@@ -105,6 +125,7 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
     let (mut flights, mut reports) = (Vec::new(), Vec::new());
     let mut prognosis = [None; 5];
     let mut declared: [Vec<u32>; 5] = Default::default();
+    let mut current = None;
     for n in 0..count {
         let f = flight_source(args, laws, params, &profile, n)?;
         // the actuator at the flight's temperature, when its recording has one
@@ -140,6 +161,7 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
             }
         }
         let kept = pooled.map_or(*r, |p| p.report);
+        current = Some(kept.status);
         for mode in FaultMode::ALL {
             prognosis[mode.index()] = Prognosis::of_record(&record, mode);
         }
@@ -173,7 +195,7 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
         reports.push(result.report);
     }
     bar.finish_and_clear();
-    Ok(Series { flights, record, prognosis, reports, probe_false_alarms, probe_misses, declared })
+    Ok(Series { flights, record, prognosis, reports, probe_false_alarms, probe_misses, declared, current })
 }
 
 #[cfg(test)]

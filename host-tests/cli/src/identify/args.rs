@@ -7,7 +7,8 @@ use clap::{Args, ValueEnum};
 use ema_monitor::monitor::{Algorithm, IdentifyConfig};
 use ema_monitor::FaultVector;
 
-use crate::error::CliError;
+use crate::error::{num, CliError};
+use crate::exit::FailOn;
 use crate::params::ParamsArgs;
 use crate::progress::ProgressArgs;
 use crate::recording::RecordingArgs;
@@ -109,6 +110,11 @@ pub struct IdentifyArgs {
     /// Print JSON instead of the readable report.
     #[arg(long)]
     pub json: bool,
+    /// Exit with status 5 when the diagnosis is at or above LEVEL (`degraded`: DEGRADED or
+    /// FAILING; `failing`: FAILING), for a CI pipeline; INCONCLUSIVE and SENSOR_FAULT keep their
+    /// statuses 3 and 4 (docs/cli.md).
+    #[arg(long, value_enum, value_name = "LEVEL")]
+    pub fail_on: Option<FailOn>,
     /// Also print the fault vector's f32 bit patterns and the one-line summary the firmware logs
     /// (for the host/target parity check, `scripts/parity`); a refused --firmware-trace prints its
     /// summary (`summary: REFUSED <stage> <error>`) before the error.
@@ -150,7 +156,7 @@ pub fn method_flags(config: IdentifyConfig, paper_only: bool, fast_regime_weight
 pub fn check_fast_regime_weight(weight: Option<f32>) -> Result<(), CliError> {
     match weight {
         Some(w) if !ema_monitor::fitness::fast_regime_weight_is_valid(w) => {
-            Err(CliError::flag("--fast-regime-weight", format!("{w} is not in (0, 1]")))
+            Err(CliError::flag("--fast-regime-weight", format!("{} is not in (0, 1]", num(w))))
         }
         _ => Ok(()),
     }

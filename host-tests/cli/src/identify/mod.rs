@@ -45,6 +45,7 @@ use ema_monitor::unit::Tolerances;
 use ema_monitor::Profile;
 
 use crate::error::CliError;
+use crate::exit::Done;
 use crate::progress;
 use crate::runtime::firmware::read_firmware_trace;
 use crate::tolerances_file::read_tolerances;
@@ -76,8 +77,9 @@ pub use crate::runtime::recording::{
 pub use crate::runtime::source::HOST_WINDOW;
 pub use crate::runtime::temperature::{model_params, pooled_model_params, ModelParams, POOLED_TEMPERATURE_SPREAD_K};
 
-/// Runs `ema identify`.
-pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
+/// Runs `ema identify`: the report, and the exit status of its status ([`crate::exit::status_code`]
+/// under `--fail-on`).
+pub fn run(args: &IdentifyArgs) -> Result<Done, CliError> {
     let base = if args.firmware_trace.is_some() { IdentifyConfig::onboard() } else { IdentifyConfig::default() };
     check_fast_regime_weight(args.fast_regime_weight)?;
     let config = IdentifyConfig {
@@ -97,7 +99,8 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
     let params = args.params.load()?;
     if args.files.len() > 1 && args.firmware_trace.is_none() {
         let pooled = pooled::run(args, &config, &params)?;
-        return Ok(pooled::render(&pooled, &config.effects, args));
+        let status = pooled.outcome.report.status;
+        return Ok(Done::report(pooled::render(&pooled, &config.effects, args), status, args.fail_on));
     }
     let (outcome, command) = match (&args.firmware_trace, args.files.first()) {
         (Some(path), _) => {
@@ -146,7 +149,8 @@ pub fn run(args: &IdentifyArgs) -> Result<String, CliError> {
             }
             (outcome, command)
         }
-        (None, None) => return Err(CliError::flag("FILE", "give a recording CSV or --firmware-trace FILE")),
+        (None, None) => return Err(CliError::usage("give a recording CSV or --firmware-trace PACKED_TRACE")),
     };
-    Ok(render(&outcome, &config.effects, &command, loaded.as_ref(), temperature, args))
+    let text = render(&outcome, &config.effects, &command, loaded.as_ref(), temperature, args);
+    Ok(Done::report(text, outcome.report.status, args.fail_on))
 }

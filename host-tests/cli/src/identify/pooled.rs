@@ -18,8 +18,9 @@ use serde::Serialize;
 use super::args::IdentifyArgs;
 use super::report::{json_body, render as render_one, IdentifyJson};
 use crate::error::CliError;
+use crate::input::check_distinct;
 use crate::progress;
-use crate::recording::{LoadSummary, Recording};
+use crate::recording::{LoadSummary, Recording, MAX_FILE_BYTES};
 use crate::runtime::command::{command_for, resolve_command, ModelCommand};
 use crate::runtime::firmware::{bits_line, summary_line};
 use crate::runtime::identification::Outcome;
@@ -49,17 +50,20 @@ pub struct PooledOutcome {
 /// `ema identify A.csv B.csv …`: every file read with the same flags (`--params`, `--column`,
 /// `--profile`, `--command`, …), the actuator's parameters taken at their common temperature
 /// ([`pooled_model_params`]: all within 5 K, or no temperature column at all), every file
-/// conditioned through the frame checks, then one identification over all of them. The noise
+/// conditioned through the frame checks, then one identification over all of them. A recording
+/// given twice (one file under two names, or two files of the same bytes) is refused
+/// ([`check_distinct`]): it is one flight, not two. The noise
 /// model takes the fewest independent frames per block of the files; the refused frames add up,
 /// and a file with too many makes the report `SENSOR_FAULT`.
 pub fn run(args: &IdentifyArgs, config: &IdentifyConfig, params: &EmaParams) -> Result<PooledOutcome, CliError> {
     let files = &args.files;
     if files.len() > MAX_POOLED_RECORDINGS {
-        return Err(CliError::flag(
-            "FILE",
-            format!("{} recordings given; at most {MAX_POOLED_RECORDINGS} are pooled", files.len()),
-        ));
+        return Err(CliError::usage(format!(
+            "{} recordings given; at most {MAX_POOLED_RECORDINGS} are pooled",
+            files.len()
+        )));
     }
+    check_distinct(files, MAX_FILE_BYTES)?;
     let mut loads = Vec::new();
     for path in files {
         let resolved = resolve_command(args.command, &args.profile)?;
@@ -85,7 +89,7 @@ pub fn run(args: &IdentifyArgs, config: &IdentifyConfig, params: &EmaParams) -> 
         first_load.get_or_insert(load.summary);
     }
     let (Some(loaded), Some(first_path)) = (first_load, files.first()) else {
-        return Err(CliError::flag("FILE", "give a recording CSV or --firmware-trace FILE"));
+        return Err(CliError::usage("give a recording CSV or --firmware-trace PACKED_TRACE"));
     };
     let config = IdentifyConfig { independent_frames_per_block: frames_per_block, ..*config };
     let refs: Vec<&MeasuredTrace<HOST_WINDOW>> = traces.iter().map(|t| &**t).collect();

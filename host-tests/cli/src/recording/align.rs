@@ -29,6 +29,12 @@ use ema_monitor::Profile;
 use super::data::Recording;
 use super::error::{RecordingError, RecordingErrorKind};
 use super::grid::Grid;
+use crate::error::{num, Num};
+
+/// A time in a message, to the nanosecond (a start found by least squares at `-1.7e-17` s is 0).
+fn seconds(t: f64) -> Num {
+    num((t * 1e9).round() / 1e9)
+}
 
 /// Largest difference between the recorded command and the profile: 2e-5 rad, twice the step of
 /// a command exported with five decimals (1e-5 rad), so a rounded or truncated export passes,
@@ -102,8 +108,10 @@ pub fn find_start(
             header,
             column,
             format!(
-                "the command never leaves {p0} rad, but the profile does {t_c:.6} s into the manoeuvre; pass the profile \
-                 the recording was made with (--profile), or check the command column (--column command=HEADER)"
+                "the command never leaves {} rad, but the profile does {} s into the manoeuvre; pass the profile \
+                 the recording was made with (--profile), or check the command column (--column command=HEADER)",
+                num(p0),
+                seconds(t_c)
             ),
         ));
     };
@@ -116,9 +124,11 @@ pub fn find_start(
             header,
             column,
             format!(
-                "the command already leaves {p0} rad here, {:.6} s into the file, but the profile holds it for {t_c:.6} s: \
+                "the command already leaves {} rad here, {} s into the file, but the profile holds it for {} s: \
                  the recording starts after the manoeuvre; record from before it starts, or give its start (--start SECONDS)",
-                grid.time_s(r) - t0
+                num(p0),
+                seconds(grid.time_s(r) - t0),
+                seconds(t_c)
             ),
         ));
     }
@@ -214,9 +224,14 @@ pub fn check_command(
             header,
             column,
             format!(
-                "{c} but the profile commands {expected} ({s:.6} s into the manoeuvre, which starts at {start_s:.6} s in \
-                 the file; tolerance {tol} rad); pass the profile the recording was made with (--profile), or where the \
-                 manoeuvre starts (--start SECONDS)"
+                "{} but the profile commands {} ({} s into the manoeuvre, which starts at {} s in the file; \
+                 tolerance {} rad); pass the profile the recording was made with (--profile), or where the manoeuvre \
+                 starts (--start SECONDS)",
+                num(c),
+                num(expected),
+                seconds(s),
+                seconds(start_s),
+                num(tol)
             ),
         ));
     }

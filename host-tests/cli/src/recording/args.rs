@@ -12,7 +12,7 @@ use super::data::{Recording, MAX_REST_ROWS};
 use super::error::{RecordingError, RecordingErrorKind};
 use super::read::{read_file, Columns, ReadOptions};
 use super::{align, resample};
-use crate::error::CliError;
+use crate::error::{num, CliError};
 
 /// How to read a recording file (flattened into `identify`, `discover` and
 /// `firmware-trace --from`).
@@ -159,7 +159,10 @@ impl RecordingArgs {
             (Some(s), _) => {
                 if !(s.is_finite() && s >= t_first - 0.5 * grid.period_s && s < t_last) {
                     return Err(flag(format!(
-                        "--start {s}: outside the file's times, {t_first} to {t_last} s ({} column)",
+                        "--start {}: outside the file's times, {} to {} s ({} column)",
+                        num(s),
+                        num(t_first),
+                        num(t_last),
                         parsed.headers[0].0
                     )));
                 }

@@ -1,7 +1,10 @@
-//! What is wrong with a recording file, and where: the file, line and field.
+//! What is wrong with a recording file, and where: the file, line and field, shown as every
+//! file error of the command line is ([`Place`]).
 
 use std::fmt;
 use std::path::PathBuf;
+
+use crate::error::{num, CliError, Place};
 
 use super::data::{
     HEADER, JITTER_TOLERANCE_S, MAX_COMMENT_LINES, MAX_DURATION_S, MAX_FILE_BYTES, MAX_LINE_BYTES, MAX_RATE_HZ,
@@ -111,22 +114,30 @@ impl RecordingError {
     pub fn file(path: &std::path::Path, kind: RecordingErrorKind) -> Self {
         Self { path: path.to_owned(), line: None, field: None, column: None, kind }
     }
+
+    /// Where the error is: the file, and the line, field and column where one is at fault.
+    pub fn place(&self) -> Place {
+        Place { path: self.path.clone(), line: self.line, field: self.field.clone(), column: self.column }
+    }
 }
 
 impl fmt::Display for RecordingError {
+    /// `'PATH' line N, field 'NAME' (column C): what is wrong` ([`Place`]).
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "recording '{}'", self.path.display())?;
-        if let Some(l) = self.line {
-            write!(f, " line {l}")?;
-        }
-        if let Some(c) = &self.field {
-            write!(f, " field '{c}'")?;
-            if let Some(n) = self.column {
-                write!(f, " (column {n})")?;
-            }
-        }
-        f.write_str(": ")?;
-        match &self.kind {
+        write!(f, "{}: {}", self.place(), self.kind)
+    }
+}
+
+impl From<RecordingError> for CliError {
+    fn from(e: RecordingError) -> Self {
+        CliError::input_at(e.place(), e.kind.to_string())
+    }
+}
+
+impl fmt::Display for RecordingErrorKind {
+    /// What is wrong, without the place.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
             RecordingErrorKind::Io(m) => write!(f, "{m}"),
             RecordingErrorKind::Empty => write!(f, "empty file, expected a header such as '{}'", HEADER.join(",")),
             RecordingErrorKind::MissingColumn(m) => write!(
@@ -144,28 +155,33 @@ impl fmt::Display for RecordingError {
             RecordingErrorKind::NotFinite(s) => write!(f, "'{s}' is not a finite number"),
             RecordingErrorKind::Temperature(t) => write!(
                 f,
-                "temperature {t} °C is outside the {MIN_TEMPERATURE_C} to {MAX_TEMPERATURE_C} °C a recording may hold; \
-                 give the actuator's temperature in °C"
+                "temperature {} °C is outside the {MIN_TEMPERATURE_C} to {MAX_TEMPERATURE_C} °C a recording may hold; \
+                 give the actuator's temperature in °C",
+                num(*t)
             ),
             RecordingErrorKind::TimeNotIncreasing { previous, current } => {
-                write!(f, "time {current} s does not increase (previous row {previous} s)")
+                write!(f, "time {} s does not increase (previous row {} s)", num(*current), num(*previous))
             }
             RecordingErrorKind::TimeNotUniform { step, expected } => write!(
                 f,
-                "time step {step} s differs from the median step {expected} s by more than {:.0} % (non-uniform sampling: \
+                "time step {} s differs from the median step {} s by more than {:.0} % (non-uniform sampling: \
                  a missing or repeated row?); give a uniformly sampled file",
+                num(*step),
+                num(*expected),
                 STEP_TOLERANCE * 100.0
             ),
             RecordingErrorKind::Jitter { deviation_s, period_s } => write!(
                 f,
-                "the time is {:.3} µs off the uniform grid of mean period {period_s} s; timestamp jitter up to {} µs is \
+                "the time is {} µs off the uniform grid of mean period {} s; timestamp jitter up to {} µs is \
                  tolerated: give the times of a uniformly sampled clock",
-                deviation_s * 1e6,
+                num(deviation_s * 1e6),
+                num(*period_s),
                 JITTER_TOLERANCE_S * 1e6
             ),
             RecordingErrorKind::Rate { rate_hz } => write!(
                 f,
-                "sample rate {rate_hz:.1} Hz is outside the {} to {} kHz the reader resamples from; {}",
+                "sample rate {} Hz is outside the {} to {} kHz the reader resamples from; {}",
+                num(*rate_hz),
                 MIN_RATE_HZ / 1e3,
                 MAX_RATE_HZ / 1e3,
                 if *rate_hz < MIN_RATE_HZ {
@@ -181,7 +197,8 @@ impl fmt::Display for RecordingError {
             RecordingErrorKind::TooManyComments => write!(f, "more than {MAX_COMMENT_LINES} comment lines"),
             RecordingErrorKind::TooLong { span_s } => write!(
                 f,
-                "the rows span {span_s} s, more than the {MAX_DURATION_S} s a recording may last; cut the file to the manoeuvre"
+                "the rows span {} s, more than the {MAX_DURATION_S} s a recording may last; cut the file to the manoeuvre",
+                num(*span_s)
             ),
             RecordingErrorKind::TooLarge => {
                 write!(f, "larger than {MAX_FILE_BYTES} bytes, the most a recording may hold; cut the file to the manoeuvre")

@@ -427,7 +427,7 @@ mod tests {
             let text = format!("{head},temperature_C\n0,0,0,0,0,0,20\n0.0001,0,0,0,0,0,{value}\n");
             let e = parse(text.as_bytes()).expect_err(value);
             assert_eq!((e.line, e.field.as_deref(), e.column), (Some(3), Some("temperature_C"), Some(7)), "{e}");
-            assert!(e.to_string().contains("'r.csv' line 3 field 'temperature_C' (column 7)"), "{e}");
+            assert!(e.to_string().contains("'r.csv' line 3, field 'temperature_C' (column 7): "), "{e}");
             assert!(e.to_string().contains(needle), "{e}");
         }
         for bad in [["temperature=a", "temperature=b"], ["temp=a", "ia=b"]] {

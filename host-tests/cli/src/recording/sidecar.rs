@@ -161,20 +161,24 @@ impl Sidecar {
         let file = match File::open(&path) {
             Ok(f) => f,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            Err(e) => return Err(CliError::Input { path, message: format!("cannot read: {e}") }),
+            Err(e) => return Err(CliError::input(&path, format!("cannot read: {e}"))),
         };
-        let text = input::read_text(file, MAX_SIDECAR_BYTES)
-            .map_err(|e| CliError::Input { path: path.clone(), message: e.to_string() })?;
-        let sidecar: Sidecar = serde_json::from_str(&text)
-            .map_err(|e| CliError::Input { path: path.clone(), message: format!("not a recording sidecar: {e}") })?;
+        let text = input::read_text(file, MAX_SIDECAR_BYTES).map_err(|e| e.at(&path))?;
+        let sidecar: Sidecar = serde_json::from_str(&text).map_err(|e| {
+            // serde_json's message ends with " at line L column C": the line goes to the place
+            let message = e.to_string();
+            let message =
+                message.strip_suffix(&format!(" at line {} column {}", e.line(), e.column())).unwrap_or(&message);
+            CliError::input_line(&path, e.line(), None, format!("not a recording sidecar: {message}"))
+        })?;
         if sidecar.schema_version > SCHEMA_VERSION {
-            return Err(CliError::Input {
-                path,
-                message: format!(
+            return Err(CliError::input(
+                &path,
+                format!(
                     "schema_version {} is newer than this ema's {SCHEMA_VERSION}; update ema",
                     sidecar.schema_version
                 ),
-            });
+            ));
         }
         Ok(Some(sidecar))
     }

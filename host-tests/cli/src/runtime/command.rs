@@ -11,7 +11,7 @@ use ema_monitor::{Command, EmaParams, Profile, SampledCommand};
 use serde::Serialize;
 
 use super::source::HOST_WINDOW;
-use crate::error::CliError;
+use crate::error::{num, CliError};
 use crate::recording::Recording;
 use crate::simulate::resolve_profile;
 
@@ -180,13 +180,14 @@ pub fn recorded_command(
     }
     let samples = recording.command_rad.iter().map(|&c| c as f32);
     SampledCommand::new(samples, 1, params.end_stop_rad).map(Box::new).map_err(|e| match e {
-        CommandError::NotFinite { index } | CommandError::BeyondEndStops { index } => CliError::input(
+        CommandError::NotFinite { index } | CommandError::BeyondEndStops { index } => CliError::input_line(
             path,
+            recording.line_of(index),
+            Some("command_rad"),
             format!(
-                "line {}, field command_rad: {} rad; the command must be finite and inside the end stops (±{} rad)",
-                recording.line_of(index),
-                recording.command_rad.get(index).copied().unwrap_or(f64::NAN),
-                params.end_stop_rad
+                "{} rad; the command must be finite and inside the end stops (±{} rad)",
+                num(recording.command_rad.get(index).copied().unwrap_or(f64::NAN)),
+                num(params.end_stop_rad)
             ),
         ),
         e => CliError::input(path, e.to_string()),

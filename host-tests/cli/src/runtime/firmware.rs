@@ -16,7 +16,7 @@ use ema_monitor::trace::{PackedTrace, TraceHeader};
 use ema_monitor::{Command, EmaParams, Profile};
 
 use super::identification::{run_identification, Outcome};
-use crate::error::CliError;
+use crate::error::{CliError, Place};
 use crate::input;
 
 /// Most pre-trigger frames of a packed trace `ema firmware-trace --from` writes: 100 ms at
@@ -65,7 +65,7 @@ pub fn checksum_warning(path: &Path, bytes: &[u8]) -> Option<String> {
     Some(format!(
         "warning: {}: an EMA{} packed trace carries no checksum, so a corrupted code would read as a current \
          unnoticed; `ema firmware-trace` writes EMA3, which carries one",
-        path.display(),
+        Place::file(path),
         t.version()
     ))
 }
@@ -73,7 +73,7 @@ pub fn checksum_warning(path: &Path, bytes: &[u8]) -> Option<String> {
 /// Reads a packed trace file (`--firmware-trace`), at most [`MAX_FIRMWARE_TRACE_BYTES`].
 pub fn read_firmware_trace(path: &Path) -> Result<Vec<u8>, CliError> {
     let file = File::open(path).map_err(|e| CliError::input(path, format!("cannot read: {e}")))?;
-    input::read_bounded(file, MAX_FIRMWARE_TRACE_BYTES).map_err(|e| CliError::input(path, e.to_string()))
+    input::read_bounded(file, MAX_FIRMWARE_TRACE_BYTES).map_err(|e| e.at(path))
 }
 
 /// The firmware's path on the bytes of a packed trace, step for step as `src/main.rs`: parse,

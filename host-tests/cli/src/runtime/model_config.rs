@@ -25,8 +25,13 @@ pub fn read_model_config(path: &Path) -> Result<ModelEffects, CliError> {
 /// [`read_model_config`] from any reader: at most [`MAX_MODEL_CONFIG_BYTES`] of UTF-8 text, then
 /// [`parse_model_config`]; `path` only names the source in errors.
 pub fn read_model_config_from(reader: impl Read, path: &Path) -> Result<ModelEffects, CliError> {
-    let text = input::read_text(reader, MAX_MODEL_CONFIG_BYTES).map_err(|e| CliError::input(path, e.to_string()))?;
-    parse_model_config(&text).map_err(|e| CliError::input(path, e.to_string()))
+    let text = input::read_text(reader, MAX_MODEL_CONFIG_BYTES).map_err(|e| e.at(path))?;
+    parse_model_config(&text).map_err(|e| {
+        // the core's message opens with "line N, field F: ": the place says it
+        let shown = e.to_string();
+        let message = shown.strip_prefix(&format!("line {}, field {}: ", e.line, e.field)).unwrap_or(&shown);
+        CliError::input_line(path, e.line, Some(e.field), message)
+    })
 }
 
 /// `none` or `dead_time 0.48, viscous 0.3` (the firmware logs the same, one effect per line).

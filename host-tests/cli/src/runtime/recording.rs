@@ -15,7 +15,7 @@ use ema_monitor::{EmaParams, Profile};
 
 use super::command::ModelCommand;
 use super::source::{acquire_recording, FrameChecks, HOST_WINDOW};
-use crate::error::CliError;
+use crate::error::{num, CliError};
 use crate::recording::Recording;
 
 /// Largest difference between the recorded command and the profile before the file is refused.
@@ -27,12 +27,14 @@ pub fn check_recording(r: &Recording, path: &Path, profile: &Profile, params: &E
     for k in 0..r.len() {
         let expected = f64::from(profile.command_rad(k as f32 * params.control_period_s));
         if (r.command_rad[k] - expected).abs() > COMMAND_TOLERANCE_RAD {
-            return Err(CliError::input(
+            return Err(CliError::input_line(
                 path,
+                r.line_of(k),
+                Some("command_rad"),
                 format!(
-                    "line {}, field command_rad: {} but the profile commands {expected}; pass the profile the recording was made with (--profile)",
-                    r.line_of(k),
-                    r.command_rad[k]
+                    "{} but the profile commands {}; pass the profile the recording was made with (--profile)",
+                    num(r.command_rad[k]),
+                    num(expected)
                 ),
             ));
         }
@@ -45,9 +47,11 @@ pub fn check_rate(r: &Recording, path: &Path, params: &EmaParams) -> Result<(), 
     let period = f64::from(params.control_period_s);
     let measured = r.sample_period_s();
     if (measured - period).abs() > 1e-3 * period {
-        return Err(CliError::input(
+        return Err(CliError::input_line(
             path,
-            format!("field time_s: sample period {measured} s, the monitor needs {period} s (10 kHz)"),
+            0,
+            Some("time_s"),
+            format!("sample period {} s, the monitor needs {} s (10 kHz)", num(measured), num(period)),
         ));
     }
     Ok(())

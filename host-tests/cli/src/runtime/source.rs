@@ -111,9 +111,12 @@ pub fn acquire_recording<const W: usize>(
         Ok(summary) => Ok((trace, summary)),
         // before the end of the data the window refused the last frame read; after it, it
         // refused to close
-        Err(MonitorError::Conditioning(e)) if !source.has_ended() => {
-            Err(CliError::input(path, format!("line {}: {e}", recording.line_of(source.rows_read().saturating_sub(1)))))
-        }
+        Err(MonitorError::Conditioning(e)) if !source.has_ended() => Err(CliError::input_line(
+            path,
+            recording.line_of(source.rows_read().saturating_sub(1)),
+            None,
+            e.to_string(),
+        )),
         Err(MonitorError::Conditioning(e)) => Err(CliError::input(path, e.to_string())),
         Err(e) => Err(CliError::input(path, e.to_string())),
     }

@@ -118,7 +118,7 @@ mod tests {
         assert!(cold.params.phase_resistance_ohm < 0.45 && cold.params.static_friction_n_m > 0.13, "{cold:?}");
         // at -100 °C the mechanical time constant of the nominal actuator falls below ten periods
         let e = model_params(&at_temperature(Some(-100.0), 4), path, &EmaParams::NOMINAL).expect_err("refused");
-        assert!(e.to_string().contains("a.csv: at the recording's mean temperature, -100.0 °C"), "{e}");
+        assert!(e.to_string().starts_with("'a.csv': at the recording's mean temperature, -100.0 °C"), "{e}");
     }
 
     #[test]
@@ -131,9 +131,9 @@ mod tests {
         let none = pooled_model_params(&[(c, &r3), (c, &r3)], &unit).expect("no column");
         assert_eq!(none.params, unit);
         let e = pooled_model_params(&[(a, &r1), (c, &r3)], &unit).expect_err("a mix").to_string();
-        assert!(e.starts_with("c.csv: no temperature column, but 'a.csv' has one"), "{e}");
+        assert!(e.starts_with("'c.csv': no temperature column, but 'a.csv' has one"), "{e}");
         let r4 = at_temperature(Some(-34.5), 1);
         let e = pooled_model_params(&[(a, &r1), (b, &r2), (c, &r4)], &unit).expect_err("5.5 K").to_string();
-        assert!(e.starts_with("c.csv: mean temperature -34.5 °C, 5.5 K above the -40.0 °C of 'a.csv'"), "{e}");
+        assert!(e.starts_with("'c.csv': mean temperature -34.5 °C, 5.5 K above the -40.0 °C of 'a.csv'"), "{e}");
     }
 }

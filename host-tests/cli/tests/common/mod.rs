@@ -43,10 +43,70 @@ pub fn refused(args: &[&str], needles: &[&str]) -> String {
     err
 }
 
-/// Runs `ema` expecting success; returns stdout.
+/// Runs `ema` expecting it to succeed by the exit-code contract (docs/cli.md): the status
+/// [`contract_status`] gives its output (0, or 3 or 4 for a report that is no diagnosis), with
+/// nothing on stderr but progress; returns stdout.
 pub fn accepted(args: &[&str]) -> String {
     let out = ema(args);
-    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8(out.stdout).expect("utf-8 stdout");
+    let expected = contract_status(args, &stdout);
+    assert_eq!(out.status.code(), Some(expected), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    stdout
+}
+
+/// The exit status the contract (docs/cli.md, "Exit codes") gives a command that succeeded with
+/// the output `stdout`: for `ema identify` the report's status, for `ema history FILE…` the last
+/// flight's (0 for a diagnosis, 3 for INCONCLUSIVE, 4 for SENSOR_FAULT; no `--fail-on` here);
+/// 0 for every other command and for `ema history --simulate`.
+pub fn contract_status(args: &[&str], stdout: &str) -> i32 {
+    assert!(!args.contains(&"--fail-on"), "{args:?}: give the expected status of --fail-on explicitly");
+    let status = match args.first() {
+        _ if args.contains(&"--help") => return 0,
+        Some(&"identify") => identify_status(stdout),
+        Some(&"history") if !args.contains(&"--simulate") => history_status(stdout),
+        _ => return 0,
+    };
+    match status.as_str() {
+        "HEALTHY" | "DEGRADED" | "FAILING" => 0,
+        "INCONCLUSIVE" => 3,
+        "SENSOR_FAULT" => 4,
+        other => panic!("{args:?}: no status in the output ('{other}'):\n{stdout}"),
+    }
+}
+
+/// The status of an `ema identify` report, text (`EMA health: STATUS`) or JSON (`"status"`).
+pub fn identify_status(stdout: &str) -> String {
+    let word = |rest: &str| rest.chars().take_while(|c| c.is_ascii_uppercase() || *c == '_').collect::<String>();
+    if let Some((_, rest)) = stdout.split_once("EMA health: ") {
+        return word(rest);
+    }
+    stdout
+        .split_once("\"status\":")
+        .map_or_else(String::new, |(_, rest)| word(rest.trim_start().trim_start_matches('"')))
+}
+
+/// The status of the last flight of an `ema history` report, JSON (`flights[-1].status`) or text
+/// (the `status` column of the flights table's last row).
+pub fn history_status(stdout: &str) -> String {
+    if let Ok(v) = serde_json::from_str::<serde_json::Value>(stdout.trim()) {
+        return v["flights"]
+            .as_array()
+            .and_then(|f| f.last())
+            .and_then(|f| f["status"].as_str())
+            .unwrap_or("")
+            .to_owned();
+    }
+    let rows = stdout
+        .lines()
+        .take_while(|l| !l.is_empty())
+        .filter(|l| l.trim_start_matches("| ").chars().next().is_some_and(|c| c.is_ascii_digit()));
+    rows.last().and_then(|l| l.split('|').nth(4)).map_or_else(String::new, |c| c.trim().to_owned())
+}
+
+/// Runs `ema`, expecting exit status `code` (the contract of docs/cli.md); returns stdout.
+pub fn exits(args: &[&str], code: i32) -> String {
+    let out = ema(args);
+    assert_eq!(out.status.code(), Some(code), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
     String::from_utf8(out.stdout).expect("utf-8 stdout")
 }
 
