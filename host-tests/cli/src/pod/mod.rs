@@ -164,6 +164,9 @@ pub struct ModePodJson {
     pub a90_95: Option<f64>,
     /// Hits per severity: `[severity, recordings, hits]`.
     pub by_severity: Vec<(f64, u32, u32)>,
+    /// The fitted curve the figures come from (`None`: no fit), for the plot.
+    #[serde(skip)]
+    pub curve: Option<hit_miss::PodFit>,
 }
 
 /// The false alarms on healthy recordings in the JSON document.
@@ -321,6 +324,7 @@ fn document(args: &PodArgs, rows: &[RecordingRow]) -> PodJson {
                 a90: curve.and_then(|c| c.size_at(0.9)),
                 a90_95: curve.and_then(|c| c.a90_95()),
                 by_severity,
+                curve,
             }
         })
         .collect();

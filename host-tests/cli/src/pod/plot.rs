@@ -1,8 +1,7 @@
-//! `pod.svg`: each mode's detection curve ([`crate::plots::pod_plot`]).
+//! `pod.svg`: each mode's detection curve, as `ema pod` fitted it ([`crate::plots::pod_plot`]).
 
 use std::io;
 
-use super::hit_miss::fit;
 use super::PodJson;
 use crate::plots::{pod_plot, PodCurve};
 
@@ -22,9 +21,7 @@ pub fn curves(doc: &PodJson, severities: &[f64]) -> io::Result<String> {
     let mut observed: Vec<Vec<(f64, f64)>> = Vec::new();
     let mut names = Vec::new();
     for m in &doc.modes {
-        let outcomes: Vec<(f64, bool)> =
-            m.by_severity.iter().flat_map(|&(s, n, h)| (0..n).map(move |i| (s, i < h))).collect();
-        let curve = fit(&outcomes);
+        let curve = m.curve;
         fitted.push(curve.map_or(Vec::new(), |c| grid.iter().map(|&a| (a, c.pod(a))).collect()));
         lower.push(curve.map_or(Vec::new(), |c| grid.iter().map(|&a| (a, c.pod_lower_95(a))).collect()));
         observed.push(
