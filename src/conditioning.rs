@@ -286,12 +286,19 @@ impl core::error::Error for ConditioningError {}
 /// The conditioned measurement: window samples of `I_3eq` and their fitness weights.
 ///
 /// Filled in place (no copy of the window ever exists): [`MeasuredTrace::push`] frames in, then
-/// [`MeasuredTrace::finish`] closes the window and computes the weights. Only a finished trace is
-/// identified from.
+/// [`MeasuredTrace::finish`] closes the window and takes the derivative's mean square `C²`. Only
+/// a finished trace is identified from.
+///
+/// The weights are not stored: [`MeasuredTrace::sample`] computes `w_i` from the two neighbours
+/// of sample `i` and `C²` each time it is read, which halves the window's RAM (4 bytes a sample
+/// instead of 8, 8.8 KB for [`ONBOARD_WINDOW`]) for two divisions a sample in each model run
+/// (well under 1 % of a run's instructions). The arithmetic is the same whenever it runs, so
+/// the weights are the same bit for bit on every read and on every target.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeasuredTrace<const W: usize> {
     current_a: Vec<f32, W>,
-    weight: Vec<f32, W>,
+    /// `C²`, the mean square of the central-difference derivative; 0 until [`MeasuredTrace::finish`].
+    derivative_mean_sq: f32,
     block_sum_a: f32,
     block_len: usize,
 }
@@ -306,7 +313,7 @@ impl<const W: usize> MeasuredTrace<W> {
     /// An empty window.
     pub const fn new() -> Self {
         const { assert!(W >= MIN_SAMPLES, "the window must hold at least MIN_SAMPLES samples") };
-        Self { current_a: Vec::new(), weight: Vec::new(), block_sum_a: 0.0, block_len: 0 }
+        Self { current_a: Vec::new(), derivative_mean_sq: 0.0, block_sum_a: 0.0, block_len: 0 }
     }
 
     /// Adds one frame of phase currents (amperes). Refused after [`MeasuredTrace::finish`].
@@ -328,45 +335,63 @@ impl<const W: usize> MeasuredTrace<W> {
         Ok(())
     }
 
-    /// Closes the window (a trailing partial block is dropped) and computes the weights.
+    /// Closes the window (a trailing partial block is dropped) and takes the derivative's mean
+    /// square `C²` that the weights are scaled by.
     pub fn finish(&mut self) -> Result<(), ConditioningError> {
         if self.is_finished() {
             return Ok(());
         }
-        let y = &self.current_a;
-        let n = y.len();
+        let n = self.current_a.len();
         if n < MIN_SAMPLES {
             return Err(ConditioningError::TooShort);
         }
-        // Central differences (one-sided at the ends); the sample period cancels in İ/C. The
-        // window holds at least MIN_SAMPLES ≥ 2 samples, so every index below is in range; `at`
-        // reads 0 past the end only so that no panic path exists.
-        let at = |j: usize| y.get(j).copied().unwrap_or(0.0);
-        let derivative = |i: usize| -> f32 {
-            let (a, b, span) = if i == 0 {
-                (at(0), at(1), 1.0)
-            } else if i + 1 == n {
-                (at(n - 2), at(n - 1), 1.0)
-            } else {
-                (at(i - 1), at(i + 1), 2.0)
-            };
-            (b - a) / span
-        };
         let mut sum_sq = 0.0f32;
         for i in 0..n {
-            let d = derivative(i);
+            let d = self.derivative(i);
             sum_sq += d * d;
         }
         let c_sq = sum_sq / n as f32;
         if c_sq.is_nan() || c_sq <= 0.0 || c_sq.is_infinite() {
             return Err(ConditioningError::NoExcitation);
         }
-        for i in 0..n {
-            let d = derivative(i);
-            // Same capacity as `current_a`, so this push cannot fail; map it anyway (no panics).
-            self.weight.push(1.0 / (1.0 + d * d / c_sq)).map_err(|_| ConditioningError::WindowFull)?;
-        }
+        self.derivative_mean_sq = c_sq;
         Ok(())
+    }
+
+    /// Central difference of the window at `i` (one-sided at the ends; the sample period
+    /// cancels in `İ/C`). The window holds at least [`MIN_SAMPLES`] ≥ 2 samples once finished,
+    /// so every index read is in range; a read past the end gives 0 only so that no panic path
+    /// exists.
+    #[inline(always)]
+    fn derivative(&self, i: usize) -> f32 {
+        let y = &self.current_a;
+        let n = y.len();
+        let at = |j: usize| y.get(j).copied().unwrap_or(0.0);
+        let (a, b, span) = if i == 0 {
+            (at(0), at(1), 1.0)
+        } else if i + 1 == n {
+            (at(n - 2), at(n - 1), 1.0)
+        } else {
+            (at(i - 1), at(i + 1), 2.0)
+        };
+        (b - a) / span
+    }
+
+    /// Window sample `i`: its `I_3eq` (A) and its fitness weight `w_i = 1/(1 + (İ_i/C)²)`, in
+    /// `(0, 1]`. `None` past the end or before [`MeasuredTrace::finish`].
+    #[inline(always)]
+    pub fn sample(&self, i: usize) -> Option<(f32, f32)> {
+        let y_i = *self.current_a.get(i)?;
+        if !self.is_finished() {
+            return None;
+        }
+        let d = self.derivative(i);
+        Some((y_i, 1.0 / (1.0 + d * d / self.derivative_mean_sq)))
+    }
+
+    /// The fitness weight of every window sample in turn (none before [`MeasuredTrace::finish`]).
+    pub fn weights(&self) -> impl Iterator<Item = f32> + '_ {
+        (0..self.len()).map_while(|i| self.sample(i).map(|(_, w)| w))
     }
 
     /// The closed window of the block means `samples` (as [`MeasuredTrace::current_a`] gives
@@ -381,8 +406,7 @@ impl<const W: usize> MeasuredTrace<W> {
     /// [`MeasuredTrace::from_samples`] in place: whatever the window held is dropped first.
     pub fn rebuild(&mut self, samples: impl IntoIterator<Item = f32>) -> Result<(), ConditioningError> {
         self.current_a.clear();
-        self.weight.clear();
-        (self.block_sum_a, self.block_len) = (0.0, 0);
+        (self.derivative_mean_sq, self.block_sum_a, self.block_len) = (0.0, 0.0, 0);
         for y in samples {
             if !y.is_finite() {
                 return Err(ConditioningError::NonFinite);
@@ -394,17 +418,12 @@ impl<const W: usize> MeasuredTrace<W> {
 
     /// `true` once [`MeasuredTrace::finish`] succeeded.
     pub fn is_finished(&self) -> bool {
-        !self.weight.is_empty()
+        self.derivative_mean_sq > 0.0
     }
 
     /// Block-averaged equivalent current, one value per complete window sample.
     pub fn current_a(&self) -> &[f32] {
         &self.current_a
-    }
-
-    /// Fitness weight of each window sample, in `(0, 1]` (empty before `finish`).
-    pub fn weight(&self) -> &[f32] {
-        &self.weight
     }
 
     /// Number of complete window samples.
@@ -434,7 +453,7 @@ mod tests {
         let back = MeasuredTrace::<600>::from_samples(t.current_a().iter().copied()).unwrap();
         assert_eq!(back.current_a().len(), 500);
         assert!(back.current_a().iter().zip(t.current_a()).all(|(a, b)| a.to_bits() == b.to_bits()));
-        assert!(back.weight().iter().zip(t.weight()).all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert!(back.weights().zip(t.weights()).all(|(a, b)| a.to_bits() == b.to_bits()));
         assert_eq!(MeasuredTrace::<600>::from_samples([1.0, f32::NAN]).err(), Some(ConditioningError::NonFinite));
         assert_eq!(MeasuredTrace::<60>::from_samples([1.0; 61]).err(), Some(ConditioningError::WindowFull));
         assert_eq!(MeasuredTrace::<600>::from_samples([1.0; 3]).err(), Some(ConditioningError::TooShort));
@@ -643,7 +662,8 @@ mod tests {
         assert_eq!(t.len(), 60);
         assert!((t.current_a()[10] - 1.0).abs() < 1e-6);
         // A constant slope: İ = C everywhere, so every weight is exactly 1/2.
-        assert!(t.weight().iter().all(|w| (*w - 0.5).abs() < 1e-6));
+        assert_eq!(t.weights().count(), 60);
+        assert!(t.weights().all(|w| (w - 0.5).abs() < 1e-6));
     }
 
     #[test]
@@ -654,7 +674,7 @@ mod tests {
             c.push(i, -i, 0.0).unwrap();
         }
         c.finish().unwrap();
-        let w = c.weight();
+        let w: std::vec::Vec<f32> = c.weights().collect();
         assert!(w[49] < 0.2 && w[50] < 0.2, "{} {}", w[49], w[50]);
         assert_eq!(w[10], 1.0);
     }

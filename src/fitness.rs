@@ -419,11 +419,10 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
         let mut rho = self.regime_weights();
         let mut offset = 0usize;
         for (trace, command) in recordings(self.trace, &self.command, self.more) {
-            let (y, w) = (trace.current_a(), trace.weight());
-            simulate_window_with_effects(params, command, k, &self.effects, y.len(), |i, model_a, _| {
-                // i < n and a finished trace has one weight per sample: `get` never misses (a miss
-                // would end the sum; it exists so that no panic path does).
-                let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
+            simulate_window_with_effects(params, command, k, &self.effects, trace.len(), |i, model_a, _| {
+                // i < n and the trace is finished: `sample` never misses (a miss would end the
+                // sum; it exists so that no panic path does).
+                let Some((y_i, w_i)) = trace.sample(i) else { return false };
                 let r = y_i - model_a;
                 sum += rho.at(offset + i) * w_i * r * r;
                 sum <= limit
@@ -431,7 +430,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
             if sum.is_nan() || sum > limit {
                 break;
             }
-            offset += y.len();
+            offset += trace.len();
         }
         let e = sum * inv_n;
         if e.is_finite() {
@@ -500,9 +499,8 @@ impl<const W: usize> CurrentFit<'_, W> {
         let per_window = NonZeroUsize::new(window_samples).unwrap_or(NonZeroUsize::MIN);
         let mut offset = 0usize;
         for (trace, command) in recordings(self.trace, &self.command, self.more) {
-            let (y, w) = (trace.current_a(), trace.weight());
-            simulate_window_with_effects(&self.params, command, k, &self.effects, y.len(), |i, model_a, _| {
-                let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
+            simulate_window_with_effects(&self.params, command, k, &self.effects, trace.len(), |i, model_a, _| {
+                let Some((y_i, w_i)) = trace.sample(i) else { return false };
                 let r = y_i - model_a;
                 let at = offset + i;
                 if let Some(e) = errors.get_mut(at / per_window) {
@@ -510,7 +508,7 @@ impl<const W: usize> CurrentFit<'_, W> {
                 }
                 true
             });
-            offset += y.len();
+            offset += trace.len();
         }
         out
     }
@@ -527,9 +525,8 @@ impl<const W: usize> CurrentFit<'_, W> {
         let mut sum = 0.0f32;
         let mut offset = 0usize;
         for (trace, _) in recordings(self.trace, &self.command, self.more) {
-            let w = trace.weight();
-            sum += w.iter().enumerate().map(|(i, wi)| rho.at(offset + i) * wi).sum::<f32>();
-            offset += w.len();
+            sum += trace.weights().enumerate().map(|(i, wi)| rho.at(offset + i) * wi).sum::<f32>();
+            offset += trace.len();
         }
         sum / n as f32
     }
@@ -554,12 +551,11 @@ impl<const W: usize> CurrentFit<'_, W> {
         let (mut n_eff, mut windows, mut offset) = (0.0f32, 0usize, 0usize);
         let mut rho = self.regime_weights();
         for (trace, command) in recordings(self.trace, &self.command, self.more) {
-            let (y, w) = (trace.current_a(), trace.weight());
-            let n = y.len();
+            let n = trace.len();
             let (mut sum_sq, mut sum_lag, mut previous) = (0.0f32, 0.0f32, 0.0f32);
             let mut window = WindowResidual::default();
             simulate_window_with_effects(&self.params, command, k, &self.effects, n, |i, model_a, _| {
-                let (Some(&y_i), Some(&w_i)) = (y.get(i), w.get(i)) else { return false };
+                let Some((y_i, w_i)) = trace.sample(i) else { return false };
                 let v = rho.at(offset + i) * w_i;
                 let r = y_i - model_a;
                 let u = libm::sqrtf(v) * r;
@@ -691,7 +687,8 @@ mod tests {
         assert!(t(intervals[0].0) > 0.01 && t(intervals[0].1) < 0.15, "{intervals:?}");
         assert!(t(intervals[1].0) > 0.15 && t(intervals[1].1) < 0.30, "{intervals:?}");
         // E with ρ, recomputed by hand from the paper's per-sample terms
-        let (y, w) = (trace.current_a(), trace.weight());
+        let y = trace.current_a();
+        let w: std::vec::Vec<f32> = trace.weights().collect();
         let mut by_hand = 0.0f32;
         simulate_window(&EmaParams::NOMINAL, &Profile::STANDARD, &truth, y.len(), |i, m, _| {
             let fast = intervals.iter().any(|&(a, b)| (a..b).contains(&(i as u32)));

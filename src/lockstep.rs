@@ -43,11 +43,12 @@ fn run<const TERMS: bool, const M: usize, const W: usize>(
     let sensors = SensorErrorEnvelope::of(params, fit.effects());
     let Some(dt) = models.first().map(MonitorModel::dt_s) else { return };
     let mut states = [ModelState::at_rest(); M];
-    let (y, w) = (fit.trace().current_a(), fit.trace().weight());
+    let trace = fit.trace();
     let mut rho = fit.regime_weights();
     let mut step = 0u32;
     let inv_decimation = 1.0 / DECIMATION as f32;
-    for (i, (&y_i, &w_i)) in y.iter().zip(w).enumerate() {
+    for i in 0..trace.len() {
+        let Some((y_i, w_i)) = trace.sample(i) else { return };
         let mut block = [0.0f32; M];
         for _ in 0..DECIMATION {
             let theta = command.command_rad(step, step as f32 * dt);

@@ -534,7 +534,8 @@ mod tests {
         assert!((f.effective_samples - n_eff).abs() <= 1e-3 * n_eff, "{} vs {n_eff}", f.effective_samples);
         assert_eq!(f.present, [true, false, false, true, false, false, true]);
         // A_jj by hand for the friction column: Σ v·d² from two model runs
-        let (y, w) = (t.current_a(), t.weight());
+        let y = t.current_a();
+        let w: std::vec::Vec<f32> = t.weights().collect();
         let (intervals, weight) = fit.fast_regime();
         let mut base = [0.0f32; ONBOARD_WINDOW];
         simulate_window(&EmaParams::NOMINAL, &Profile::STANDARD, &k, y.len(), |i, m, _| {

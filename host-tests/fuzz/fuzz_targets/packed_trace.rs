@@ -32,8 +32,8 @@ fuzz_target!(|data: &[u8]| {
             assert!(summary.refused <= summary.frames && summary.longest_refused_run <= summary.refused);
             assert_eq!(trace.len(), packed.frames() / DECIMATION);
             assert!(trace.current_a().iter().all(|i| i.is_finite()));
-            assert_eq!(trace.weight().len(), trace.len());
-            assert!(trace.weight().iter().all(|w| *w > 0.0 && *w <= 1.0));
+            assert_eq!(trace.weights().count(), trace.len());
+            assert!(trace.weights().all(|w| w > 0.0 && w <= 1.0));
         }
         Err(e) => {
             let _ = e.to_string();

@@ -143,7 +143,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             // the model's departure from the healthy model, same weights.
             let n_s = trace.len();
             let y = trace.current_a();
-            let w = trace.weight();
+            let w: Vec<f32> = trace.weights().collect();
             let (intervals, rho) = fit.fast_regime();
             let wr: Vec<f32> = (0..n_s)
                 .map(|i| w[i] * if intervals.iter().any(|&(a, b)| (a..b).contains(&(i as u32))) { rho } else { 1.0 })

@@ -105,12 +105,11 @@ fn assess(profile: &Profile) -> Result<Assessment, Box<dyn std::error::Error>> {
 
     let healthy = series(&clean_trace, &params, profile, &FaultVector::HEALTHY, &ModelEffects::NONE);
     let weight: Vec<f64> = clean_trace
-        .weight()
-        .iter()
+        .weights()
         .zip(&healthy.speed_rad_s)
         .map(|(w, v)| {
             let rho = if v.abs() > f64::from(FAST_REGIME_SPEED_RAD_S) { f64::from(FAST_REGIME_WEIGHT) } else { 1.0 };
-            rho * f64::from(*w)
+            rho * f64::from(w)
         })
         .collect();
     let model = |k: [f32; 8]| series(&clean_trace, &params, profile, &FaultVector(k), &ModelEffects::NONE).model_a;

@@ -79,13 +79,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let at = |p: &EmaParams, k: [f32; 8]| series(&clean, p, &profile, &FaultVector(k), &ModelEffects::NONE);
             let healthy = at(&params, FaultVector::HEALTHY.0);
             let v: Vec<f64> = clean
-                .weight()
-                .iter()
+                .weights()
                 .zip(&healthy.speed_rad_s)
                 .map(|(w, s)| {
                     let rho =
                         if s.abs() > f64::from(FAST_REGIME_SPEED_RAD_S) { f64::from(FAST_REGIME_WEIGHT) } else { 1.0 };
-                    rho * f64::from(*w)
+                    rho * f64::from(w)
                 })
                 .collect();
             let mut sens = bounds::fault_sensitivities(DESIGN_POINT, H, |k| at(&params, k).model_a);
