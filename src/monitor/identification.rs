@@ -21,12 +21,17 @@ use crate::optimizer::de::{DeConfig, DifferentialEvolution};
 use crate::optimizer::ga::{GaConfig, Genetic};
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
 use crate::optimizer::pso::{ParticleSwarm, PsoConfig};
-use crate::optimizer::{Bounds, ConfigError, Optimizer, SearchStatus, TerminationReason};
+#[cfg(not(all(feature = "ga", feature = "de")))]
+use crate::optimizer::ConfigError;
+use crate::optimizer::{Bounds, Optimizer, SearchStatus, Stopping, TerminationReason};
 use crate::params::EmaParams;
 
 /// The global search's optimizer.
 #[derive(Clone, Debug)]
 enum Solver<const P: usize> {
+    /// Checked, not started: [`Solver::start`] builds it in place at the first step that needs
+    /// it (never, for a warm start that does not fall back to the global search).
+    Planned(SolverPlan),
     Pso(ParticleSwarm<P, FAULT_COUNT>),
     #[cfg(feature = "ga")]
     Ga(Genetic<P, FAULT_COUNT>),
@@ -34,62 +39,93 @@ enum Solver<const P: usize> {
     De(DifferentialEvolution<P, FAULT_COUNT>),
 }
 
-impl<const P: usize> Solver<P> {
-    /// The global search's optimizer as `config` chooses it, seeded with [`starting_guesses`].
-    /// Each optimizer is built in a frame of its own, not inlined: their temporaries stay out of
-    /// the identification's frame, which lies under every model run.
-    fn new(bounds: Bounds<FAULT_COUNT>, config: &IdentifyConfig) -> Result<Self, MonitorError> {
+/// The global search's settings as `config` chooses them, checked: what [`Solver::start`]
+/// builds from, so that building cannot fail.
+#[derive(Clone, Copy, Debug)]
+enum SolverPlan {
+    Pso(PsoConfig, Stopping),
+    #[cfg(feature = "ga")]
+    Ga(GaConfig, Stopping),
+    #[cfg(feature = "de")]
+    De(DeConfig, Stopping),
+}
+
+impl SolverPlan {
+    /// The optimizer `config` chooses, with its settings; refused as its `new` refuses them.
+    fn of<const P: usize>(bounds: &Bounds<FAULT_COUNT>, config: &IdentifyConfig) -> Result<Self, MonitorError> {
+        let (max_iterations, function_tolerance, stall_iterations) =
+            (config.max_iterations, config.function_tolerance, config.stall_iterations);
         Ok(match config.algorithm {
-            Algorithm::Pso => Self::pso(bounds, config)?,
+            Algorithm::Pso => {
+                let c = PsoConfig { max_iterations, function_tolerance, stall_iterations, ..PsoConfig::default() };
+                Self::Pso(c, ParticleSwarm::<P, FAULT_COUNT>::check(bounds, &c)?)
+            }
             #[cfg(feature = "ga")]
-            Algorithm::Ga => Self::ga(bounds, config)?,
+            Algorithm::Ga => {
+                let c = GaConfig { max_iterations, function_tolerance, stall_iterations, ..GaConfig::default() };
+                Self::Ga(c, Genetic::<P, FAULT_COUNT>::check(bounds, &c)?)
+            }
             #[cfg(feature = "de")]
-            Algorithm::De => Self::de(bounds, config)?,
+            Algorithm::De => {
+                let c = DeConfig { max_iterations, function_tolerance, stall_iterations, ..DeConfig::default() };
+                Self::De(c, DifferentialEvolution::<P, FAULT_COUNT>::check(bounds, &c)?)
+            }
             #[cfg(not(all(feature = "ga", feature = "de")))]
             _ => return Err(MonitorError::Optimizer(ConfigError::NotBuilt)),
         })
     }
+}
 
-    /// The particle swarm of `config`.
-    #[inline(never)]
-    fn pso(bounds: Bounds<FAULT_COUNT>, config: &IdentifyConfig) -> Result<Self, ConfigError> {
-        let c = PsoConfig {
-            max_iterations: config.max_iterations,
-            function_tolerance: config.function_tolerance,
-            stall_iterations: config.stall_iterations,
-            ..PsoConfig::default()
-        };
-        Ok(Solver::Pso(ParticleSwarm::new(bounds, c, config.seed)?.with_initial_guesses(&starting_guesses())))
+impl<const P: usize> Solver<P> {
+    /// The optimizer of a [`Solver::Planned`] solver, its population scattered from `seed` with
+    /// [`starting_guesses`] first; a started one is left as it is. Built in place: the
+    /// population is written in the frame of this call (one per optimizer, not inlined) and
+    /// moved into the identification once, and the identification itself is built without
+    /// it, straight where its caller keeps it. The stack holds one copy of the population.
+    fn start(&mut self, seed: u64) {
+        let Solver::Planned(plan) = *self else { return };
+        let bounds = fault_bounds();
+        match plan {
+            SolverPlan::Pso(c, stopping) => self.start_pso(bounds, c, stopping, seed),
+            #[cfg(feature = "ga")]
+            SolverPlan::Ga(c, stopping) => self.start_ga(bounds, c, stopping, seed),
+            #[cfg(feature = "de")]
+            SolverPlan::De(c, stopping) => self.start_de(bounds, c, stopping, seed),
+        }
     }
 
-    /// The genetic algorithm of `config`.
+    /// [`Solver::start`] for the particle swarm.
+    #[inline(never)]
+    fn start_pso(&mut self, bounds: Bounds<FAULT_COUNT>, c: PsoConfig, stopping: Stopping, seed: u64) {
+        *self = Solver::Pso(ParticleSwarm::unseeded(bounds, c, stopping));
+        if let Solver::Pso(s) = self {
+            s.seed(seed, &starting_guesses());
+        }
+    }
+
+    /// [`Solver::start`] for the genetic algorithm.
     #[cfg(feature = "ga")]
     #[inline(never)]
-    fn ga(bounds: Bounds<FAULT_COUNT>, config: &IdentifyConfig) -> Result<Self, ConfigError> {
-        let c = GaConfig {
-            max_iterations: config.max_iterations,
-            function_tolerance: config.function_tolerance,
-            stall_iterations: config.stall_iterations,
-            ..GaConfig::default()
-        };
-        Ok(Solver::Ga(Genetic::new(bounds, c, config.seed)?.with_initial_guesses(&starting_guesses())))
+    fn start_ga(&mut self, bounds: Bounds<FAULT_COUNT>, c: GaConfig, stopping: Stopping, seed: u64) {
+        *self = Solver::Ga(Genetic::unseeded(bounds, c, stopping));
+        if let Solver::Ga(s) = self {
+            s.seed(seed, &starting_guesses());
+        }
     }
 
-    /// The differential evolution of `config`.
+    /// [`Solver::start`] for differential evolution.
     #[cfg(feature = "de")]
     #[inline(never)]
-    fn de(bounds: Bounds<FAULT_COUNT>, config: &IdentifyConfig) -> Result<Self, ConfigError> {
-        let c = DeConfig {
-            max_iterations: config.max_iterations,
-            function_tolerance: config.function_tolerance,
-            stall_iterations: config.stall_iterations,
-            ..DeConfig::default()
-        };
-        Ok(Solver::De(DifferentialEvolution::new(bounds, c, config.seed)?.with_initial_guesses(&starting_guesses())))
+    fn start_de(&mut self, bounds: Bounds<FAULT_COUNT>, c: DeConfig, stopping: Stopping, seed: u64) {
+        *self = Solver::De(DifferentialEvolution::unseeded(bounds, c, stopping));
+        if let Solver::De(s) = self {
+            s.seed(seed, &starting_guesses());
+        }
     }
 
     fn best(&self) -> ([f32; FAULT_COUNT], f32) {
         match self {
+            Solver::Planned(_) => (FaultVector::HEALTHY.0, f32::INFINITY),
             Solver::Pso(s) => (*s.best().0, s.best().1),
             #[cfg(feature = "ga")]
             Solver::Ga(s) => (*s.best().0, s.best().1),
@@ -100,6 +136,7 @@ impl<const P: usize> Solver<P> {
 
     fn evaluations(&self) -> u32 {
         match self {
+            Solver::Planned(_) => 0,
             Solver::Pso(s) => s.evaluations(),
             #[cfg(feature = "ga")]
             Solver::Ga(s) => s.evaluations(),
@@ -110,6 +147,7 @@ impl<const P: usize> Solver<P> {
 
     fn iterations(&self) -> u32 {
         match self {
+            Solver::Planned(_) => 0,
             Solver::Pso(s) => s.iterations(),
             #[cfg(feature = "ga")]
             Solver::Ga(s) => s.iterations(),
@@ -185,7 +223,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             // Refuse a bad polish now, not after the global search.
             PatternSearch::new(bounds, polish, healthy, None, [true; FAULT_COUNT])?;
         }
-        let solver = Solver::new(bounds, config)?;
+        let plan = SolverPlan::of::<P>(&bounds, config)?;
         // a warm start replaces the global search by the prior (checked here, set in place: the
         // identification is built once, never moved, so the stack holds one copy of it)
         let start = match config.prior {
@@ -195,7 +233,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         let fit = configured_fit(trace, params, command, config)?;
         Ok(Self {
             fit,
-            solver,
+            solver: Solver::Planned(plan),
             params,
             config: *config,
             stage: if start.is_some() { Stage::Warm(WarmStage::Start) } else { Stage::Global },
@@ -243,7 +281,10 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         match &mut self.stage {
             Stage::Done(reason) => return SearchStatus::Done(*reason),
             Stage::Global => {
+                self.solver.start(self.config.seed);
                 let status = match &mut self.solver {
+                    // not reached: started above
+                    Solver::Planned(_) => SearchStatus::Done(TerminationReason::MaxIterations),
                     Solver::Pso(s) => s.step(&mut self.fit),
                     #[cfg(feature = "ga")]
                     Solver::Ga(s) => s.step(&mut self.fit),
@@ -275,7 +316,8 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     }
 
     /// The particles of the PSO global search still to be evaluated in its current sweep, each with
-    /// the cost it must beat ([`ParticleSwarm::pending`]); empty outside the PSO global search.
+    /// the cost it must beat ([`ParticleSwarm::pending`]); empty outside the PSO global search and
+    /// before its first step, which builds the swarm.
     /// A host may evaluate them in parallel on clones of [`Identification::fitness`] and hand the
     /// costs back in order through [`Identification::step_with_global_cost`]: the identification
     /// is the same, bit for bit, as with [`Identification::step`].
@@ -290,9 +332,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     /// [`Identification::step`] with the cost of the next [`Identification::pending_global`]
     /// particle computed elsewhere; outside the PSO global search an ordinary step.
     pub fn step_with_global_cost(&mut self, cost: f32) -> SearchStatus {
-        #[allow(irrefutable_let_patterns, reason = "refutable when GA or DE is built in")]
-        let Solver::Pso(swarm) = &mut self.solver
-        else {
+        let Solver::Pso(swarm) = &mut self.solver else {
             return self.step();
         };
         if !matches!(self.stage, Stage::Global) {
@@ -398,6 +438,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
             return TerminationReason::FunctionTolerance;
         }
         let status = match &self.solver {
+            Solver::Planned(_) => SearchStatus::Running,
             Solver::Pso(s) => s.status(),
             #[cfg(feature = "ga")]
             Solver::Ga(s) => s.status(),

@@ -170,6 +170,15 @@ impl<const P: usize, const D: usize> DifferentialEvolution<P, D> {
     /// ([`ConfigError::Termination`]). `P >= 4` (a target and three distinct others) and `D >= 1` are checked at
     /// compile time.
     pub fn new(bounds: Bounds<D>, config: DeConfig, seed: u64) -> Result<Self, ConfigError> {
+        let stopping = Self::check(&bounds, &config)?;
+        let mut optimizer = Self::unseeded(bounds, config, stopping);
+        optimizer.seed(seed, &[]);
+        Ok(optimizer)
+    }
+
+    /// The checks of [`DifferentialEvolution::new`]: the stopping rule of `config`, or why
+    /// `bounds` or `config` are refused.
+    pub(crate) fn check(bounds: &Bounds<D>, config: &DeConfig) -> Result<Stopping, ConfigError> {
         const {
             assert!(P >= 4 && D >= 1, "differential evolution needs P >= 4 individuals and D >= 1 parameters");
             assert!(P <= u32::MAX as usize && D <= u32::MAX as usize);
@@ -178,27 +187,38 @@ impl<const P: usize, const D: usize> DifferentialEvolution<P, D> {
             return Err(ConfigError::Bounds);
         }
         config.validate_coefficients()?;
-        let stopping = Stopping::new(
-            config.max_iterations,
-            config.stall_iterations,
-            config.function_tolerance,
-            config.target_cost,
-        )?;
-        let mut rng = Rng::new(seed);
-        let mut population = [[0.0; D]; P];
-        rng.latin_hypercube(&bounds, &mut population);
-        Ok(Self {
+        Stopping::new(config.max_iterations, config.stall_iterations, config.function_tolerance, config.target_cost)
+    }
+
+    /// A population of settings that [`DifferentialEvolution::check`] accepted (`stopping` is its result),
+    /// every individual at zero until [`DifferentialEvolution::seed`] scatters them, built in place as
+    /// [`super::ParticleSwarm::unseeded`] is.
+    #[inline(always)]
+    pub(crate) fn unseeded(bounds: Bounds<D>, config: DeConfig, stopping: Stopping) -> Self {
+        Self {
             bounds,
             config,
             state: SearchState::new(bounds.centre(), stopping),
-            rng,
-            population,
-            cost: [f32::INFINITY; P],
-            next_population: population,
-            next_cost: [f32::INFINITY; P],
+            rng: Rng::new(0),
+            population: [[0.0; D]; P],
+            cost: [0.0; P],
+            next_population: [[0.0; D]; P],
+            next_cost: [0.0; P],
             generation_best: 0,
             next: 0,
-        })
+        }
+    }
+
+    /// Scatters the individuals of an [`DifferentialEvolution::unseeded`] population in place: a
+    /// Latin-hypercube sample of the box drawn from `seed`, then the first ones replaced by
+    /// `guesses` ([`DifferentialEvolution::with_initial_guesses`]).
+    pub(crate) fn seed(&mut self, seed: u64, guesses: &[[f32; D]]) {
+        self.rng = Rng::new(seed);
+        self.rng.latin_hypercube(&self.bounds, &mut self.population);
+        self.next_population = self.population;
+        self.cost = [f32::INFINITY; P];
+        self.next_cost = [f32::INFINITY; P];
+        super::place_guesses(&self.bounds, &mut self.population, guesses);
     }
 
     /// Replaces the first starting points by `guesses` (each brought into the box), e.g. one

@@ -137,6 +137,15 @@ impl<const P: usize, const D: usize> Genetic<P, D> {
     /// ([`ConfigError::Bounds`]), operator settings ([`ConfigError::Coefficient`]) and stopping settings
     /// ([`ConfigError::Termination`]). `P >= 4` and `D >= 1` are checked at compile time.
     pub fn new(bounds: Bounds<D>, config: GaConfig, seed: u64) -> Result<Self, ConfigError> {
+        let stopping = Self::check(&bounds, &config)?;
+        let mut optimizer = Self::unseeded(bounds, config, stopping);
+        optimizer.seed(seed, &[]);
+        Ok(optimizer)
+    }
+
+    /// The checks of [`Genetic::new`]: the stopping rule of `config`, or why `bounds` or `config`
+    /// are refused.
+    pub(crate) fn check(bounds: &Bounds<D>, config: &GaConfig) -> Result<Stopping, ConfigError> {
         const {
             assert!(P >= 4 && D >= 1, "a GA needs P >= 4 individuals and D >= 1 parameters");
             assert!(P <= u32::MAX as usize);
@@ -145,27 +154,38 @@ impl<const P: usize, const D: usize> Genetic<P, D> {
             return Err(ConfigError::Bounds);
         }
         config.validate_coefficients(P)?;
-        let stopping = Stopping::new(
-            config.max_iterations,
-            config.stall_iterations,
-            config.function_tolerance,
-            config.target_cost,
-        )?;
-        let mut rng = Rng::new(seed);
-        let mut population = [[0.0; D]; P];
-        rng.latin_hypercube(&bounds, &mut population);
-        Ok(Self {
+        Stopping::new(config.max_iterations, config.stall_iterations, config.function_tolerance, config.target_cost)
+    }
+
+    /// A population of settings that [`Genetic::check`] accepted (`stopping` is its result),
+    /// every individual at zero until [`Genetic::seed`] scatters them, built in place as
+    /// [`super::ParticleSwarm::unseeded`] is.
+    #[inline(always)]
+    pub(crate) fn unseeded(bounds: Bounds<D>, config: GaConfig, stopping: Stopping) -> Self {
+        Self {
             bounds,
             config,
             state: SearchState::new(bounds.centre(), stopping),
-            rng,
+            rng: Rng::new(0),
             mutation_probability: config.mutation_probability.unwrap_or(1.0 / D as f32),
-            population,
-            cost: [f32::INFINITY; P],
-            parents: population,
-            parent_cost: [f32::INFINITY; P],
+            population: [[0.0; D]; P],
+            cost: [0.0; P],
+            parents: [[0.0; D]; P],
+            parent_cost: [0.0; P],
             next: 0,
-        })
+        }
+    }
+
+    /// Scatters the individuals of an [`Genetic::unseeded`] population in place: a
+    /// Latin-hypercube sample of the box drawn from `seed`, then the first ones replaced by
+    /// `guesses` ([`Genetic::with_initial_guesses`]).
+    pub(crate) fn seed(&mut self, seed: u64, guesses: &[[f32; D]]) {
+        self.rng = Rng::new(seed);
+        self.rng.latin_hypercube(&self.bounds, &mut self.population);
+        self.parents = self.population;
+        self.cost = [f32::INFINITY; P];
+        self.parent_cost = [f32::INFINITY; P];
+        super::place_guesses(&self.bounds, &mut self.population, guesses);
     }
 
     /// Replaces the first starting points by `guesses` (each brought into the box), e.g. one

@@ -229,6 +229,15 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
     /// ([`ConfigError::Bounds`]), coefficients or topology ([`ConfigError::Coefficient`]) and stopping settings
     /// ([`ConfigError::Termination`]). `P >= 4` and `D >= 1` are checked at compile time.
     pub fn new(bounds: Bounds<D>, config: PsoConfig, seed: u64) -> Result<Self, ConfigError> {
+        let stopping = Self::check(&bounds, &config)?;
+        let mut swarm = Self::unseeded(bounds, config, stopping);
+        swarm.seed(seed, &[]);
+        Ok(swarm)
+    }
+
+    /// The checks of [`ParticleSwarm::new`]: the stopping rule of `config`, or why `bounds` or
+    /// `config` are refused.
+    pub(crate) fn check(bounds: &Bounds<D>, config: &PsoConfig) -> Result<Stopping, ConfigError> {
         const {
             assert!(P >= 4 && D >= 1, "a swarm needs P >= 4 particles and D >= 1 parameters");
             assert!(P <= u32::MAX as usize);
@@ -237,40 +246,30 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
             return Err(ConfigError::Bounds);
         }
         config.validate_coefficients()?;
-        let stopping = Stopping::new(
-            config.max_iterations,
-            config.stall_iterations,
-            config.function_tolerance,
-            config.target_cost,
-        )?;
-        let mut rng = Rng::new(seed);
-        let mut vmax = [0.0; D];
-        for (d, v) in vmax.iter_mut().enumerate() {
-            *v = config.velocity_limit * (bounds.upper[d] - bounds.lower[d]);
-        }
-        let mut position = [[0.0; D]; P];
-        rng.latin_hypercube(&bounds, &mut position);
-        let mut velocity = [[0.0; D]; P];
-        for v in velocity.iter_mut() {
-            for (vd, &m) in v.iter_mut().zip(vmax.iter()) {
-                *vd = rng.uniform(-m, m);
-            }
-        }
+        Stopping::new(config.max_iterations, config.stall_iterations, config.function_tolerance, config.target_cost)
+    }
+
+    /// A swarm of settings that [`ParticleSwarm::check`] accepted (`stopping` is its result),
+    /// every particle at zero until [`ParticleSwarm::seed`] scatters them. The arrays are zeros
+    /// (a fill, no copy), so that a caller can build the swarm in place and seed it there: no
+    /// second copy of it on the stack.
+    #[inline(always)]
+    pub(crate) fn unseeded(bounds: Bounds<D>, config: PsoConfig, stopping: Stopping) -> Self {
         let min_neighbors = match config.topology {
             // MATLAB: max(2, floor(P · MinNeighborsFraction)), never more than the swarm.
             Topology::Adaptive { min_fraction } => ((P as f32 * min_fraction) as usize).clamp(2, P),
             Topology::Global | Topology::Ring { .. } => P,
         };
-        Ok(Self {
+        Self {
             bounds,
             config,
             state: SearchState::new(bounds.centre(), stopping),
-            rng,
-            vmax,
-            position,
-            velocity,
-            best_position: position,
-            best_cost: [f32::INFINITY; P],
+            rng: Rng::new(0),
+            vmax: [0.0; D],
+            position: [[0.0; D]; P],
+            velocity: [[0.0; D]; P],
+            best_position: [[0.0; D]; P],
+            best_cost: [0.0; P],
             inertia: config.inertia_max,
             min_neighbors,
             neighbors: min_neighbors,
@@ -278,7 +277,26 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
             quiet: 0,
             improved: false,
             next: 0,
-        })
+        }
+    }
+
+    /// Scatters the particles of an [`ParticleSwarm::unseeded`] swarm in place: a Latin-hypercube
+    /// sample of the box and random velocities drawn from `seed`, then the first positions
+    /// replaced by `guesses` ([`ParticleSwarm::with_initial_guesses`]).
+    pub(crate) fn seed(&mut self, seed: u64, guesses: &[[f32; D]]) {
+        self.rng = Rng::new(seed);
+        for (d, v) in self.vmax.iter_mut().enumerate() {
+            *v = self.config.velocity_limit * (self.bounds.upper[d] - self.bounds.lower[d]);
+        }
+        self.rng.latin_hypercube(&self.bounds, &mut self.position);
+        for v in self.velocity.iter_mut() {
+            for (vd, &m) in v.iter_mut().zip(self.vmax.iter()) {
+                *vd = self.rng.uniform(-m, m);
+            }
+        }
+        self.best_position = self.position;
+        self.best_cost = [f32::INFINITY; P];
+        super::place_guesses(&self.bounds, &mut self.position, guesses);
     }
 
     /// Replaces the first starting points by `guesses` (each brought into the box), e.g. one
