@@ -651,7 +651,10 @@ mod tests {
         let truth = FaultVector([0.3, 0.1, 0.0, 0.2, 0.0, 0.0, 0.5, 0.4]);
         let trace = self_trace(&truth);
         let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
-        assert_eq!(fit.error(&truth), 0.0);
+        // the window stores each sample to within half its step: the true vector's residuals
+        // are that rounding alone
+        let half_step = 0.5 * trace.step_a();
+        assert!(fit.error(&truth) <= half_step * half_step, "{} vs {half_step}", fit.error(&truth));
         for i in [0usize, 1, 3, 7] {
             let mut k = truth;
             k.0[i] += 0.05;
@@ -687,7 +690,7 @@ mod tests {
         assert!(t(intervals[0].0) > 0.01 && t(intervals[0].1) < 0.15, "{intervals:?}");
         assert!(t(intervals[1].0) > 0.15 && t(intervals[1].1) < 0.30, "{intervals:?}");
         // E with ρ, recomputed by hand from the paper's per-sample terms
-        let y = trace.current_a();
+        let y: std::vec::Vec<f32> = trace.current_a().collect();
         let w: std::vec::Vec<f32> = trace.weights().collect();
         let mut by_hand = 0.0f32;
         simulate_window(&EmaParams::NOMINAL, &Profile::STANDARD, &truth, y.len(), |i, m, _| {

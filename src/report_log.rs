@@ -24,7 +24,9 @@ pub fn log_start(number: u32, start: Start) {
 
 /// Logs a diagnosed flight: its temperature when one was read, its report ([`log_report`]), what
 /// the warm stages did when it started warm, and each mode declared by the evidence pooled over
-/// flights.
+/// flights. Not inlined: the log's temporaries stay out of the frame that lies under the
+/// identification.
+#[inline(never)]
 pub fn log_flight(flight: &Flight) {
     if flight.temperature_c.is_finite() {
         defmt::info!("flight {=u32} diagnosed at {=f32} C", flight.number, flight.temperature_c);

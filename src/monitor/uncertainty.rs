@@ -138,10 +138,12 @@ impl Fisher {
             }
         }
         let effects = *fit.effects();
-        let models: [MonitorModel; MODELS] = core::array::from_fn(|m| match m.checked_sub(1) {
-            Some(j) => MonitorModel::with_effects(params, &FaultVector(stepped[j.min(FAULT_COUNT - 1)]), &effects),
-            None => MonitorModel::with_effects(params, k, &effects),
-        });
+        // built in place, one model at a time (an array built by `from_fn` is moved, so it would
+        // be on the stack twice)
+        let mut models = [MonitorModel::with_effects(params, k, &effects); MODELS];
+        for (model, x) in models.iter_mut().skip(1).zip(stepped.iter()) {
+            *model = MonitorModel::with_effects(params, &FaultVector(*x), &effects);
+        }
         let inv_step: [f32; FAULT_COUNT] = core::array::from_fn(|j| 1.0 / steps[j]);
         let zero = [[0.0; FAULT_COUNT]; FAULT_COUNT];
         let mut sums = Sums { a: zero, b: zero, sq: 0.0, lag: 0.0, previous: 0.0 };
@@ -534,7 +536,7 @@ mod tests {
         assert!((f.effective_samples - n_eff).abs() <= 1e-3 * n_eff, "{} vs {n_eff}", f.effective_samples);
         assert_eq!(f.present, [true, false, false, true, false, false, true]);
         // A_jj by hand for the friction column: Σ v·d² from two model runs
-        let y = t.current_a();
+        let y: std::vec::Vec<f32> = t.current_a().collect();
         let w: std::vec::Vec<f32> = t.weights().collect();
         let (intervals, weight) = fit.fast_regime();
         let mut base = [0.0f32; ONBOARD_WINDOW];

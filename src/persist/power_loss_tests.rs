@@ -426,7 +426,7 @@ fn a_torn_archive_leaves_the_current_record_and_the_old_or_new_archive() {
 fn torn_keeps<const N: usize, const P: usize>(counts: &[u32]) -> (usize, usize) {
     let (mut runs, mut empty) = (0, 0);
     let same = |a: &Window, b: &Window| {
-        a.len() == b.len() && a.current_a().iter().zip(b.current_a()).all(|(x, y)| x.to_bits() == y.to_bits())
+        a.len() == b.len() && a.current_a().zip(b.current_a()).all(|(x, y)| x.to_bits() == y.to_bits())
     };
     let slot = 1;
     for &saves in counts {

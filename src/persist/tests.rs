@@ -441,7 +441,7 @@ fn commissioning_windows_are_kept_beside_the_record() {
     }
     let mut out = MeasuredTrace::<2200>::new();
     assert_eq!(s.load_window(1, &mut out, &mut buffer), Ok(Some(35.0)));
-    assert!(out.current_a().iter().zip(window(1.0).current_a()).all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert!(out.current_a().zip(window(1.0).current_a()).all(|(a, b)| a.to_bits() == b.to_bits()));
     assert_eq!(s.load_window(0, &mut out, &mut buffer), Ok(Some(-20.0)));
     assert_eq!(s.load_window(2, &mut out, &mut buffer), Ok(None));
     assert!(s.load_window(WINDOW_SLOTS, &mut out, &mut buffer).is_err());
@@ -453,7 +453,7 @@ fn commissioning_windows_are_kept_beside_the_record() {
     // read as another
     s.keep_window(1, &window(3.0), 5.0, &mut buffer).unwrap();
     assert_eq!(s.load_window(1, &mut out, &mut buffer), Ok(Some(5.0)));
-    assert!(out.current_a().iter().zip(window(3.0).current_a()).all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert!(out.current_a().zip(window(3.0).current_a()).all(|(a, b)| a.to_bits() == b.to_bits()));
 }
 
 /// A slot kept again with a window of the same length, the power cut every 61 bytes of the keep
@@ -466,7 +466,7 @@ fn a_window_kept_again_and_cut_never_reads_as_two_windows_spliced() {
         MeasuredTrace::<600>::from_samples((0..600).map(|j| 4.0 * libm::sinf(0.01 * j as f32 + phase))).unwrap()
     };
     let same = |a: &MeasuredTrace<600>, b: &MeasuredTrace<600>| {
-        a.len() == b.len() && a.current_a().iter().zip(b.current_a()).all(|(x, y)| x.to_bits() == y.to_bits())
+        a.len() == b.len() && a.current_a().zip(b.current_a()).all(|(x, y)| x.to_bits() == y.to_bits())
     };
     let mut buffer = [0u8; window::window_encoded_len(600)];
     let mut s = HealthStore::new(RamFlash::<8, 2048>::new(), 0..16_384).unwrap();

@@ -116,7 +116,7 @@ mod tests {
         assert_eq!(len, window_encoded_len(240));
         let mut back = MeasuredTrace::<300>::from_samples((0..100).map(|j| j as f32)).unwrap();
         assert_eq!(decode_window_into(&bytes[..len], &mut back), Ok(-12.5));
-        assert!(back.current_a().iter().zip(w.current_a()).all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert!(back.current_a().zip(w.current_a()).all(|(a, b)| a.to_bits() == b.to_bits()));
         assert!(back.weights().zip(w.weights()).all(|(a, b)| a.to_bits() == b.to_bits()));
         assert_eq!(back.len(), 240);
     }

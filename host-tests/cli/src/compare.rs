@@ -162,8 +162,8 @@ pub fn compare_case(
     let mut pos_n = 0usize;
     let window_dt = f64::from(params.control_period_s) * DECIMATION as f64;
     let run = model_run(&params, &profile, &faults, n, rotor, &rec.truth);
-    for (i, &(model_a, surface_angle_rad)) in run.iter().enumerate() {
-        let r = f64::from(trace.current_a()[i]) - f64::from(model_a);
+    for (i, (&(model_a, surface_angle_rad), y)) in run.iter().zip(trace.current_a()).enumerate() {
+        let r = f64::from(y) - f64::from(model_a);
         sum_sq += r * r;
         let t = (i as f64 + 0.5) * window_dt;
         if let Some(seg) = SEGMENTS.iter().position(|(_, a, b)| t >= *a && t < *b) {

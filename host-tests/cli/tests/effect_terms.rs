@@ -40,8 +40,9 @@ fn reference_trace(effects: Effects, k: &FaultVector) -> Box<MeasuredTrace<W>> {
 fn residual_rms(trace: &MeasuredTrace<W>, k: &FaultVector, effects: &ModelEffects, blocks: usize) -> f64 {
     let n = trace.len();
     let mut r = vec![0.0f64; n];
+    let measured: Vec<f32> = trace.current_a().collect();
     simulate_window_with_effects(&EmaParams::NOMINAL, &Profile::STANDARD, k, effects, n, |i, v, _| {
-        r[i] = f64::from(trace.current_a()[i] - v);
+        r[i] = f64::from(measured[i] - v);
         true
     });
     let means: Vec<f64> = r.chunks(blocks).map(|c| c.iter().sum::<f64>() / c.len() as f64).collect();

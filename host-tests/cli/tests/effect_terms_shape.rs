@@ -28,8 +28,9 @@ fn recording(effects: Effects, k: FaultVector) -> Box<MeasuredTrace<W>> {
 fn smoothed_residual_a(trace: &MeasuredTrace<W>, k: &FaultVector, effects: &ModelEffects) -> f64 {
     let n = trace.len();
     let mut r = vec![0.0f64; n];
+    let measured: Vec<f32> = trace.current_a().collect();
     simulate_window_with_effects(&EmaParams::NOMINAL, &Profile::STANDARD, k, effects, n, |i, model_a, _| {
-        r[i] = f64::from(trace.current_a()[i] - model_a);
+        r[i] = f64::from(measured[i] - model_a);
         true
     });
     let blocks: Vec<f64> = r.chunks(5).map(|b| b.iter().sum::<f64>() / b.len() as f64).collect();

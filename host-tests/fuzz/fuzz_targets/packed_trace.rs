@@ -31,7 +31,7 @@ fuzz_target!(|data: &[u8]| {
             assert_eq!(summary.frames as usize, packed.frames());
             assert!(summary.refused <= summary.frames && summary.longest_refused_run <= summary.refused);
             assert_eq!(trace.len(), packed.frames() / DECIMATION);
-            assert!(trace.current_a().iter().all(|i| i.is_finite()));
+            assert!(trace.current_a().all(|i| i.is_finite()));
             assert_eq!(trace.weights().count(), trace.len());
             assert!(trace.weights().all(|w| w > 0.0 && w <= 1.0));
         }

@@ -67,7 +67,7 @@ fuzz_target!(|data: &[u8]| {
         assert!(out[0].iter().all(|v| v.is_finite()));
     }
     if let Ok((trace, summary)) = condition_recording_checked(&rec, path, &ema_monitor::EmaParams::NOMINAL, &Profile::STANDARD) {
-        assert!(trace.is_finished() && trace.current_a().iter().all(|i| i.is_finite()));
+        assert!(trace.is_finished() && trace.current_a().all(|i| i.is_finite()));
         assert_eq!(summary.frames as usize, n);
     }
 });

@@ -127,7 +127,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         simulate(&SimConfig { faults: FaultVector::HEALTHY, noise: false, seed: 1, step_s, ..SimConfig::default() })?;
     let healthy = Recording::from_reference(&healthy, Vec::new());
     let healthy = condition_recording(&healthy, Path::new("healthy"), &params, &profile)?;
-    let y0: Vec<f32> = healthy.current_a().to_vec();
+    let y0: Vec<f32> = healthy.current_a().collect();
     for &k6 in &k6s {
         for &k7 in &k7s {
             let truth = vector(k6, k7);
@@ -142,7 +142,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             // The signature alone: the recording's departure from the healthy recording against
             // the model's departure from the healthy model, same weights.
             let n_s = trace.len();
-            let y = trace.current_a();
+            let y: Vec<f32> = trace.current_a().collect();
             let w: Vec<f32> = trace.weights().collect();
             let (intervals, rho) = fit.fast_regime();
             let wr: Vec<f32> = (0..n_s)

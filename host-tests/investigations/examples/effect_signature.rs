@@ -55,7 +55,7 @@ fn measured_mean(
             mean = vec![0.0; trace.len()];
         }
         for (m, y) in mean.iter_mut().zip(trace.current_a()) {
-            *m += f64::from(*y) / runs.len() as f64;
+            *m += f64::from(y) / runs.len() as f64;
         }
     }
     Ok((mean, models))

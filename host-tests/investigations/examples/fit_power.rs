@@ -99,7 +99,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .with_fast_regime_weight(id.fast_regime_weight)
             .ok_or("weight")?;
         let (intervals, weight) = fit.fast_regime();
-        let (y, w): (_, Vec<f32>) = (trace.current_a(), trace.weights().collect());
+        let (y, w): (Vec<f32>, Vec<f32>) = (trace.current_a().collect(), trace.weights().collect());
         let (mut csv, mut r, mut v) = (String::from("y,model,w,rho\n"), Vec::new(), Vec::new());
         simulate_window(&EmaParams::NOMINAL, &profile, &outcome.report.faults, y.len(), |i, m, _| {
             let rho = if intervals.iter().any(|&(a, b)| (a..b).contains(&(i as u32))) { weight } else { 1.0 };

@@ -82,7 +82,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let recording = Recording::from_reference(&simulate(&cfg)?, vec![]);
         let trace =
             condition_recording(&recording, Path::new("in-memory.csv"), &EmaParams::NOMINAL, &Profile::STANDARD)?;
-        let current: Vec<f64> = trace.current_a().iter().map(|&y| f64::from(y)).collect();
+        let current: Vec<f64> = trace.current_a().map(f64::from).collect();
         measured.push(moving_mean(&current, SMOOTH_BLOCKS));
         // the model is deterministic: one run, along the first recording
         if model.is_none() {

@@ -86,14 +86,10 @@ fn assess(profile: &Profile) -> Result<Assessment, Box<dyn std::error::Error>> {
     let (clean, clean_trace) = record(false)?;
     let (_, noisy_trace) = record(true)?;
     let n = clean_trace.len();
-    let sigma_a = (clean_trace
-        .current_a()
-        .iter()
-        .zip(noisy_trace.current_a())
-        .map(|(a, b)| f64::from(a - b).powi(2))
-        .sum::<f64>()
-        / n as f64)
-        .sqrt();
+    let sigma_a =
+        (clean_trace.current_a().zip(noisy_trace.current_a()).map(|(a, b)| f64::from(a - b).powi(2)).sum::<f64>()
+            / n as f64)
+            .sqrt();
     let peak_position_rad = clean.truth.iter().map(|t| t.surface_angle_rad.abs()).fold(0.0, f64::max);
     let peak_rate_rad_s = clean.truth.iter().map(|t| t.surface_speed_rad_per_s.abs()).fold(0.0, f64::max);
     let peak_current_a = clean.truth.iter().flat_map(|t| t.phase_current_a.iter().map(|i| i.abs())).fold(0.0, f64::max);

@@ -73,7 +73,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let (clean, noisy) = (record(false)?, record(true)?);
             let n = clean.len();
             let sigma_a =
-                (clean.current_a().iter().zip(noisy.current_a()).map(|(a, b)| f64::from(a - b).powi(2)).sum::<f64>()
+                (clean.current_a().zip(noisy.current_a()).map(|(a, b)| f64::from(a - b).powi(2)).sum::<f64>()
                     / n as f64)
                     .sqrt();
             let at = |p: &EmaParams, k: [f32; 8]| series(&clean, p, &profile, &FaultVector(k), &ModelEffects::NONE);

@@ -81,7 +81,7 @@ impl<'a, const W: usize> PartFit<'a, W> {
 
     /// `E` over the part for `k` and `effects` (mean of `w_i·r_i²`), stopping above `abandon_above`.
     pub fn error(&self, k: &FaultVector, effects: &ModelEffects, abandon_above: f32) -> f32 {
-        let y = self.trace.current_a();
+        let y: Vec<f32> = self.trace.current_a().collect();
         let w: Vec<f32> = self.trace.weights().collect();
         let count = (0..y.len()).filter(|&i| self.part.contains(i)).count();
         if count == 0 {

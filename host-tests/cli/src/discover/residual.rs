@@ -62,8 +62,9 @@ pub fn series<'c, const W: usize>(
     let n = trace.len();
     let dt = f64::from(params.control_period_s) * DECIMATION as f64;
     let mut s = Series::default();
+    let measured: Vec<f32> = trace.current_a().collect();
     simulate_window_with_effects(params, profile, k, effects, n, |i, model_a, state| {
-        let y = f64::from(trace.current_a()[i]);
+        let y = f64::from(measured[i]);
         s.time_s.push((i as f64 + 0.5) * dt);
         s.measured_a.push(y);
         s.model_a.push(f64::from(model_a));
