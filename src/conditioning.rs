@@ -289,44 +289,18 @@ impl core::error::Error for ConditioningError {}
 /// [`MeasuredTrace::finish`] closes the window and takes the derivative's mean square `C²`. Only
 /// a finished trace is identified from.
 ///
-/// **Storage** (2 bytes a sample, 4.4 KB for [`ONBOARD_WINDOW`]):
-/// - each sample is an `i16` count of one step `q = 2^e` amperes shared by the window (block
-///   floating point). A sample that does not fit doubles `q` and halves every count already
-///   stored (rounded half up), so that `q` ends as the smallest power of two the window's
-///   largest sample fits in: a resolution of 1/32768 of that sample, 0.5 mA for a 15 A
-///   actuator, far below the noise of a block mean (about 10 mA) and of the ADC count it came
-///   from. A count times `q` is exact in `f32`, and the arithmetic is the same on every target,
-///   so host and MCU read the same window bit for bit;
-/// - the weights are not stored: [`MeasuredTrace::sample`] computes `w_i` from the two
-///   neighbours of sample `i` and `C²` each time it is read (two divisions a sample in each
-///   model run, well under 1 % of its instructions).
+/// The weights are not stored: [`MeasuredTrace::sample`] computes `w_i` from the two neighbours
+/// of sample `i` and `C²` each time it is read, which halves the window's RAM (4 bytes a sample
+/// instead of 8, 8.8 KB for [`ONBOARD_WINDOW`]) for two divisions a sample in each model run.
+/// The arithmetic is the same whenever it runs, so the weights are the same bit for bit on every
+/// read and on every target.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeasuredTrace<const W: usize> {
-    /// Window samples in counts of `2^step_exponent` A.
-    counts: Vec<i16, W>,
-    /// `e` of the count's step `q = 2^e` amperes.
-    step_exponent: i32,
-    /// `q = 2^e`, amperes.
-    step_a: f32,
+    current_a: Vec<f32, W>,
     /// `C²`, the mean square of the central-difference derivative; 0 until [`MeasuredTrace::finish`].
     derivative_mean_sq: f32,
     block_sum_a: f32,
     block_len: usize,
-}
-
-/// The finest count step, `2^-24` A: a window starts at it and coarsens as its samples grow.
-const FINEST_STEP_EXPONENT: i32 = -24;
-
-/// `2^FINEST_STEP_EXPONENT` A.
-const FINEST_STEP_A: f32 = 1.0 / (1u32 << 24) as f32;
-
-/// The coarsest count step, `2^100` A (a count of 32767 is then still finite in `f32`); a
-/// sample beyond it is refused as non-finite.
-const COARSEST_STEP_EXPONENT: i32 = 100;
-
-/// `2^e` as `f32`, exactly, for `e` in the exponent range of normal `f32` numbers.
-fn power_of_two(e: i32) -> f32 {
-    f32::from_bits(((e + 127).clamp(1, 254) as u32) << 23)
 }
 
 impl<const W: usize> Default for MeasuredTrace<W> {
@@ -339,40 +313,13 @@ impl<const W: usize> MeasuredTrace<W> {
     /// An empty window.
     pub const fn new() -> Self {
         const { assert!(W >= MIN_SAMPLES, "the window must hold at least MIN_SAMPLES samples") };
-        Self {
-            counts: Vec::new(),
-            step_exponent: FINEST_STEP_EXPONENT,
-            step_a: FINEST_STEP_A,
-            derivative_mean_sq: 0.0,
-            block_sum_a: 0.0,
-            block_len: 0,
-        }
-    }
-
-    /// Stores the sample `y_a` (amperes, finite) as a count, coarsening the step until it fits.
-    fn store(&mut self, y_a: f32) -> Result<(), ConditioningError> {
-        loop {
-            // exact: a multiplication by a power of two
-            let count = libm::roundf(y_a / self.step_a);
-            if (f32::from(i16::MIN)..=f32::from(i16::MAX)).contains(&count) {
-                return self.counts.push(count as i16).map_err(|_| ConditioningError::WindowFull);
-            }
-            if self.step_exponent >= COARSEST_STEP_EXPONENT {
-                return Err(ConditioningError::NonFinite);
-            }
-            self.step_exponent += 1;
-            self.step_a = power_of_two(self.step_exponent);
-            for c in self.counts.iter_mut() {
-                // half up, in i32: no overflow
-                *c = ((i32::from(*c) + 1) >> 1) as i16;
-            }
-        }
+        Self { current_a: Vec::new(), derivative_mean_sq: 0.0, block_sum_a: 0.0, block_len: 0 }
     }
 
     /// Window sample `i` in amperes.
     #[inline(always)]
     fn current_at(&self, i: usize) -> Option<f32> {
-        self.counts.get(i).map(|&c| f32::from(c) * self.step_a)
+        self.current_a.get(i).copied()
     }
 
     /// Adds one frame of phase currents (amperes). Refused after [`MeasuredTrace::finish`].
@@ -389,7 +336,7 @@ impl<const W: usize> MeasuredTrace<W> {
             let mean = self.block_sum_a / DECIMATION as f32;
             self.block_sum_a = 0.0;
             self.block_len = 0;
-            self.store(mean)?;
+            self.current_a.push(mean).map_err(|_| ConditioningError::WindowFull)?;
         }
         Ok(())
     }
@@ -400,7 +347,7 @@ impl<const W: usize> MeasuredTrace<W> {
         if self.is_finished() {
             return Ok(());
         }
-        let n = self.counts.len();
+        let n = self.current_a.len();
         if n < MIN_SAMPLES {
             return Err(ConditioningError::TooShort);
         }
@@ -423,7 +370,7 @@ impl<const W: usize> MeasuredTrace<W> {
     /// exists.
     #[inline(always)]
     fn derivative(&self, i: usize) -> f32 {
-        let n = self.counts.len();
+        let n = self.current_a.len();
         let at = |j: usize| self.current_at(j).unwrap_or(0.0);
         let (a, b, span) = if i == 0 {
             (at(0), at(1), 1.0)
@@ -454,9 +401,7 @@ impl<const W: usize> MeasuredTrace<W> {
 
     /// The closed window of the block means `samples` (as [`MeasuredTrace::current_a`] gives
     /// them), its weights computed by [`MeasuredTrace::finish`]: the window a flight acquired,
-    /// rebuilt bit for bit from its samples alone (a commissioning flight's window kept in flash:
-    /// each sample is a multiple of the window's step, so stored again it is the same count of
-    /// the same step).
+    /// rebuilt bit for bit from its samples alone (a commissioning flight's window kept in flash).
     pub fn from_samples(samples: impl IntoIterator<Item = f32>) -> Result<Self, ConditioningError> {
         let mut trace = Self::new();
         trace.rebuild(samples)?;
@@ -465,14 +410,13 @@ impl<const W: usize> MeasuredTrace<W> {
 
     /// [`MeasuredTrace::from_samples`] in place: whatever the window held is dropped first.
     pub fn rebuild(&mut self, samples: impl IntoIterator<Item = f32>) -> Result<(), ConditioningError> {
-        self.counts.clear();
-        (self.step_exponent, self.step_a) = (FINEST_STEP_EXPONENT, FINEST_STEP_A);
+        self.current_a.clear();
         (self.derivative_mean_sq, self.block_sum_a, self.block_len) = (0.0, 0.0, 0);
         for y in samples {
             if !y.is_finite() {
                 return Err(ConditioningError::NonFinite);
             }
-            self.store(y)?;
+            self.current_a.push(y).map_err(|_| ConditioningError::WindowFull)?;
         }
         self.finish()
     }
@@ -484,23 +428,17 @@ impl<const W: usize> MeasuredTrace<W> {
 
     /// Block-averaged equivalent current (A), one value per complete window sample, in order.
     pub fn current_a(&self) -> impl ExactSizeIterator<Item = f32> + Clone + '_ {
-        let step = self.step_a;
-        self.counts.iter().map(move |&c| f32::from(c) * step)
-    }
-
-    /// The step of the stored counts, amperes: the resolution of [`MeasuredTrace::current_a`].
-    pub fn step_a(&self) -> f32 {
-        self.step_a
+        self.current_a.iter().copied()
     }
 
     /// Number of complete window samples.
     pub fn len(&self) -> usize {
-        self.counts.len()
+        self.current_a.len()
     }
 
     /// `true` before the first complete window sample.
     pub fn is_empty(&self) -> bool {
-        self.counts.is_empty()
+        self.current_a.is_empty()
     }
 }
 
@@ -519,7 +457,6 @@ mod tests {
         t.finish().unwrap();
         let back = MeasuredTrace::<600>::from_samples(t.current_a()).unwrap();
         assert_eq!(back.current_a().len(), 500);
-        assert_eq!(back.step_a(), t.step_a());
         assert!(back.current_a().zip(t.current_a()).all(|(a, b)| a.to_bits() == b.to_bits()));
         assert!(back.weights().zip(t.weights()).all(|(a, b)| a.to_bits() == b.to_bits()));
         assert_eq!(MeasuredTrace::<600>::from_samples([1.0, f32::NAN]).err(), Some(ConditioningError::NonFinite));
@@ -733,31 +670,6 @@ mod tests {
         // A constant slope: İ = C everywhere, so every weight is exactly 1/2.
         assert_eq!(t.weights().count(), 60);
         assert!(t.weights().all(|w| w == 0.5));
-    }
-
-    #[test]
-    fn samples_keep_the_finest_step_their_largest_fits_in() {
-        // small currents first, then larger ones: the step coarsens as the samples grow, and
-        // every sample stays within half the final step of its value
-        let values: std::vec::Vec<f32> = (0..200).map(|j| 0.001 * j as f32 + 0.37 * (j * j % 17) as f32).collect();
-        let mut t = MeasuredTrace::<300>::new();
-        for &v in &values {
-            for _ in 0..DECIMATION {
-                t.push(v, -v, 0.0).unwrap();
-            }
-        }
-        t.finish().unwrap();
-        let largest = values.iter().copied().fold(0.0f32, f32::max);
-        let step = t.step_a();
-        assert!(32767.0 * step >= largest && 32767.0 * step / 2.0 < largest, "step {step} for {largest}");
-        for (y, v) in t.current_a().zip(&values) {
-            assert!((y - v).abs() <= step, "{y} vs {v} (step {step})");
-        }
-        // a current beyond what any step holds is refused, not wrapped
-        let mut huge = MeasuredTrace::<60>::new();
-        let big = f32::MAX / 2.0;
-        let refused = (0..DECIMATION).map(|_| huge.push(big, big, 0.0)).find(Result::is_err);
-        assert_eq!(refused, Some(Err(ConditioningError::NonFinite)));
     }
 
     #[test]

@@ -249,10 +249,8 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
         Stopping::new(config.max_iterations, config.stall_iterations, config.function_tolerance, config.target_cost)
     }
 
-    /// A swarm of settings that [`ParticleSwarm::check`] accepted (`stopping` is its result),
-    /// every particle at zero until [`ParticleSwarm::seed`] scatters them. The arrays are zeros
-    /// (a fill, no copy), so that a caller can build the swarm in place and seed it there: no
-    /// second copy of it on the stack.
+    /// A swarm of settings [`ParticleSwarm::check`] accepted (`stopping`), its arrays zero (a
+    /// fill, no copy) until [`ParticleSwarm::seed`]: a caller builds it and seeds it in place.
     #[inline(always)]
     pub(crate) fn unseeded(bounds: Bounds<D>, config: PsoConfig, stopping: Stopping) -> Self {
         let min_neighbors = match config.topology {
