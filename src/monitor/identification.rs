@@ -125,7 +125,8 @@ impl<const P: usize> Solver<P> {
 
     fn best(&self) -> ([f32; FAULT_COUNT], f32) {
         match self {
-            Solver::Planned(_) => (FaultVector::HEALTHY.0, f32::INFINITY),
+            // what a started optimizer reports before its first evaluation
+            Solver::Planned(_) => (fault_bounds().centre(), f32::INFINITY),
             Solver::Pso(s) => (*s.best().0, s.best().1),
             #[cfg(feature = "ga")]
             Solver::Ga(s) => (*s.best().0, s.best().1),
