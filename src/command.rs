@@ -352,6 +352,36 @@ impl CommandCursor for SampledCursor<'_> {
     }
 }
 
+/// The cursor of either command source, chosen at run time: the loops that are not the
+/// objective's (the shared window loop, the lockstep runs) are compiled once for both sources,
+/// at the price of one predictable branch a step.
+#[derive(Clone, Debug)]
+pub(crate) enum AnyCommandCursor<'a> {
+    /// A profile's.
+    Profile(ProfileCursor<'a>),
+    /// A sampled command's.
+    Sampled(SampledCursor<'a>),
+}
+
+impl<'a> AnyCommandCursor<'a> {
+    /// The cursor of `command`.
+    pub(crate) fn new(command: &'a Command<'a>) -> Self {
+        match command {
+            Command::Profile(p) => Self::Profile(ProfileCursor::new(p)),
+            Command::Sampled(s) => Self::Sampled(SampledCursor::new(s)),
+        }
+    }
+}
+
+impl CommandCursor for AnyCommandCursor<'_> {
+    fn command_rad(&mut self, step: u32, t_s: f32) -> f32 {
+        match self {
+            Self::Profile(p) => CommandCursor::command_rad(p, step, t_s),
+            Self::Sampled(s) => s.command_rad(step, t_s),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -29,7 +29,7 @@
 //! single-trace value. The effective samples, the mean sample weight and the evidence windows see
 //! every recording (`docs/decisions/0020-evidence-over-flights.md`).
 
-use crate::command::{Command, CommandCursor, CommandSource, SampledCursor};
+use crate::command::{AnyCommandCursor, Command, CommandCursor, CommandSource, SampledCursor};
 use crate::conditioning::{ConditioningError, MeasuredEnvelope, MeasuredTrace, SensorErrorEnvelope, DECIMATION};
 use crate::effects::ModelEffects;
 use crate::faults::{FaultVector, FAULT_COUNT};
@@ -142,38 +142,32 @@ pub fn simulate_window_with_effects<'c>(
     // The command source and the step's effect terms chosen once per window, not per step
     // (MonitorModel::step_with): each pair is its own loop.
     let sink: &mut dyn FnMut(usize, f32, &ModelState) -> bool = &mut sink;
-    match (&command.into_command(), model.has_step_terms()) {
-        (Command::Profile(p), true) => {
-            run_window_shared::<true>(&model, params, effects, ProfileCursor::new(p), samples, sink)
-        }
-        (Command::Profile(p), false) => {
-            run_window_shared::<false>(&model, params, effects, ProfileCursor::new(p), samples, sink)
-        }
-        (Command::Sampled(s), true) => {
-            run_window_shared::<true>(&model, params, effects, SampledCursor::new(s), samples, sink)
-        }
-        (Command::Sampled(s), false) => {
-            run_window_shared::<false>(&model, params, effects, SampledCursor::new(s), samples, sink)
-        }
+    let command = command.into_command();
+    let command = AnyCommandCursor::new(&command);
+    if model.has_step_terms() {
+        run_window_shared::<true>(&model, params, effects, command, samples, sink)
+    } else {
+        run_window_shared::<false>(&model, params, effects, command, samples, sink)
     }
 }
 
 /// The loop of [`simulate_window_with_effects`], shared by every caller: the sink is called
-/// through a pointer once a window sample and the loop is not inlined, so that the model's step
-/// is compiled four times (two commands, with and without terms) rather than once into every
-/// caller (the board's flash). The objective, evaluated about 1 600 times a flight, keeps a loop
-/// of its own with its sink inlined ([`simulate_window_inlined`]): through the pointer each of
-/// its window samples would cost about 90 instructions more (4 % of an identification).
+/// through a pointer once a window sample, the model's step out of line
+/// ([`MonitorModel::step_out_of_line`]) and the loop is not inlined, so that the model's step is
+/// not compiled into every caller (the board's flash). The objective under a profile, evaluated
+/// about 1 600 times a flight, keeps a loop of its own with its step and sink inlined
+/// ([`simulate_window_inlined`]): through the pointer each of its window samples would cost
+/// about 90 instructions more (4 % of an identification).
 #[inline(never)]
 fn run_window_shared<const TERMS: bool>(
     model: &MonitorModel,
     params: &EmaParams,
     effects: &ModelEffects,
-    command: impl CommandCursor,
+    command: AnyCommandCursor<'_>,
     samples: usize,
     sink: &mut dyn FnMut(usize, f32, &ModelState) -> bool,
 ) {
-    run_window::<TERMS>(model, params, effects, command, samples, sink)
+    run_window::<TERMS, true>(model, params, effects, command, samples, sink)
 }
 
 /// [`simulate_window_with_effects`] with `sink` compiled into the loop: the objective's hot path
@@ -189,39 +183,27 @@ fn simulate_window_inlined<'c>(
     let model = MonitorModel::with_effects(params, k, effects);
     match (&command.into_command(), model.has_step_terms()) {
         (Command::Profile(p), true) => {
-            run_window::<true>(&model, params, effects, ProfileCursor::new(p), samples, &mut sink)
+            run_window::<true, false>(&model, params, effects, ProfileCursor::new(p), samples, &mut sink)
         }
         (Command::Profile(p), false) => {
-            run_window::<false>(&model, params, effects, ProfileCursor::new(p), samples, &mut sink)
+            run_window::<false, false>(&model, params, effects, ProfileCursor::new(p), samples, &mut sink)
         }
+        // a sampled command is the host's recorded command or a test's: the shared loop
         (Command::Sampled(s), terms) => {
-            run_sampled(&model, params, effects, terms, SampledCursor::new(s), samples, &mut sink)
+            let command = AnyCommandCursor::Sampled(SampledCursor::new(s));
+            if terms {
+                run_window_shared::<true>(&model, params, effects, command, samples, &mut sink)
+            } else {
+                run_window_shared::<false>(&model, params, effects, command, samples, &mut sink)
+            }
         }
-    }
-}
-
-/// [`run_window`] under a sampled command, kept out of line so that the profile's loop is
-/// inlined into the objective as it is without sampled commands.
-#[inline(never)]
-fn run_sampled(
-    model: &MonitorModel,
-    params: &EmaParams,
-    effects: &ModelEffects,
-    terms: bool,
-    command: SampledCursor<'_>,
-    samples: usize,
-    sink: &mut impl FnMut(usize, f32, &ModelState) -> bool,
-) {
-    if terms {
-        run_window::<true>(model, params, effects, command, samples, sink)
-    } else {
-        run_window::<false>(model, params, effects, command, samples, sink)
     }
 }
 
 /// The loop of [`simulate_window_with_effects`] with (`TERMS`) or without the step's effect
-/// terms, reading the command from `command`.
-fn run_window<const TERMS: bool>(
+/// terms, reading the command from `command`; the model's step inlined, or called out of line
+/// (`SHARED_STEP`).
+fn run_window<const TERMS: bool, const SHARED_STEP: bool>(
     model: &MonitorModel,
     params: &EmaParams,
     effects: &ModelEffects,
@@ -243,7 +225,12 @@ fn run_window<const TERMS: bool>(
                 }
                 _ => envelope.expected_a(state.output_current_a),
             };
-            model.step_with::<TERMS>(&mut state, command.command_rad(step, step as f32 * dt));
+            let theta = command.command_rad(step, step as f32 * dt);
+            if SHARED_STEP {
+                model.step_out_of_line::<TERMS>(&mut state, theta);
+            } else {
+                model.step_with::<TERMS>(&mut state, theta);
+            }
             step += 1;
         }
         if !sink(i, block * (1.0 / DECIMATION as f32), &state) {

@@ -6,12 +6,11 @@
 //! both such runs: a base model and one stepped model per parameter, differenced sample by
 //! sample, nothing stored per sample.
 
-use crate::command::{Command, CommandCursor, SampledCursor};
+use crate::command::{AnyCommandCursor, CommandCursor};
 use crate::conditioning::{MeasuredEnvelope, SensorErrorEnvelope, DECIMATION};
 use crate::fitness::CurrentFit;
 use crate::model::{ModelState, MonitorModel};
 use crate::params::EmaParams;
-use crate::profile::ProfileCursor;
 
 /// Runs the `M` `models` in lockstep under `fit`'s command (the envelopes of `params` and `fit`'s
 /// effect terms) and hands each window sample `i` to `sink(y_i, v_i, means)`: the measured block
@@ -23,19 +22,19 @@ pub(crate) fn lockstep<const M: usize, const W: usize>(
     sink: impl FnMut(f32, f32, &[f32; M]),
 ) {
     let terms = models.first().is_some_and(MonitorModel::has_step_terms);
-    match (fit.command(), terms) {
-        (Command::Profile(p), true) => run::<true, M, W>(models, params, ProfileCursor::new(p), fit, sink),
-        (Command::Profile(p), false) => run::<false, M, W>(models, params, ProfileCursor::new(p), fit, sink),
-        (Command::Sampled(s), true) => run::<true, M, W>(models, params, SampledCursor::new(s), fit, sink),
-        (Command::Sampled(s), false) => run::<false, M, W>(models, params, SampledCursor::new(s), fit, sink),
+    let command = AnyCommandCursor::new(fit.command());
+    if terms {
+        run::<true, M, W>(models, params, command, fit, sink)
+    } else {
+        run::<false, M, W>(models, params, command, fit, sink)
     }
 }
 
-/// [`lockstep`] for one command cursor, with or without the models' step terms.
+/// [`lockstep`] with or without the models' step terms.
 fn run<const TERMS: bool, const M: usize, const W: usize>(
     models: &[MonitorModel; M],
     params: &EmaParams,
-    mut command: impl CommandCursor,
+    mut command: AnyCommandCursor<'_>,
     fit: &CurrentFit<'_, W>,
     mut sink: impl FnMut(f32, f32, &[f32; M]),
 ) {
@@ -59,7 +58,7 @@ fn run<const TERMS: bool, const M: usize, const W: usize>(
                     }
                     _ => envelope.expected_a(state.output_current_a),
                 };
-                model.step_with::<TERMS>(state, theta);
+                model.step_out_of_line::<TERMS>(state, theta);
             }
             step += 1;
         }

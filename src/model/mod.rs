@@ -346,6 +346,15 @@ impl MonitorModel {
         }
     }
 
+    /// [`MonitorModel::step_with`] as one out-of-line function per `EFFECTS`: the step of every
+    /// loop but the objective's (the shared window loop, the lockstep runs of the uncertainty and
+    /// of commissioning). Inlined, the step would be compiled into each of them, a few kB of
+    /// flash each; the call costs a few instructions of the step's several hundred.
+    #[inline(never)]
+    pub(crate) fn step_out_of_line<const EFFECTS: bool>(&self, s: &mut ModelState, command_rad: f32) {
+        self.step_with::<EFFECTS>(s, command_rad);
+    }
+
     /// `true` when an effect term of [`MonitorModel::step`] is on (cogging, Stribeck, saturation,
     /// dead time, back-EMF shape, Hall offset, sensor errors): a loop of steps should then run
     /// `step_with::<true>`, otherwise `::<false>`.
