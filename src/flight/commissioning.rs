@@ -28,7 +28,6 @@ use crate::flight::Acquired;
 use crate::health::{Abstain, HealthReport, Status};
 use crate::monitor::{configured_fit, ColdReason, MonitorError, Start};
 use crate::persist::{Commissioning, CommissioningRefusal, HealthRecord, UnitBaseline};
-use crate::EmaParams;
 
 /// Most flights an on-board commissioning fits: all but the last are held on the stack as
 /// windows while the baseline is fitted (17.6 KB each at the on-board window).
@@ -156,21 +155,5 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
             hooks.commissioning_tick()
         })
         .ok()
-    }
-
-    /// The parameters a flight is diagnosed against (at 20 °C): the record's baseline once the
-    /// unit is commissioned, the monitor's own otherwise.
-    pub(super) fn unit_params(&self, record: &HealthRecord) -> EmaParams {
-        match record.baseline() {
-            Some(b) => {
-                let unit = self.tolerances.apply(&self.params, &b.z);
-                if unit.check().is_ok() {
-                    unit
-                } else {
-                    self.params
-                }
-            }
-            None => self.params,
-        }
     }
 }

@@ -53,8 +53,10 @@ use crate::persist::{Commissioning, HealthRecord, KeptRecord, RecordIdentity};
 use crate::unit::Tolerances;
 use crate::{Command, EmaParams, ModelEffects};
 
+#[cfg(feature = "commissioning")]
 pub mod commissioning;
 
+#[cfg(feature = "commissioning")]
 pub use commissioning::MAX_ONBOARD_COMMISSIONING_FLIGHTS;
 
 /// What the firmware does around the identification. Every method does nothing by default.
@@ -232,12 +234,29 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     /// The same monitor commissioning each new record (the first after a maintenance reset)
     /// over its first `flights` flights, within `tolerances` ([`commissioning`]). Refuses 0 or
     /// more than [`MAX_ONBOARD_COMMISSIONING_FLIGHTS`] flights, or a table that
-    /// [`Tolerances::check`] refuses.
+    /// [`Tolerances::check`] refuses. Built with the `commissioning` feature.
+    #[cfg(feature = "commissioning")]
     pub fn with_commissioning(self, flights: u8, tolerances: Tolerances) -> Result<Self, MonitorError> {
         if !(1..=MAX_ONBOARD_COMMISSIONING_FLIGHTS).contains(&flights) || tolerances.check().is_err() {
             return Err(MonitorError::Commissioning);
         }
         Ok(Self { commissioning_flights: flights, tolerances, ..self })
+    }
+
+    /// The parameters a flight is diagnosed against (at 20 °C): the record's baseline once the
+    /// unit is commissioned, the monitor's own otherwise.
+    fn unit_params(&self, record: &HealthRecord) -> EmaParams {
+        match record.baseline() {
+            Some(b) => {
+                let unit = self.tolerances.apply(&self.params, &b.z);
+                if unit.check().is_ok() {
+                    unit
+                } else {
+                    self.params
+                }
+            }
+            None => self.params,
+        }
     }
 
     /// The same monitor for the unit of serial number `serial` (0: none given), as the integrator
@@ -365,7 +384,13 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
             record.set_commissioning(Commissioning::Collecting { planned: self.commissioning_flights, kept: 0 });
         }
         if let Commissioning::Collecting { planned, kept } = record.commissioning() {
+            #[cfg(feature = "commissioning")]
             return self.commissioning_flight(trace, acquired, record, hooks, planned, kept);
+            #[cfg(not(feature = "commissioning"))]
+            {
+                let _ = (planned, kept);
+                return Err(MonitorError::CommissioningNotBuilt);
+            }
         }
         let base = self.unit_params(record);
         self.fly(trace, acquired, record, hooks, &base)

@@ -228,6 +228,7 @@ impl FlightHooks for FlashHooks {
     }
 }
 
+#[cfg(feature = "commissioning")]
 /// A flight of `unit` with faults `truth` at `temperature_c`, read as a firmware reads it.
 fn fly_at(
     monitor: &HealthMonitor<'_>,
@@ -249,6 +250,32 @@ fn fly_at(
     flight
 }
 
+/// A build without commissioning (the board's flight image) meets a record that a build with it
+/// left collecting: the flight is refused and the record stays as it was, windows and all; a
+/// record not commissioning is diagnosed as usual, and a new one does not start commissioning.
+#[cfg(not(feature = "commissioning"))]
+#[test]
+fn without_commissioning_built_a_collecting_record_is_refused_and_kept() {
+    use crate::persist::Commissioning;
+    let unit = units()[0];
+    let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+    let mut trace = MeasuredTrace::new();
+    let truth = FaultVector([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+    let acquired = monitor.acquire(&mut Frames::of(&unit, &truth, 11), &mut trace, 10_000.0).unwrap();
+    let mut record = HealthRecord::for_unit(monitor.identity());
+    record.set_commissioning(Commissioning::Collecting { planned: 3, kept: 1 });
+    let before = record;
+    let e = monitor.diagnose(&trace, &acquired, &mut record, &mut NoHooks).unwrap_err();
+    assert_eq!(e, MonitorError::CommissioningNotBuilt);
+    assert!(record.same_bits(&before));
+    let mut fresh = HealthRecord::new();
+    let f = monitor.diagnose(&trace, &acquired, &mut fresh, &mut NoHooks).unwrap();
+    assert_eq!((f.commissioning, fresh.commissioning()), (None, Commissioning::Off));
+    assert!(f.report.status.is_diagnosis(), "{:?}", f.report.status);
+    assert!((f.report.faults.0[0] - 0.2).abs() < 0.03, "{:?}", f.report.faults.0);
+}
+
+#[cfg(feature = "commissioning")]
 #[test]
 fn a_unit_commissioned_over_its_first_flights_is_diagnosed_against_its_own_baseline() {
     use crate::persist::Commissioning;
@@ -298,6 +325,7 @@ fn a_unit_commissioned_over_its_first_flights_is_diagnosed_against_its_own_basel
     }
 }
 
+#[cfg(feature = "commissioning")]
 #[test]
 fn a_fault_present_at_commissioning_is_not_baked_into_the_baseline() {
     use crate::persist::{Commissioning, CommissioningRefusal};
@@ -322,6 +350,7 @@ fn a_fault_present_at_commissioning_is_not_baked_into_the_baseline() {
     assert_eq!(record.baseline(), None);
 }
 
+#[cfg(feature = "commissioning")]
 #[test]
 fn commissioning_without_flash_or_on_an_unusable_flight_keeps_nothing() {
     use crate::persist::{Commissioning, CommissioningRefusal};
@@ -488,6 +517,7 @@ fn a_board_s_flights_accumulate_evidence_across_a_sensor_fault() {
     assert_eq!(record.flights(), 4);
 }
 
+#[cfg(feature = "commissioning")]
 /// A record of `flights` diagnosed flights of `monitor`'s unit, friction growing by 0.01 a
 /// flight, the first cold: a history as the store keeps it.
 fn history_of(monitor: &HealthMonitor<'_>, flights: u32) -> HealthRecord {
@@ -499,11 +529,13 @@ fn history_of(monitor: &HealthMonitor<'_>, flights: u32) -> HealthRecord {
     record
 }
 
+#[cfg(feature = "commissioning")]
 /// Every byte of the hooks' flash.
 fn image(hooks: &FlashHooks) -> Vec<u8> {
     (0..crate::persist::RamFlash::<8, 4096>::CAPACITY).map(|i| hooks.flash.byte(i).unwrap()).collect()
 }
 
+#[cfg(feature = "commissioning")]
 /// A flight of `unit` with faults `truth` on the record `kept` holds, as a firmware flies it.
 fn fly_kept(
     monitor: &HealthMonitor<'_>,
@@ -524,6 +556,7 @@ fn fly_kept(
 /// the next load gives the twelve flights with their history, and the flight after it starts
 /// warm from them and is saved on top. A maintenance reset then erases the history, and the
 /// next flight commissions the unit again.
+#[cfg(feature = "commissioning")]
 #[test]
 fn a_failed_load_flies_cold_saves_nothing_and_the_next_load_keeps_the_history() {
     use crate::health::FaultMode;

@@ -26,8 +26,10 @@ use crate::optimizer::ConfigError;
 use crate::optimizer::{Bounds, Optimizer, SearchStatus, Stopping, TerminationReason};
 use crate::params::EmaParams;
 
-/// The global search's optimizer.
+/// The global search's optimizer. Its state lives in place, in the identification (no heap on
+/// board), so the plan's variant is as large as the swarm's by design.
 #[derive(Clone, Debug)]
+#[allow(clippy::large_enum_variant)]
 enum Solver<const P: usize> {
     /// Checked, not started: [`Solver::start`] builds it in place at the first step that needs
     /// it (never, for a warm start that does not fall back to the global search).

@@ -77,6 +77,10 @@ pub enum MonitorError {
     /// Commissioning settings refused: 1 to
     /// [`crate::flight::MAX_ONBOARD_COMMISSIONING_FLIGHTS`] flights and a valid tolerance table.
     Commissioning,
+    /// The health record is collecting a commissioning, and this build has none (the
+    /// `commissioning` feature): the unit is diagnosed once a build with commissioning has
+    /// finished it, or after a maintenance reset.
+    CommissioningNotBuilt,
 }
 
 impl core::fmt::Display for MonitorError {
@@ -94,6 +98,9 @@ impl core::fmt::Display for MonitorError {
             MonitorError::Commissioning => {
                 f.write_str("commissioning settings refused: 1 to 3 flights and a valid tolerance table")
             }
+            MonitorError::CommissioningNotBuilt => f.write_str(
+                "the health record is collecting a commissioning, and this build has none (feature `commissioning`)",
+            ),
             MonitorError::ForeignRecord => {
                 f.write_str("the health record is another unit's or was made under other parameters")
             }

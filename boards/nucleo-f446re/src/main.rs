@@ -33,7 +33,9 @@ use panic_probe as _; // panic → defmt message → `udf` → HardFault → par
 use cortex_m_rt::entry;
 use ema_monitor::acquisition::SamplerConfig;
 use ema_monitor::flight::HealthMonitor;
-use ema_monitor::{ModelEffects, Profile, Tolerances};
+#[cfg(feature = "commissioning")]
+use ema_monitor::Tolerances;
+use ema_monitor::{ModelEffects, Profile};
 use stm32f4xx_hal::flash::LockedFlash;
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
@@ -41,9 +43,9 @@ use stm32f4xx_hal::prelude::*;
 use ema_monitor_nucleo_f446re::dma_sampling::{BoardSampler, Isr};
 use ema_monitor_nucleo_f446re::safe_state::{failsafe, idle_failed, refused};
 use ema_monitor_nucleo_f446re::triple_adc::{self, SimultaneousReader, TripleAdc};
-use ema_monitor_nucleo_f446re::{
-    flash_control, COMMISSIONING_FLIGHTS, FRAME_PERIOD_US, PARAMS, TRIGGER_TIMEOUT_FRAMES,
-};
+#[cfg(feature = "commissioning")]
+use ema_monitor_nucleo_f446re::COMMISSIONING_FLIGHTS;
+use ema_monitor_nucleo_f446re::{flash_control, FRAME_PERIOD_US, PARAMS, TRIGGER_TIMEOUT_FRAMES};
 use ema_monitor_nucleo_f446re::{flights, health_flash, rcc, report_uart, safe_state, timestamp};
 
 /// `defmt::panic!` and friends: straight to the HardFault path (panic-probe's advice, so that the
@@ -97,10 +99,13 @@ fn main() -> ! {
         defmt::error!("USART2 refused 115200 8N1: no report line, the log alone reports");
     }
 
-    // 4. The monitor; a record of other parameters or another unit is archived.
-    let monitor = match HealthMonitor::onboard(PARAMS, Profile::STANDARD, ModelEffects::NONE)
-        .and_then(|m| m.with_commissioning(COMMISSIONING_FLIGHTS, Tolerances::TYPICAL))
-    {
+    // 4. The monitor, commissioning each new record in the commissioning image; a record of
+    //    other parameters or another unit is archived.
+    let monitor = HealthMonitor::onboard(PARAMS, Profile::STANDARD, ModelEffects::NONE);
+    #[cfg(feature = "commissioning")]
+    let monitor = monitor.and_then(|m| m.with_commissioning(COMMISSIONING_FLIGHTS, Tolerances::TYPICAL));
+    defmt::info!("image: {=str}", if cfg!(feature = "commissioning") { "commissioning" } else { "flight" });
+    let monitor = match monitor {
         Ok(m) => m,
         Err(e) => refused("monitor refused", e, &watchdog),
     };
