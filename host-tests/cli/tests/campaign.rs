@@ -135,7 +135,8 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
     let csv = runs_csv(&one);
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().expect("header").split(',').collect();
-    assert_eq!(header.len(), 5 + 16 + 4 + 8 + 2 + 1);
+    assert_eq!(header.len(), 5 + 16 + 4 + 8 + 2 + 2 + 1);
+    assert_eq!(header[35..], ["bound_covers_truth", "bound_at_or_below_truth", "flights"]);
     assert_eq!(header[21..25], ["err_percent", "identification_s", "evaluations", "floor_err_percent"]);
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), plans.len());
@@ -148,6 +149,8 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
         assert_eq!(f[23], "100", "2 iterations × 50 particles");
         let floor: f64 = f[24].parse().expect("number");
         assert!(floor == 0.0, "high faults and low friction and gain are visible at the truth: {row}");
+        let not_found: u32 = f[35].parse::<u32>().expect("count") + f[36].parse::<u32>().expect("count");
+        assert!(not_found <= 1, "one faulted mode a run: {row}");
     }
     // model selection and the polish come on top of the global search's budget
     let refined = run_all(

@@ -11,7 +11,7 @@ use ema_reference::{simulate, SimConfig};
 use rayon::prelude::*;
 
 use super::plan::{flight_seed, Plan};
-use super::scoring::{coverage, detectability_floor, detectability_floor_pooled};
+use super::scoring::{bounds_vs_truth, coverage, detectability_floor, detectability_floor_pooled, BoundsVsTruth};
 use crate::error::CliError;
 use crate::progress;
 use crate::recording::Recording;
@@ -38,6 +38,8 @@ pub struct RunResult {
     pub sigma: [f32; 8],
     /// Parameters counted by [`coverage`] and those of them within ±2σ.
     pub coverage: (u32, u32),
+    /// The report's "not detectable below" bounds against the truth ([`bounds_vs_truth`]).
+    pub bounds: BoundsVsTruth,
 }
 
 /// The parameters the monitor identifies with: the actuator's `params`, with the sensor noise
@@ -102,6 +104,7 @@ pub fn execute(
         floor_err_percent: f64::from(floor.paper_error_percent(&p.truth)),
         sigma,
         coverage: coverage(&p.truth, &estimate, &sigma),
+        bounds: bounds_vs_truth(&p.truth, params, outcome.report.uncertainty.as_ref()),
     })
 }
 

@@ -81,7 +81,8 @@ pub fn summary_json(summary: &BTreeMap<CellKey, Cell>, args: &CampaignArgs) -> S
 
 /// `summary.csv`'s header: the keys of a [`CellJson`], in its order.
 pub const SUMMARY_CSV_HEADER: &str = "algorithm,mode,level,runs,mean_err_percent,mean_identification_s,\
-mean_evaluations,mean_floor_err_percent,coverage_2sigma,coverage_parameters";
+mean_evaluations,mean_floor_err_percent,coverage_2sigma,coverage_parameters,mean_err_percent_detectable,\
+detectable_runs,bound_covers_truth_fraction,faults_not_found";
 
 /// `summary.csv`: one row per (algorithm, mode, level), the columns of [`SUMMARY_CSV_HEADER`].
 pub fn summary_csv(summary: &BTreeMap<CellKey, Cell>) -> String {
@@ -89,14 +90,18 @@ pub fn summary_csv(summary: &BTreeMap<CellKey, Cell>) -> String {
     for ((alg, mode, level), c) in summary {
         let _ = writeln!(
             csv,
-            "{alg},{mode},{level},{},{},{},{},{},{},{}",
+            "{alg},{mode},{level},{},{},{},{},{},{},{},{},{},{},{}",
             c.runs,
             c.mean_err_percent,
             c.mean_identification_s,
             c.mean_evaluations,
             c.mean_floor_err_percent,
             c.coverage_2sigma,
-            c.coverage_parameters
+            c.coverage_parameters,
+            c.mean_err_percent_detectable,
+            c.detectable_runs,
+            c.bound_covers_truth_fraction,
+            c.faults_not_found
         );
     }
     csv
@@ -114,7 +119,7 @@ pub fn runs_csv(results: &[RunResult]) -> String {
     for i in 1..=8 {
         let _ = write!(out, ",k{i}_sigma");
     }
-    out.push_str(",coverage_counted,coverage_covered,flights\n");
+    out.push_str(",coverage_counted,coverage_covered,bound_covers_truth,bound_at_or_below_truth,flights\n");
     for r in results {
         let p = &r.plan;
         let _ = write!(out, "{},{},{},{},{}", p.algorithm.name(), p.mode, p.level, p.run, p.seed);
@@ -125,7 +130,8 @@ pub fn runs_csv(results: &[RunResult]) -> String {
         for s in &r.sigma {
             let _ = write!(out, ",{s}");
         }
-        let _ = writeln!(out, ",{},{},{}", r.coverage.0, r.coverage.1, p.flights);
+        let _ =
+            writeln!(out, ",{},{},{},{},{}", r.coverage.0, r.coverage.1, r.bounds.covered, r.bounds.missed, p.flights);
     }
     out
 }

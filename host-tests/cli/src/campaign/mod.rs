@@ -67,7 +67,7 @@ pub use files::{
 };
 pub use paper::{PaperRow, PAPER_TABLE_II};
 pub use plan::{flight_seed, plan, Plan, SplitMix, MODES};
-pub use scoring::{coverage, detectability_floor, detectability_floor_pooled};
+pub use scoring::{bounds_vs_truth, coverage, detectability_floor, detectability_floor_pooled, BoundsVsTruth};
 pub use summary::{summarize, Cell, CellKey};
 pub use table::table;
 

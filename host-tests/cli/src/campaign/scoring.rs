@@ -1,10 +1,54 @@
-//! How a run is scored beyond the paper's Err%: the ±2σ coverage of the true values and the
-//! detectability floor (the part of the error that is a limit of the recording).
+//! How a run is scored beyond the paper's Err%: the ±2σ coverage of the true values, the
+//! detectability floor (the part of the error that is a limit of the recording) and how the
+//! report's "not detectable below" bounds read against the truth.
 
 use ema_monitor::conditioning::MeasuredTrace;
 use ema_monitor::fitness::{CurrentFit, PooledTrace};
+use ema_monitor::health::{HealthReport, Uncertainty};
 use ema_monitor::monitor::{group_pays, group_present, without_group, IdentifyConfig, FAULT_GROUPS};
 use ema_monitor::{EmaParams, FaultVector, Profile};
+
+/// The faulted modes of a run that its report gives as not found (a "not detectable below"
+/// bound, [`Uncertainty::detectable_below`]), counted against the truth's severities.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BoundsVsTruth {
+    /// Faulted modes reported not found whose bound lies above the truth's severity: the
+    /// recording could not tell them, and the report says so.
+    pub covered: u32,
+    /// Faulted modes reported not found whose bound lies at or below the truth's severity (or
+    /// is NaN): faults the recording could tell, missed.
+    pub missed: u32,
+}
+
+impl BoundsVsTruth {
+    /// `true` when every faulted mode lies at or above the recording's smallest detectable
+    /// severity: none is covered by its bound. The run's Err% then measures the monitor, not
+    /// the manoeuvre.
+    pub fn detectable(&self) -> bool {
+        self.covered == 0
+    }
+}
+
+/// [`BoundsVsTruth`] of a report's `uncertainty` against `truth` (severities per mode as
+/// [`HealthReport::new`] reads them from the vector, against the actuator `params`). A report
+/// without uncertainty (an abstention) gives no bound: nothing is counted.
+pub fn bounds_vs_truth(truth: &FaultVector, params: &EmaParams, uncertainty: Option<&Uncertainty>) -> BoundsVsTruth {
+    let mut counts = BoundsVsTruth::default();
+    let Some(u) = uncertainty else { return counts };
+    let modes = HealthReport::new(*truth, params, 0.0, 0, 0, None).modes;
+    for (mode, bound) in modes.iter().zip(u.detectable_below) {
+        let Some(bound) = bound else { continue };
+        if mode.severity <= 0.0 {
+            continue;
+        }
+        if bound > mode.severity {
+            counts.covered += 1;
+        } else {
+            counts.missed += 1;
+        }
+    }
+    counts
+}
 
 /// `(counted, covered)`: the parameters of the fault groups present in the truth or in the
 /// estimate, and those of them whose true value lies within ±2σ of the estimate. A group healthy
@@ -83,4 +127,29 @@ pub fn detectability_floor_pooled<'a, const W: usize>(
         }
     }
     FaultVector(floor)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Friction 0.03 and a short circuit 0.2 on phase B in the truth; the report finds neither,
+    /// friction "not detectable below" 0.05 (it hides below) and the short below 0.1 (missed);
+    /// backlash, absent from the truth, has a bound too and is not counted.
+    #[test]
+    fn bounds_count_the_faulted_modes_reported_not_found() {
+        let truth = FaultVector([0.03, 0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5]);
+        let params = EmaParams::NOMINAL;
+        let u = Uncertainty { sigma: [0.01; 8], detectable_below: [Some(0.05), Some(0.01), Some(0.1), None, None] };
+        let b = bounds_vs_truth(&truth, &params, Some(&u));
+        assert_eq!(b, BoundsVsTruth { covered: 1, missed: 1 });
+        assert!(!b.detectable());
+        // a mode found has no bound; a report without uncertainty counts nothing
+        let found = Uncertainty { detectable_below: [None, Some(0.01), None, None, None], ..u };
+        assert_eq!(bounds_vs_truth(&truth, &params, Some(&found)), BoundsVsTruth::default());
+        assert!(bounds_vs_truth(&truth, &params, None).detectable());
+        // a bound exactly at the truth's severity: the recording could tell it
+        let at = Uncertainty { detectable_below: [Some(0.03), None, None, None, None], ..u };
+        assert_eq!(bounds_vs_truth(&truth, &params, Some(&at)), BoundsVsTruth { covered: 0, missed: 1 });
+    }
 }

@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::execute::RunResult;
+use super::scoring::BoundsVsTruth;
 
 /// Mean error and time per (algorithm, mode, level).
 #[derive(Clone, Debug, Default, Serialize)]
@@ -25,14 +26,36 @@ pub struct Cell {
     pub coverage_2sigma: f64,
     /// Parameters counted for `coverage_2sigma`.
     pub coverage_parameters: u32,
+    /// Mean Err% over the runs whose faults all lie at or above the recording's smallest
+    /// detectable severity ([`BoundsVsTruth::detectable`]; NaN, `null` in JSON, when none does).
+    pub mean_err_percent_detectable: f64,
+    /// Runs counted for `mean_err_percent_detectable`.
+    pub detectable_runs: usize,
+    /// Share of the faulted modes reported not found whose "not detectable below" bound lies
+    /// above the truth ([`BoundsVsTruth`]; NaN, `null` in JSON, when no faulted mode was
+    /// reported not found).
+    pub bound_covers_truth_fraction: f64,
+    /// Faulted modes reported not found, counted for `bound_covers_truth_fraction`.
+    pub faults_not_found: u32,
 }
 
 /// `(algorithm, mode, level)` of a summary cell.
 pub type CellKey = (String, String, String);
 
-/// Running sums of a cell: runs, Err%, seconds, evaluations, floor Err%, coverage counted and
-/// covered.
-type CellSums = (usize, f64, f64, f64, f64, u32, u32);
+/// Running sums of a cell.
+#[derive(Default)]
+struct CellSums {
+    runs: usize,
+    err: f64,
+    seconds: f64,
+    evaluations: f64,
+    floor_err: f64,
+    counted: u32,
+    covered: u32,
+    detectable_runs: usize,
+    detectable_err: f64,
+    bounds: BoundsVsTruth,
+}
 
 /// Groups results by `(algorithm, mode, level)` (mode `total` pools the single-fault modes).
 pub fn summarize(results: &[RunResult]) -> BTreeMap<CellKey, Cell> {
@@ -46,28 +69,48 @@ pub fn summarize(results: &[RunResult]) -> BTreeMap<CellKey, Cell> {
         }
         for key in keys {
             let e = sums.entry(key).or_default();
-            e.0 += 1;
-            e.1 += r.err_percent;
-            e.2 += r.seconds;
-            e.3 += f64::from(r.evaluations);
-            e.4 += r.floor_err_percent;
-            e.5 += r.coverage.0;
-            e.6 += r.coverage.1;
+            e.runs += 1;
+            e.err += r.err_percent;
+            e.seconds += r.seconds;
+            e.evaluations += f64::from(r.evaluations);
+            e.floor_err += r.floor_err_percent;
+            e.counted += r.coverage.0;
+            e.covered += r.coverage.1;
+            if r.bounds.detectable() {
+                e.detectable_runs += 1;
+                e.detectable_err += r.err_percent;
+            }
+            e.bounds.covered += r.bounds.covered;
+            e.bounds.missed += r.bounds.missed;
         }
     }
     sums.into_iter()
-        .map(|(k, (n, err, s, ev, floor, counted, covered))| {
-            let n_f = n as f64;
+        .map(|(k, e)| {
+            let n_f = e.runs as f64;
+            let not_found = e.bounds.covered + e.bounds.missed;
             let cell = Cell {
-                runs: n,
-                mean_err_percent: err / n_f,
-                mean_identification_s: s / n_f,
-                mean_evaluations: ev / n_f,
-                mean_floor_err_percent: floor / n_f,
-                coverage_2sigma: if counted == 0 { f64::NAN } else { f64::from(covered) / f64::from(counted) },
-                coverage_parameters: counted,
+                runs: e.runs,
+                mean_err_percent: e.err / n_f,
+                mean_identification_s: e.seconds / n_f,
+                mean_evaluations: e.evaluations / n_f,
+                mean_floor_err_percent: e.floor_err / n_f,
+                coverage_2sigma: ratio(f64::from(e.covered), f64::from(e.counted)),
+                coverage_parameters: e.counted,
+                mean_err_percent_detectable: ratio(e.detectable_err, e.detectable_runs as f64),
+                detectable_runs: e.detectable_runs,
+                bound_covers_truth_fraction: ratio(f64::from(e.bounds.covered), f64::from(not_found)),
+                faults_not_found: not_found,
             };
             (k, cell)
         })
         .collect()
+}
+
+/// `num / den`, NaN when `den` is 0.
+fn ratio(num: f64, den: f64) -> f64 {
+    if den == 0.0 {
+        f64::NAN
+    } else {
+        num / den
+    }
 }
