@@ -310,13 +310,13 @@ impl<const P: usize, const D: usize> DifferentialEvolution<P, D> {
     fn end_generation(&mut self) {
         core::mem::swap(&mut self.population, &mut self.next_population);
         core::mem::swap(&mut self.cost, &mut self.next_cost);
-        let mut best = 0;
+        let mut best = (0, self.cost.first().copied().unwrap_or(f32::INFINITY));
         for (j, &c) in self.cost.iter().enumerate() {
-            if c < self.cost[best] {
-                best = j;
+            if c < best.1 {
+                best = (j, c);
             }
         }
-        self.generation_best = best;
+        self.generation_best = best.0;
         self.state.end_iteration();
     }
 }
