@@ -1,7 +1,9 @@
 //! Link-time proof that the on-board path cannot panic: `scripts/prove-no-panic` builds this
 //! program for the MCU with a panic handler that calls a function defined nowhere. The release
 //! build (fat LTO) removes every panic call the optimizer proves unreachable; if one path to a
-//! panic survives, the handler is linked and the link fails on the undefined symbol.
+//! panic survives, the handler is linked and the link fails on the undefined symbol. The script
+//! builds it at both optimisation levels the core ships at: opt-level 3 (the root's release
+//! profile, the QEMU firmware) and "s" (the board's, `boards/nucleo-f446re`).
 //!
 //! The path covered is the firmware's: a packed trace of any content (the bytes pass through
 //! `black_box`, so nothing is folded from the built-in trace) behind the replay ADC → timer-paced

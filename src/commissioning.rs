@@ -235,12 +235,14 @@ impl Baseline {
     /// The resolved parameter furthest beyond [`OUT_OF_TOLERANCE_SIGMAS`] plus `margin`
     /// posterior 1σ, when one is.
     fn furthest(&self, margin: f32) -> Option<(usize, f32)> {
-        let excess = |i: usize| libm::fabsf(self.z[i]) - OUT_OF_TOLERANCE_SIGMAS - margin * self.sigma_z[i];
-        (0..D)
-            .filter(|&i| self.resolved[i])
-            .max_by(|&a, &b| excess(a).total_cmp(&excess(b)))
-            .filter(|&i| excess(i) > 0.0)
-            .map(|i| (i, self.z[i]))
+        let excess = |z: f32, sigma_z: f32| libm::fabsf(z) - OUT_OF_TOLERANCE_SIGMAS - margin * sigma_z;
+        let parameters = self.z.iter().zip(&self.sigma_z).zip(&self.resolved).enumerate();
+        parameters
+            .filter(|&(_, (_, &resolved))| resolved)
+            .map(|(i, ((&z, &sigma_z), _))| (i, z, excess(z, sigma_z)))
+            .max_by(|a, b| a.2.total_cmp(&b.2))
+            .filter(|&(_, _, beyond)| beyond > 0.0)
+            .map(|(i, z, _)| (i, z))
     }
 }
 
@@ -501,7 +503,8 @@ fn invert(mut m: [[f32; D]; D]) -> Option<[[f32; D]; D]> {
     }
     let mut inv: [[f32; D]; D] = core::array::from_fn(|i| core::array::from_fn(|j| if i == j { 1.0 } else { 0.0 }));
     for col in 0..D {
-        let pivot_row = (col..D).max_by(|&a, &b| libm::fabsf(m[a][col]).total_cmp(&libm::fabsf(m[b][col])))?;
+        let below = m.iter().enumerate().skip(col);
+        let (pivot_row, _) = below.max_by(|(_, a), (_, b)| libm::fabsf(a[col]).total_cmp(&libm::fabsf(b[col])))?;
         if pivot_row >= D {
             return None;
         }

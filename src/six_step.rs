@@ -24,10 +24,17 @@ pub(crate) const PAIRS: [(usize, usize); 6] = [(0, 1), (0, 2), (1, 2), (1, 0), (
 /// panic path (the on-board path is proven panic-free, `scripts/prove-no-panic`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
-enum Phase {
+pub(crate) enum Phase {
     A = 0,
     B = 1,
     C = 2,
+}
+
+impl Phase {
+    /// The phase's index into a per-phase array: 0, 1 or 2.
+    pub(crate) const fn index(self) -> usize {
+        self as usize
+    }
 }
 
 /// [`PAIRS`] with the idle phase: `(p, q, r)` per Hall sector, in the bounded [`Phase`] type.
@@ -43,6 +50,15 @@ const ROLES: [(Phase, Phase, Phase); 6] = {
 pub(crate) fn sector_phases(sector: usize) -> (usize, usize, usize) {
     let (p, q, r) = ROLES[sector % 6];
     (p as usize, q as usize, r as usize)
+}
+
+/// [`sector_phases`] as [`Phase`]s, in the table: for phases kept in an array and read back in a
+/// loop, where an index alone would lose its bound and keep a bounds check. A reference, so that
+/// each phase is read on its own, as a `Phase` (a tuple returned by value can come back as one
+/// packed integer, from which a phase is extracted without its bound).
+#[cfg_attr(not(target_os = "none"), inline)]
+pub(crate) fn sector_roles(sector: usize) -> &'static (Phase, Phase, Phase) {
+    &ROLES[sector % 6]
 }
 
 /// Hall sector `0..6` of a Hall angle in `[0, 2π)` (an angle that rounds to 2π reads sector 5).

@@ -59,7 +59,7 @@ pub use phase_resolved::{PHASE_RESOLVED_ONSET_FRACTION, PHASE_SUBSTEPS};
 use crate::effects::ModelEffects;
 use crate::faults::{FaultPhysics, FaultVector};
 use crate::params::EmaParams;
-use crate::six_step::{sector_of, wrap, PAIRS, TWO_PI};
+use crate::six_step::{sector_of, sector_phases, wrap, PAIRS, TWO_PI};
 use core::f32::consts::{FRAC_PI_3, FRAC_PI_6};
 use effect_terms::StepTerms;
 use emf_shape::EmfShape;
@@ -237,7 +237,8 @@ impl MonitorModel {
         let mut pair_r = [0.0; 6];
         let mut pair_l = [0.0; 6];
         let mut pair_dt_over_l = [0.0; 6];
-        for (sector, &(a, b)) in PAIRS.iter().enumerate() {
+        for sector in 0..6 {
+            let (a, b, _) = sector_phases(sector); // phases below 3 the compiler knows: no bounds check
             pair_r[sector] = phase_r[a] + phase_r[b];
             pair_l[sector] = phase_l[a] + phase_l[b];
             pair_dt_over_l[sector] = p.control_period_s / pair_l[sector];

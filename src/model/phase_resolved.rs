@@ -13,7 +13,7 @@
 //! rail, so the measured `½Σ|i_j|` bumps up where the pair model holds it.
 
 use super::{sign, ModelState, MonitorModel};
-use crate::six_step::{ideal_emf_shapes, phase_emf_shape_near_turn, sector_of, sector_phases, wrap, PAIRS};
+use crate::six_step::{ideal_emf_shapes, phase_emf_shape_near_turn, sector_of, sector_roles, wrap, Phase, PAIRS};
 use core::f32::consts::{FRAC_PI_3, FRAC_PI_6};
 
 /// The electrical step resolves the three phases (the fast regime) above
@@ -137,7 +137,8 @@ impl MonitorModel {
         h: f32,
     ) -> f32 {
         let sector = sector % 6; // a Hall sector is below 6: no value changes, no bounds check remains
-        let (a, b, r) = sector_phases(sector);
+        let roles = sector_roles(sector);
+        let (a, b, r) = (roles.0.index(), roles.1.index(), roles.2.index());
         let f = match &self.emf_shape {
             Some(shape) if EFFECTS => {
                 let (theta_e, inv_ramp) = (hall_rad + FRAC_PI_6, shape.inv_ramp_per_rad);
@@ -152,7 +153,7 @@ impl MonitorModel {
         let e_v = [k[0] * f[0] * w, k[1] * f[1] * w, k[2] * f[2] * w];
         let i_before = *i;
         if i[r] != 0.0 {
-            self.commutation_substep::<EFFECTS>(i, (a, b, r), target_a, &e_v, h);
+            self.commutation_substep::<EFFECTS>(i, roles, target_a, &e_v, h);
         } else {
             let pair = i[a];
             let mut u = g * self.supply_voltage_v - (e_v[a] - e_v[b]) - (self.phase_r[a] + self.phase_r[b]) * pair;
@@ -193,18 +194,22 @@ impl MonitorModel {
     fn commutation_substep<const EFFECTS: bool>(
         &self,
         i: &mut [f32; 3],
-        (a, b, r): (usize, usize, usize),
+        &(pa, pb, pr): &(Phase, Phase, Phase),
         target_a: f32,
         e_v: &[f32; 3],
         h: f32,
     ) {
+        let (a, b, r) = (pa.index(), pb.index(), pr.index());
         let half_v = 0.5 * self.supply_voltage_v;
         let y = self.phase_inv_l;
         let mut t = [0.0f32; 3];
         t[a] = target_a;
         t[b] = -target_a;
         let mut u = [0.0f32; 3];
-        for j in [a, b] {
+        // the pair looped over as `Phase`s: an index read back from an array of them is still
+        // below 3 (a `usize` stored there would keep a bounds check per use)
+        for phase in [pa, pb] {
+            let j = phase.index();
             let rail = if i[j] < t[j] {
                 1.0
             } else if i[j] > t[j] {
@@ -223,7 +228,8 @@ impl MonitorModel {
         }
         let mut v_all = (y[0] * u[0] + y[1] * u[1] + y[2] * u[2]) * self.inv_y_sum;
         let mut free = [true; 3];
-        for j in [a, b] {
+        for phase in [pa, pb] {
+            let j = phase.index();
             free[j] = !(i[j] == t[j] && t[j] != 0.0 && sign(t[j]) * (u[j] - v_all) > 0.0);
             if !free[j] {
                 // its switch chops only if the opposite rail turns it back; braking, the back-EMF
@@ -255,7 +261,8 @@ impl MonitorModel {
                 i[j] += h * y[j] * (u[j] - v_n);
             }
         }
-        for j in [a, b] {
+        for phase in [pa, pb] {
+            let j = phase.index();
             if free[j] && before[j] != t[j] && (before[j] - t[j]) * (i[j] - t[j]) <= 0.0 {
                 let excess = i[j] - t[j];
                 i[j] = t[j];

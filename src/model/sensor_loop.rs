@@ -4,7 +4,7 @@
 
 use crate::effects::{maxima, EffectId, ModelEffects};
 use crate::params::EmaParams;
-use crate::six_step::PAIRS;
+use crate::six_step::sector_phases;
 
 /// The hysteresis current loop regulating *measured* currents `i_m,j = (1 + g_j)·i_j + o_j`:
 /// the positive phase `p` of the pair wants the true current `T_p = (I_ref − o_p)/(1 + g_p)`, the
@@ -97,12 +97,13 @@ impl SensorLoop {
         let band_a = 2.0 * params.hysteresis_half_band_a;
         let mut targets = [[0.0; 4]; 6];
         let mut freewheel = [[0.0; 3]; 6];
-        for ((t, f), &(p, q)) in targets.iter_mut().zip(freewheel.iter_mut()).zip(PAIRS.iter()) {
+        for (sector, (t, f)) in targets.iter_mut().zip(freewheel.iter_mut()).enumerate() {
+            let (p, q, r) = sector_phases(sector); // phases below 3 the compiler knows: no bounds check
             let inv_p = 1.0 / (1.0 + s * maxima::SENSOR_GAIN[p]);
             let inv_q = 1.0 / (1.0 + s * maxima::SENSOR_GAIN[q]);
             *t = [inv_p, s * maxima::SENSOR_OFFSET_A[p] * inv_p, inv_q, s * maxima::SENSOR_OFFSET_A[q] * inv_q];
             let l_eq = phase_l_h[p] + phase_l_h[q];
-            *f = [band_a * l_eq, 2.0 / (3.0 * phase_l_h[3 - p - q]), params.control_period_s / l_eq];
+            *f = [band_a * l_eq, 2.0 / (3.0 * phase_l_h[r]), params.control_period_s / l_eq];
         }
         let inv_reset_s = if jitter_a > 0.0 { jitter_a / (2.0 * band_a * params.control_period_s) } else { 0.0 };
         let inv_drift_scale_a = if jitter_a > 0.0 { 1.0 / (HOLD_DRIFT_PER_JITTER * jitter_a) } else { f32::INFINITY };

@@ -214,9 +214,11 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
         let left = selection_polish_left(&self.config, self.selection_polish_evaluations);
         let refit_budget = SELECTION_REFIT.max_evaluations.min(left).saturating_sub(1).max(1);
         let mut free = [false; FAULT_COUNT];
-        for (h, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
-            let movable = h != group && self.kept[h] && group_present(&self.best, (first, last));
-            free[first..=last].iter_mut().for_each(|f| *f = movable);
+        for ((h, &(first, last)), &kept) in FAULT_GROUPS.iter().enumerate().zip(&self.kept) {
+            let movable = h != group && kept && group_present(&self.best, (first, last));
+            // The group's indices by iteration, not by slicing: no range to check, no panic path.
+            let in_group = |i: usize| (first..=last).contains(&i);
+            free.iter_mut().enumerate().filter(|&(i, _)| in_group(i)).for_each(|(_, f)| *f = movable);
         }
         let config = PatternConfig { max_evaluations: refit_budget, ..SELECTION_REFIT };
         match PatternSearch::new(fault_bounds(), config, start, Some(cost), free) {

@@ -14,9 +14,10 @@
 //! - **crossover**: binomial, each parameter from the mutant with probability `CR = 0.5` (`crossover_rate`) and
 //!   parameter `j_rand` (uniform) always, so a trial differs from its target;
 //! - **selection**: the trial replaces its target in the next generation when its cost is `<=` the target's;
-//! - **bounds**: differences go the short way round a *periodic* parameter ([`Bounds::delta`]) and the mutant
-//!   wraps there ([`Bounds::enforce`]); any other parameter that leaves the box is clamped to the bound (so a
-//!   healthy fault parameter, 0 at the bound, can be hit exactly);
+//! - **bounds**: differences go the short way round a *periodic* parameter
+//!   ([`Interval::delta`](super::Interval::delta)) and the mutant wraps there
+//!   ([`Interval::enforce`](super::Interval::enforce)); any other parameter that leaves the box is clamped to the
+//!   bound (so a healthy fault parameter, 0 at the bound, can be hit exactly);
 //! - **initialisation**: a Latin-hypercube sample of the box ([`Rng::latin_hypercube`]);
 //!   [`DifferentialEvolution::with_initial_guesses`] may put known points (the healthy vector) in as the first individuals.
 //!
@@ -266,7 +267,8 @@ impl<const P: usize, const D: usize> DifferentialEvolution<P, D> {
     }
 
     /// The trial vector of target `i` (generation 2 onwards): mutation by the configured strategy, binomial
-    /// crossover with the target (parameter `j_rand` always from the mutant), then [`Bounds::enforce`].
+    /// crossover with the target (parameter `j_rand` always from the mutant), then
+    /// [`Interval::enforce`](super::Interval::enforce) per parameter.
     fn trial(&mut self, i: usize) -> [f32; D] {
         let mut taken = [i, 0, 0, 0];
         let r1 = self.pick(&mut taken, 1);
@@ -286,19 +288,19 @@ impl<const P: usize, const D: usize> DifferentialEvolution<P, D> {
             return population.first().copied().unwrap_or([0.0; D]);
         };
         let mut u = *target;
-        for (d, ud) in u.iter_mut().enumerate() {
+        for ((d, ud), interval) in u.iter_mut().enumerate().zip(self.bounds.intervals()) {
             // One draw per parameter whatever the outcome, so the stream length does not depend on j_rand.
             let from_mutant = self.rng.chance(self.config.crossover_rate) || d == j_rand;
             if !from_mutant {
                 continue;
             }
-            let delta = |from: f32, to: f32| self.bounds.delta(d, from, to);
+            let delta = |from: f32, to: f32| interval.delta(from, to);
             let mut v = match self.config.strategy {
                 Strategy::Rand1 => a[d] + f * delta(c[d], b[d]),
                 Strategy::Best1 => best[d] + f * delta(b[d], a[d]),
                 Strategy::CurrentToBest1 => target[d] + f * delta(target[d], best[d]) + f * delta(b[d], a[d]),
             };
-            self.bounds.enforce(d, &mut v);
+            interval.enforce(&mut v);
             *ud = v;
         }
         u
@@ -308,13 +310,13 @@ impl<const P: usize, const D: usize> DifferentialEvolution<P, D> {
     fn end_generation(&mut self) {
         core::mem::swap(&mut self.population, &mut self.next_population);
         core::mem::swap(&mut self.cost, &mut self.next_cost);
-        let mut best = 0;
+        let mut best = (0, self.cost.first().copied().unwrap_or(f32::INFINITY));
         for (j, &c) in self.cost.iter().enumerate() {
-            if c < self.cost[best] {
-                best = j;
+            if c < best.1 {
+                best = (j, c);
             }
         }
-        self.generation_best = best;
+        self.generation_best = best.0;
         self.state.end_iteration();
     }
 }
@@ -461,7 +463,7 @@ mod tests {
 
     #[test]
     fn differences_go_the_short_way_round_the_circle() {
-        // Every individual within 0.1 of the wrap point of [0, 10), half on each side: with Bounds::delta every
+        // Every individual within 0.1 of the wrap point of [0, 10), half on each side: with Interval::delta every
         // difference vector is short, so no mutant lands in the middle of the circle.
         let bounds = Bounds { lower: [0.0], upper: [10.0], periodic: [true] };
         let config = DeConfig { crossover_rate: 1.0, ..DeConfig::default() };

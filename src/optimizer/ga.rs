@@ -17,8 +17,8 @@
 //! - **elitism**: the best `elite_count = 2` individuals go into the next generation unchanged, with their costs
 //!   (they are not re-evaluated: the objective is assumed deterministic); the other `P − 2` are children;
 //! - **periodic parameters**: the second parent is first moved to the image nearest to the first
-//!   ([`Bounds::delta`]), crossover and mutation use the unbounded formulas, then the child wraps
-//!   ([`Bounds::enforce`]); other parameters are clamped.
+//!   ([`Interval::delta`](super::Interval::delta)), crossover and mutation use the unbounded formulas, then the
+//!   child wraps ([`Interval::enforce`](super::Interval::enforce)); other parameters are clamped.
 //! - **initialisation**: a Latin-hypercube sample ([`Rng::latin_hypercube`]); [`Genetic::with_initial_guesses`] may
 //!   put known points in as the first individuals.
 //!
@@ -279,14 +279,14 @@ impl<const P: usize, const D: usize> Genetic<P, D> {
     fn crossover(&mut self, c1: &mut [f32; D], c2: &mut [f32; D]) {
         let eta = self.config.crossover_eta;
         let exponent = 1.0 / (eta + 1.0);
-        for d in 0..D {
+        for (d, interval) in (0..D).zip(self.bounds.intervals()) {
             if !self.rng.chance(0.5) {
                 continue;
             }
-            let (lo, hi) = (self.bounds.lower[d], self.bounds.upper[d]);
-            let periodic = self.bounds.periodic[d];
+            let (lo, hi) = (interval.lower, interval.upper);
+            let periodic = interval.periodic;
             // Work on the nearest images for a periodic parameter.
-            let (a, b) = (c1[d], c1[d] + self.bounds.delta(d, c1[d], c2[d]));
+            let (a, b) = (c1[d], c1[d] + interval.delta(c1[d], c2[d]));
             let (y1, y2) = if a <= b { (a, b) } else { (b, a) };
             let spread = y2 - y1;
             if spread <= 0.0 {
@@ -313,8 +313,8 @@ impl<const P: usize, const D: usize> Genetic<P, D> {
             if self.rng.chance(0.5) {
                 core::mem::swap(&mut x1, &mut x2);
             }
-            self.bounds.enforce(d, &mut x1);
-            self.bounds.enforce(d, &mut x2);
+            interval.enforce(&mut x1);
+            interval.enforce(&mut x2);
             c1[d] = x1;
             c2[d] = x2;
         }
@@ -324,27 +324,27 @@ impl<const P: usize, const D: usize> Genetic<P, D> {
     fn mutate(&mut self, x: &mut [f32; D]) {
         let eta = self.config.mutation_eta;
         let exponent = 1.0 / (eta + 1.0);
-        for (d, xd) in x.iter_mut().enumerate() {
+        for (xd, interval) in x.iter_mut().zip(self.bounds.intervals()) {
             if !self.rng.chance(self.mutation_probability) {
                 continue;
             }
-            let (lo, hi) = (self.bounds.lower[d], self.bounds.upper[d]);
+            let (lo, hi) = (interval.lower, interval.upper);
             let span = hi - lo;
             let y = *xd;
             let u = self.rng.next_f32();
             // `xy` = 1 − distance to the bound on the side we move towards, as a fraction of the range; 0 (no
             // bound, the unbounded polynomial distribution) for a periodic parameter.
             let delta_q = if u <= 0.5 {
-                let xy = if self.bounds.periodic[d] { 0.0 } else { 1.0 - (y - lo) / span };
+                let xy = if interval.periodic { 0.0 } else { 1.0 - (y - lo) / span };
                 let val = 2.0 * u + (1.0 - 2.0 * u) * libm::powf(xy, eta + 1.0);
                 libm::powf(val, exponent) - 1.0
             } else {
-                let xy = if self.bounds.periodic[d] { 0.0 } else { 1.0 - (hi - y) / span };
+                let xy = if interval.periodic { 0.0 } else { 1.0 - (hi - y) / span };
                 let val = 2.0 * (1.0 - u) + 2.0 * (u - 0.5) * libm::powf(xy, eta + 1.0);
                 1.0 - libm::powf(val, exponent)
             };
             let mut m = y + delta_q * span;
-            self.bounds.enforce(d, &mut m);
+            interval.enforce(&mut m);
             *xd = m;
         }
     }

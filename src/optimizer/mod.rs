@@ -64,34 +64,61 @@ impl<const D: usize> Bounds<D> {
         self.lower.iter().zip(self.upper.iter()).all(|(l, u)| l.is_finite() && u.is_finite() && l < u)
     }
 
-    /// Signed difference `to − from` along parameter `i`; for a periodic parameter the shortest way round the
-    /// circle, in `[−span/2, span/2]` (so a swarm or a crossover can meet across the wrap point).
-    pub fn delta(&self, i: usize, from: f32, to: f32) -> f32 {
+    /// The interval of parameter `i`; `None` when `i ≥ D` (there is no such parameter).
+    pub fn interval(&self, i: usize) -> Option<Interval> {
+        let (&lower, &upper, &periodic) = (self.lower.get(i)?, self.upper.get(i)?, self.periodic.get(i)?);
+        Some(Interval { lower, upper, periodic })
+    }
+
+    /// The interval of every parameter, in order: zipped with a point's coordinates, each
+    /// coordinate meets its own interval, with no index to get wrong.
+    pub fn intervals(&self) -> impl Iterator<Item = Interval> + '_ {
+        let lower_upper = self.lower.iter().zip(&self.upper);
+        lower_upper.zip(&self.periodic).map(|((&lower, &upper), &periodic)| Interval { lower, upper, periodic })
+    }
+
+    /// Brings every coordinate of `x` into the box (see [`Interval::enforce`]).
+    pub fn enforce_point(&self, x: &mut [f32; D]) {
+        for (xi, interval) in x.iter_mut().zip(self.intervals()) {
+            interval.enforce(xi);
+        }
+    }
+}
+
+/// The range of one parameter of [`Bounds`]: `[lower, upper]`, a circle when `periodic`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Interval {
+    /// Lower bound.
+    pub lower: f32,
+    /// Upper bound (`> lower`).
+    pub upper: f32,
+    /// The parameter lives on a circle (the eccentricity phase).
+    pub periodic: bool,
+}
+
+impl Interval {
+    /// Signed difference `to − from`; for a periodic parameter the shortest way round the circle,
+    /// in `[−span/2, span/2]` (so a swarm or a crossover can meet across the wrap point).
+    pub fn delta(&self, from: f32, to: f32) -> f32 {
         let d = to - from;
-        if self.periodic[i] {
-            let span = self.upper[i] - self.lower[i];
+        if self.periodic {
+            let span = self.upper - self.lower;
             d - span * libm::roundf(d / span)
         } else {
             d
         }
     }
 
-    /// Brings every coordinate of `x` into the box (see [`Bounds::enforce`]).
-    pub fn enforce_point(&self, x: &mut [f32; D]) {
-        for (i, xi) in x.iter_mut().enumerate() {
-            self.enforce(i, xi);
-        }
-    }
-
-    /// Brings `x[i]` back into the box: wraps periodic parameters, clamps the others.
+    /// Brings `x` back into the interval: wraps a periodic parameter, clamps another.
     /// Returns `true` when the value was clamped (not wrapped), so the caller can damp its velocity.
-    pub fn enforce(&self, i: usize, x: &mut f32) -> bool {
-        let (lo, hi) = (self.lower[i], self.upper[i]);
+    pub fn enforce(&self, x: &mut f32) -> bool {
+        let (lo, hi) = (self.lower, self.upper);
         if !x.is_finite() {
             *x = 0.5 * (lo + hi);
             return true;
         }
-        if self.periodic[i] {
+        if self.periodic {
             let span = hi - lo;
             let mut y = lo + fmod_exact(*x - lo, span);
             if y < lo {

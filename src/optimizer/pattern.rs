@@ -147,10 +147,10 @@ impl<const D: usize> PatternSearch<D> {
         // Each pass through the loop either returns or advances; 2·D + 2 advances cover a sweep.
         for _ in 0..(2 * D + 2) * 32 {
             let i = self.coordinate;
-            if self.free.get(i).copied().unwrap_or(false) {
+            if let (Some(true), Some(interval)) = (self.free.get(i).copied(), self.bounds.interval(i)) {
                 let mut trial = *self.state.best().0;
                 let mut v = trial[i] + self.direction * self.step_size;
-                self.bounds.enforce(i, &mut v);
+                interval.enforce(&mut v);
                 if v != trial[i] {
                     trial[i] = v;
                     return Some(trial);

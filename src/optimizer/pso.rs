@@ -15,8 +15,8 @@
 //!   IPL 85(6), 2003);
 //! - **velocity limit**: each component is clamped to `±0.5·(uᵢ − lᵢ)` (`velocity_limit`);
 //! - **bounds**: a parameter that leaves the box is clamped to the bound and that velocity component set to 0
-//!   (MATLAB's rule); a *periodic* parameter wraps instead ([`Bounds::enforce`]) and the differences `p − x`,
-//!   `g − x` go the short way round the circle ([`Bounds::delta`]), so a swarm can meet across the wrap point;
+//!   (MATLAB's rule); a *periodic* one wraps instead ([`Interval::enforce`](super::Interval::enforce)); `p − x` and
+//!   `g − x` go the short way round ([`Interval::delta`](super::Interval::delta)), so a swarm can meet across the wrap;
 //! - **initialisation**: a Latin-hypercube sample of the box ([`Rng::latin_hypercube`]), velocities uniform in
 //!   `±velocity_limit·(uᵢ − lᵢ)`; [`ParticleSwarm::with_initial_guesses`] may put known points (the healthy
 //!   vector) in as the first particles.
@@ -463,16 +463,16 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
             else {
                 continue;
             };
-            for d in 0..D {
+            for (d, interval) in (0..D).zip(self.bounds.intervals()) {
                 let r1 = self.rng.next_f32();
                 let r2 = self.rng.next_f32();
-                let to_personal = self.bounds.delta(d, x[d], p[d]);
-                let to_guide = self.bounds.delta(d, x[d], guide[d]);
+                let to_personal = interval.delta(x[d], p[d]);
+                let to_guide = interval.delta(x[d], guide[d]);
                 let vmax = self.vmax[d];
                 let vd = w * v[d] + c1 * r1 * to_personal + c2 * r2 * to_guide;
                 v[d] = libm::fminf(libm::fmaxf(vd, -vmax), vmax);
                 x[d] += v[d];
-                if self.bounds.enforce(d, &mut x[d]) {
+                if interval.enforce(&mut x[d]) {
                     v[d] = 0.0;
                 }
             }
@@ -613,7 +613,7 @@ pub(crate) mod tests {
     #[test]
     fn wrap_aware_moves_cross_the_wrap_point() {
         // A swarm whose every point starts just after 0 and whose optimum sits just before 2π: with the short
-        // way round (Bounds::delta) the particles step backwards across the wrap point instead of sweeping the
+        // way round (Interval::delta) the particles step backwards across the wrap point instead of sweeping the
         // whole circle. Count evaluations that landed in the last 10 % of the circle in the first iterations.
         struct Probe {
             near_end: u32,

@@ -124,7 +124,7 @@ impl Rng {
     /// strata holds exactly one point, placed uniformly inside it; the strata are matched up across parameters by
     /// independent Fisher–Yates shuffles (M. D. McKay, R. J. Beckman, W. J. Conover, Technometrics 21(2), 1979).
     pub fn latin_hypercube<const P: usize, const D: usize>(&mut self, bounds: &Bounds<D>, points: &mut [[f32; D]; P]) {
-        for d in 0..D {
+        for (d, interval) in (0..D).zip(bounds.intervals()) {
             for (i, p) in points.iter_mut().enumerate() {
                 p[d] = i as f32;
             }
@@ -134,10 +134,10 @@ impl Rng {
                 points[i][d] = b;
                 points[j][d] = a;
             }
-            let (lo, span) = (bounds.lower[d], bounds.upper[d] - bounds.lower[d]);
+            let (lo, span) = (interval.lower, interval.upper - interval.lower);
             for p in points.iter_mut() {
                 let mut x = lo + (p[d] + self.next_f32()) / P as f32 * span;
-                bounds.enforce(d, &mut x);
+                interval.enforce(&mut x);
                 p[d] = x;
             }
         }

@@ -510,9 +510,11 @@ impl HealthRecord {
             *v = get_f32(bytes, OFF_EVIDENCE + 4 * i);
         }
         record.pooled_flights = get_u32(bytes, OFF_POOLED);
-        for (m, h) in record.history.iter_mut().enumerate() {
-            h.len = bytes[OFF_HIST_LEN + m];
-            h.head = bytes[OFF_HIST_HEAD + m];
+        let lens = bytes.get(OFF_HIST_LEN..OFF_HIST_HEAD).ok_or(RecordError::Length)?;
+        let heads = bytes.get(OFF_HIST_HEAD..OFF_HIST_HEAD + MODES).ok_or(RecordError::Length)?;
+        for (m, ((h, &len), &head)) in record.history.iter_mut().zip(lens).zip(heads).enumerate() {
+            h.len = len;
+            h.head = head;
             if usize::from(h.len) > HISTORY_LEN || usize::from(h.head) >= HISTORY_LEN {
                 return Err(RecordError::History);
             }
