@@ -228,8 +228,8 @@ impl FlightHooks for FlashHooks {
     }
 }
 
-#[cfg(feature = "commissioning")]
 /// A flight of `unit` with faults `truth` at `temperature_c`, read as a firmware reads it.
+#[cfg(feature = "commissioning")]
 fn fly_at(
     monitor: &HealthMonitor<'_>,
     unit: &EmaParams,
@@ -517,9 +517,9 @@ fn a_board_s_flights_accumulate_evidence_across_a_sensor_fault() {
     assert_eq!(record.flights(), 4);
 }
 
-#[cfg(feature = "commissioning")]
 /// A record of `flights` diagnosed flights of `monitor`'s unit, friction growing by 0.01 a
 /// flight, the first cold: a history as the store keeps it.
+#[cfg(feature = "commissioning")]
 fn history_of(monitor: &HealthMonitor<'_>, flights: u32) -> HealthRecord {
     let mut record = HealthRecord::for_unit(monitor.identity());
     for f in 0..flights {
@@ -529,14 +529,14 @@ fn history_of(monitor: &HealthMonitor<'_>, flights: u32) -> HealthRecord {
     record
 }
 
-#[cfg(feature = "commissioning")]
 /// Every byte of the hooks' flash.
+#[cfg(feature = "commissioning")]
 fn image(hooks: &FlashHooks) -> Vec<u8> {
     (0..crate::persist::RamFlash::<8, 4096>::CAPACITY).map(|i| hooks.flash.byte(i).unwrap()).collect()
 }
 
-#[cfg(feature = "commissioning")]
 /// A flight of `unit` with faults `truth` on the record `kept` holds, as a firmware flies it.
+#[cfg(feature = "commissioning")]
 fn fly_kept(
     monitor: &HealthMonitor<'_>,
     unit: &EmaParams,
