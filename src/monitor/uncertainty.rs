@@ -78,6 +78,13 @@ pub const FISHER_STEP: f32 = 0.01;
 /// (`docs/decisions/0022-uncertainty.md`).
 pub const MISMATCH_CORRELATION_SAMPLES: f32 = EVIDENCE_WINDOW_SAMPLES as f32;
 
+/// The one-sided 95 % normal quantile, 1.645: a fault's estimate scatters about its true severity
+/// with the reported 1σ, and model selection keeps the group when the estimate reaches `s_min`
+/// ([`Fisher::detectable_below`]), so a fault of `s_min + z·σ` is kept with 95 % probability.
+/// The "not detectable below" bound is that severity: a fault at or above it is missed at most
+/// one time in twenty.
+pub const DETECTION_Z: f32 = 1.645;
+
 /// Models run in lockstep: the base and one per column.
 const MODELS: usize = FAULT_COUNT + 1;
 
@@ -219,11 +226,13 @@ impl Fisher {
         sigma
     }
 
-    /// The smallest severity model selection would have kept on this recording, per fault mode
-    /// of [`crate::health::FaultMode::ALL`], for the modes whose groups are all absent (`None`
-    /// for a mode found). Severity units: `k1`, `k2`, the worst phase's `k3..k5`, `k6`, and
-    /// `2·|k8 − 0.5|` for the gain.
-    pub fn detectable_below(&self) -> [Option<f32>; 5] {
+    /// The severity model selection keeps with 95 % probability on this recording, per fault
+    /// mode of [`crate::health::FaultMode::ALL`], for the modes whose groups are all absent
+    /// (`None` for a mode found): `s_min + z·σ`, `s_min` the severity whose expected gain just
+    /// pays the information criterion (kept half the time), `σ` the group's 1σ from `sigma`
+    /// ([`Fisher::sigma`]), `z` = [`DETECTION_Z`]. Severity units: `k1`, `k2`, the worst phase's
+    /// `k3..k5`, `k6`, and `2·|k8 − 0.5|` for the gain.
+    pub fn detectable_below(&self, sigma: &[f32; FAULT_COUNT]) -> [Option<f32>; 5] {
         let (free, d) = self.free();
         let n = self.samples as f32;
         let n_eff = self.effective_samples;
@@ -253,6 +262,7 @@ impl Fisher {
             };
             let need = n * self.error * price(m as f32);
             let s = if lambda > 0.0 && need.is_finite() { libm::sqrtf(need / lambda) } else { f32::INFINITY };
+            let s = s + DETECTION_Z * sigma.get(first).copied().unwrap_or(f32::INFINITY);
             group_min[g] = Some(if s.is_nan() { f32::INFINITY } else { s });
         }
         let worst = |a: Option<f32>, b: Option<f32>, c: Option<f32>| match (a, b, c) {
@@ -342,10 +352,8 @@ pub fn uncertainty_at<const W: usize>(
     independent_frames: f32,
 ) -> Uncertainty {
     let fisher = Fisher::at(fit, params, k);
-    Uncertainty {
-        sigma: fisher.sigma(covariance_noise_a2(params, independent_frames)),
-        detectable_below: fisher.detectable_below(),
-    }
+    let sigma = fisher.sigma(covariance_noise_a2(params, independent_frames));
+    Uncertainty { sigma, detectable_below: fisher.detectable_below(&sigma) }
 }
 
 /// `report` (an identification of `trace` under `command` with `config`, on the actuator
@@ -568,7 +576,7 @@ mod tests {
         assert!((s1[0] / s4[0] - 4.0).abs() < 1e-3, "σ scales with the noise's RMS: {s1:?} {s4:?}");
         assert!(s1[0] < 0.02, "friction is well seen: {s1:?}");
         assert_eq!(s1[PHASE_INDEX], f32::INFINITY, "a healthy eccentricity has no phase");
-        let floor = f.detectable_below();
+        let floor = f.detectable_below(&s1);
         assert_eq!(floor[0], None, "friction is found");
         for (m, s) in floor.iter().enumerate().skip(1) {
             let s = s.unwrap();

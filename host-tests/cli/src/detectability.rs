@@ -140,10 +140,8 @@ pub fn case(
         .with_fast_regime_weight(FAST_REGIME_WEIGHT)
         .ok_or_else(|| CliError::Simulation("fast-regime weight refused".into()))?;
     let fisher = Fisher::at(&fit, params, k);
-    let u = Uncertainty {
-        sigma: fisher.sigma(covariance_noise_a2(params, frames)),
-        detectable_below: fisher.detectable_below(),
-    };
+    let sigma = fisher.sigma(covariance_noise_a2(params, frames));
+    let u = Uncertainty { sigma, detectable_below: fisher.detectable_below(&sigma) };
     let crb = Uncertainty { sigma: fisher.sigma(window_noise_variance_a2(params, frames)), ..u };
     Ok(CaseJson {
         case: name.to_owned(),
