@@ -140,11 +140,10 @@ fn no_mode_reads_healthy_above_the_degraded_threshold_on_either_manoeuvre() {
             }
         }
     }
-    // eccentricity's bound lies about the threshold on both manoeuvres: both outcomes occur
+    // eccentricity: found healthy on every recording here, with its bound; the standard
+    // manoeuvre does not assess it (its a90/95 lies above 0.3: docs/results/pod.md)
     println!("eccentricity (manoeuvre, condition, status, bound): {eccentricity:?}");
     assert_eq!(eccentricity.len(), 12, "{eccentricity:?}");
-    for profile in ["standard", "pbit"] {
-        let of = |c: &str| eccentricity.iter().filter(|e| e.0 == profile && e.1 == c).count();
-        assert!(of("NOT_ASSESSED") >= 1 && of("HEALTHY") >= 1, "{profile}: {eccentricity:?}");
-    }
+    assert!(eccentricity.iter().all(|e| e.3.is_some()), "{eccentricity:?}");
+    assert!(eccentricity.iter().filter(|e| e.0 == "standard").all(|e| e.1 == "NOT_ASSESSED"), "{eccentricity:?}");
 }
