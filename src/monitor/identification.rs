@@ -80,9 +80,11 @@ impl SolverPlan {
 
 impl<const P: usize> Solver<P> {
     /// The optimizer of a [`Solver::Planned`] solver, its population scattered from `seed` with
-    /// [`starting_guesses`] first; a started one is left as it is. Built in place: the
-    /// population is written in the frame of this call (one per optimizer, not inlined) and
-    /// moved into the identification once, and the identification itself is built without
+    /// [`starting_guesses`] first; a started one is left as it is. Built in place: each
+    /// optimizer's `unseeded`, inlined into its `start_*` (one per optimizer, not inlined), is
+    /// constants (the zero arrays, a fill), copies and inlined code with no call writing into
+    /// it, so the compiler writes it straight into the identification rather than building it
+    /// in a temporary of this frame and copying it; the identification itself is built without
     /// it, straight where its caller keeps it. The stack holds one copy of the population.
     fn start(&mut self, seed: u64) {
         let Solver::Planned(plan) = *self else { return };

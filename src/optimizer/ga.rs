@@ -168,10 +168,10 @@ impl<const P: usize, const D: usize> Genetic<P, D> {
             state: SearchState::new(bounds.centre(), stopping),
             rng: Rng::new(0),
             mutation_probability: config.mutation_probability.unwrap_or(1.0 / D as f32),
-            population: [[0.0; D]; P],
-            cost: [0.0; P],
-            parents: [[0.0; D]; P],
-            parent_cost: [0.0; P],
+            population: const { [[0.0; D]; P] },
+            cost: const { [0.0; P] },
+            parents: const { [[0.0; D]; P] },
+            parent_cost: const { [0.0; P] },
             next: 0,
         }
     }

@@ -249,8 +249,8 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
         Stopping::new(config.max_iterations, config.stall_iterations, config.function_tolerance, config.target_cost)
     }
 
-    /// A swarm of settings [`ParticleSwarm::check`] accepted (`stopping`), its arrays zero (a
-    /// fill, no copy) until [`ParticleSwarm::seed`]: a caller builds it and seeds it in place.
+    /// A swarm of settings [`ParticleSwarm::check`] accepted (`stopping`), arrays zero until [`ParticleSwarm::seed`]:
+    /// `const` blocks, a fill in place (a `[[0.0; D]; P]` repeat is a row copied through a temporary).
     #[inline(always)]
     pub(crate) fn unseeded(bounds: Bounds<D>, config: PsoConfig, stopping: Stopping) -> Self {
         let min_neighbors = match config.topology {
@@ -263,11 +263,11 @@ impl<const P: usize, const D: usize> ParticleSwarm<P, D> {
             config,
             state: SearchState::new(bounds.centre(), stopping),
             rng: Rng::new(0),
-            vmax: [0.0; D],
-            position: [[0.0; D]; P],
-            velocity: [[0.0; D]; P],
-            best_position: [[0.0; D]; P],
-            best_cost: [0.0; P],
+            vmax: const { [0.0; D] },
+            position: const { [[0.0; D]; P] },
+            velocity: const { [[0.0; D]; P] },
+            best_position: const { [[0.0; D]; P] },
+            best_cost: const { [0.0; P] },
             inertia: config.inertia_max,
             min_neighbors,
             neighbors: min_neighbors,

@@ -118,10 +118,12 @@ impl<const D: usize, R: TargetRule> SearchState<D, R> {
     /// A search that has evaluated nothing: best cost `+∞` at `start` (the point [`Self::best`]
     /// reports until the first evaluation), running.
     ///
-    /// Not inlined: inlined into an optimizer's constructor, it leads the compiler to keep a
-    /// second copy of the whole optimizer in the caller's stack frame (the firmware's peak stack
-    /// grows by the size of a population); it runs once per search.
-    #[inline(never)]
+    /// Always inlined: an optimizer's `unseeded` constructor is then constants, copies and inlined
+    /// code only, which the compiler writes straight into the solver that receives it. A call
+    /// writing into the middle of it (this function not inlined) leads the compiler to build the
+    /// whole optimizer in a temporary of the caller's frame and copy it: a second copy of the
+    /// population on the stack (7.3 KB for the board's `Solver::start_pso` at `opt-level = "s"`).
+    #[inline(always)]
     pub(crate) fn new(start: [f32; D], rule: R) -> Self {
         Self {
             best_position: start,
