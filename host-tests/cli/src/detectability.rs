@@ -21,7 +21,7 @@ use clap::Args;
 use ema_monitor::fitness::{CurrentFit, FAST_REGIME_WEIGHT};
 use ema_monitor::health::{FaultMode, HealthReport, Uncertainty};
 use ema_monitor::monitor::{covariance_noise_a2, window_noise_variance_a2, Fisher, IdentifyConfig};
-use ema_monitor::{EmaParams, FaultVector, Profile};
+use ema_monitor::{EmaParams, FaultVector, Profile, FAULT_COUNT};
 use ema_reference::{simulate, SimConfig};
 use serde::Serialize;
 
@@ -75,8 +75,12 @@ pub struct CaseJson {
     /// The same for the sensor noise alone (the model mismatch left out): the Cramér–Rao bound
     /// of the monitor's weighted fit.
     pub crb_severity_sigma: [f32; 5],
-    /// Minimum detectable severity per mode (null for the mode present, or when none is).
+    /// Per mode, the severity model selection keeps with 95 % probability, the reports' "not
+    /// detectable below" (null for the mode present, or when none is).
     pub detectable_below: [Option<f32>; 5],
+    /// Per mode, the severity whose expected gain just pays model selection's criterion, kept
+    /// half the time: `detectable_below` without its `1.645·σ` (null as there).
+    pub kept_half_the_time: [Option<f32>; 5],
     /// The fitness at the truth (A²): noise and the monitor model's mismatch.
     #[serde(rename = "fitness_A2")]
     pub fitness_a2: f32,
@@ -150,6 +154,7 @@ pub fn case(
         severity_sigma: severity_sigma(k, params, &u),
         crb_severity_sigma: severity_sigma(k, params, &crb),
         detectable_below: u.detectable_below,
+        kept_half_the_time: fisher.detectable_below(&[0.0; FAULT_COUNT]),
         fitness_a2: fit.error(k),
         effective_samples: fit.effective_samples(k),
     })
@@ -196,12 +201,21 @@ pub fn tables(doc: &DetectabilityJson) -> String {
     }
     let _ = write!(
         out,
-        "\nMinimum detectable severity (model selection's price on this recording; – for the mode present)\n\n| case | {} | fitness at the truth (A²) | effective samples |\n|{}\n",
+        "\nNot detectable below (kept with 95 % probability) / kept half the time (model selection's price \
+         on this recording); – for the mode present\n\n| case | {} | fitness at the truth (A²) | effective samples |\n|{}\n",
         names.join(" | "),
         "---|".repeat(names.len() + 3)
     );
     for c in &doc.cases {
-        let row: Vec<String> = c.detectable_below.iter().map(|s| s.map_or("–".into(), cell)).collect();
+        let row: Vec<String> = c
+            .detectable_below
+            .iter()
+            .zip(&c.kept_half_the_time)
+            .map(|(s, half)| match (s, half) {
+                (Some(s), Some(half)) => format!("{} / {}", cell(*s), cell(*half)),
+                _ => "–".into(),
+            })
+            .collect();
         let _ =
             writeln!(out, "| {} | {} | {:.4e} | {:.0} |", c.case, row.join(" | "), c.fitness_a2, c.effective_samples);
     }
