@@ -32,7 +32,7 @@ use ema_monitor::acquisition::{
     SamplerConfig, SamplerProducer, SAMPLER_QUEUE,
 };
 use ema_monitor::command::ONBOARD_COMMAND_SAMPLES;
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::flight::{Acquired, HealthMonitor, NoHooks};
 use ema_monitor::monitor::{Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::persist::{HealthRecord, KeptRecord, RamFlash, StoreError};
@@ -69,7 +69,7 @@ fn main() -> ! {
         // with its uncertainty and record with the pooled evidence, over a record of any content
         let config = black_box(IdentifyConfig { max_iterations: 30, ..IdentifyConfig::onboard() });
         let monitor = HealthMonitor::<'_, ONBOARD_WINDOW, ONBOARD_POPULATION>::new(params, command, config).ok()?;
-        let mut measured = MeasuredTrace::<ONBOARD_WINDOW>::new();
+        let mut measured = ConditionedWindow::<ONBOARD_WINDOW>::new();
         let acquired = monitor.acquire(&mut live, &mut measured, black_box(10_000.0)).ok()?;
         let sensor = black_box(ema_monitor::acquisition::TemperatureSensor::TMP36_3V3);
         let temperature = sensor.judge(sensor.celsius(black_box(620)), &params);

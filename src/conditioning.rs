@@ -285,31 +285,31 @@ impl core::error::Error for ConditioningError {}
 
 /// The conditioned measurement: window samples of `I_3eq` and their fitness weights.
 ///
-/// Filled in place (no copy of the window ever exists): [`MeasuredTrace::push`] frames in, then
-/// [`MeasuredTrace::finish`] closes the window and takes the derivative's mean square `C²`. Only
+/// Filled in place (no copy of the window ever exists): [`ConditionedWindow::push`] frames in, then
+/// [`ConditionedWindow::finish`] closes the window and takes the derivative's mean square `C²`. Only
 /// a finished trace is identified from.
 ///
-/// The weights are not stored: [`MeasuredTrace::sample`] computes `w_i` from the two neighbours
+/// The weights are not stored: [`ConditionedWindow::sample`] computes `w_i` from the two neighbours
 /// of sample `i` and `C²` each time it is read, which halves the window's RAM (4 bytes a sample
 /// instead of 8, 8.8 KB for [`ONBOARD_WINDOW`]) for two divisions a sample in each model run.
 /// The arithmetic is the same whenever it runs, so the weights are the same bit for bit on every
 /// read and on every target.
 #[derive(Clone, Debug, PartialEq)]
-pub struct MeasuredTrace<const W: usize> {
+pub struct ConditionedWindow<const W: usize> {
     current_a: Vec<f32, W>,
-    /// `C²`, the mean square of the central-difference derivative; 0 until [`MeasuredTrace::finish`].
+    /// `C²`, the mean square of the central-difference derivative; 0 until [`ConditionedWindow::finish`].
     derivative_mean_sq: f32,
     block_sum_a: f32,
     block_len: usize,
 }
 
-impl<const W: usize> Default for MeasuredTrace<W> {
+impl<const W: usize> Default for ConditionedWindow<W> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const W: usize> MeasuredTrace<W> {
+impl<const W: usize> ConditionedWindow<W> {
     /// An empty window.
     pub const fn new() -> Self {
         const { assert!(W >= MIN_SAMPLES, "the window must hold at least MIN_SAMPLES samples") };
@@ -322,7 +322,7 @@ impl<const W: usize> MeasuredTrace<W> {
         self.current_a.get(i).copied()
     }
 
-    /// Adds one frame of phase currents (amperes). Refused after [`MeasuredTrace::finish`].
+    /// Adds one frame of phase currents (amperes). Refused after [`ConditionedWindow::finish`].
     pub fn push(&mut self, ia_a: f32, ib_a: f32, ic_a: f32) -> Result<(), ConditioningError> {
         if self.is_finished() {
             return Err(ConditioningError::Finished);
@@ -383,7 +383,7 @@ impl<const W: usize> MeasuredTrace<W> {
     }
 
     /// Window sample `i`: its `I_3eq` (A) and its fitness weight `w_i = 1/(1 + (İ_i/C)²)`, in
-    /// `(0, 1]`. `None` past the end or before [`MeasuredTrace::finish`].
+    /// `(0, 1]`. `None` past the end or before [`ConditionedWindow::finish`].
     #[inline(always)]
     pub fn sample(&self, i: usize) -> Option<(f32, f32)> {
         let y_i = self.current_at(i)?;
@@ -394,13 +394,13 @@ impl<const W: usize> MeasuredTrace<W> {
         Some((y_i, 1.0 / (1.0 + d * d / self.derivative_mean_sq)))
     }
 
-    /// The fitness weight of every window sample in turn (none before [`MeasuredTrace::finish`]).
+    /// The fitness weight of every window sample in turn (none before [`ConditionedWindow::finish`]).
     pub fn weights(&self) -> impl Iterator<Item = f32> + '_ {
         (0..self.len()).map_while(|i| self.sample(i).map(|(_, w)| w))
     }
 
-    /// The closed window of the block means `samples` (as [`MeasuredTrace::current_a`] gives
-    /// them), its weights computed by [`MeasuredTrace::finish`]: the window a flight acquired,
+    /// The closed window of the block means `samples` (as [`ConditionedWindow::current_a`] gives
+    /// them), its weights computed by [`ConditionedWindow::finish`]: the window a flight acquired,
     /// rebuilt bit for bit from its samples alone (a commissioning flight's window kept in flash).
     pub fn from_samples(samples: impl IntoIterator<Item = f32>) -> Result<Self, ConditioningError> {
         let mut trace = Self::new();
@@ -408,7 +408,7 @@ impl<const W: usize> MeasuredTrace<W> {
         Ok(trace)
     }
 
-    /// [`MeasuredTrace::from_samples`] in place: whatever the window held is dropped first.
+    /// [`ConditionedWindow::from_samples`] in place: whatever the window held is dropped first.
     pub fn rebuild(&mut self, samples: impl IntoIterator<Item = f32>) -> Result<(), ConditioningError> {
         self.current_a.clear();
         (self.derivative_mean_sq, self.block_sum_a, self.block_len) = (0.0, 0.0, 0);
@@ -421,7 +421,7 @@ impl<const W: usize> MeasuredTrace<W> {
         self.finish()
     }
 
-    /// `true` once [`MeasuredTrace::finish`] succeeded.
+    /// `true` once [`ConditionedWindow::finish`] succeeded.
     pub fn is_finished(&self) -> bool {
         self.derivative_mean_sq > 0.0
     }
@@ -449,19 +449,19 @@ mod tests {
 
     #[test]
     fn a_window_rebuilt_from_its_samples_is_the_same_bit_for_bit() {
-        let mut t = MeasuredTrace::<600>::new();
+        let mut t = ConditionedWindow::<600>::new();
         for j in 0..2000 {
             let i = 2.0 * libm::sinf(j as f32 * 0.01) + 0.3 * libm::cosf(j as f32 * 0.37);
             t.push(i, -i, 0.01 * (j % 7) as f32).unwrap();
         }
         t.finish().unwrap();
-        let back = MeasuredTrace::<600>::from_samples(t.current_a()).unwrap();
+        let back = ConditionedWindow::<600>::from_samples(t.current_a()).unwrap();
         assert_eq!(back.current_a().len(), 500);
         assert!(back.current_a().zip(t.current_a()).all(|(a, b)| a.to_bits() == b.to_bits()));
         assert!(back.weights().zip(t.weights()).all(|(a, b)| a.to_bits() == b.to_bits()));
-        assert_eq!(MeasuredTrace::<600>::from_samples([1.0, f32::NAN]).err(), Some(ConditioningError::NonFinite));
-        assert_eq!(MeasuredTrace::<60>::from_samples([1.0; 61]).err(), Some(ConditioningError::WindowFull));
-        assert_eq!(MeasuredTrace::<600>::from_samples([1.0; 3]).err(), Some(ConditioningError::TooShort));
+        assert_eq!(ConditionedWindow::<600>::from_samples([1.0, f32::NAN]).err(), Some(ConditioningError::NonFinite));
+        assert_eq!(ConditionedWindow::<60>::from_samples([1.0; 61]).err(), Some(ConditioningError::WindowFull));
+        assert_eq!(ConditionedWindow::<600>::from_samples([1.0; 3]).err(), Some(ConditioningError::TooShort));
     }
 
     #[test]
@@ -655,7 +655,7 @@ mod tests {
 
     #[test]
     fn block_mean_and_weights() {
-        let mut c: MeasuredTrace<100> = MeasuredTrace::new();
+        let mut c: ConditionedWindow<100> = ConditionedWindow::new();
         for k in 0..(60 * DECIMATION) {
             // a ramp, constant within each block, of steps exact in binary: stored exactly
             let i = (k / DECIMATION) as f32 * 0.125;
@@ -674,7 +674,7 @@ mod tests {
 
     #[test]
     fn weights_drop_where_the_current_jumps() {
-        let mut c: MeasuredTrace<200> = MeasuredTrace::new();
+        let mut c: ConditionedWindow<200> = ConditionedWindow::new();
         for k in 0..(100 * DECIMATION) {
             let i = if k < 50 * DECIMATION { 1.0 } else { 5.0 };
             c.push(i, -i, 0.0).unwrap();
@@ -687,16 +687,16 @@ mod tests {
 
     #[test]
     fn bad_input_gives_errors() {
-        let mut c: MeasuredTrace<60> = MeasuredTrace::new();
+        let mut c: ConditionedWindow<60> = ConditionedWindow::new();
         assert_eq!(c.push(f32::NAN, 0.0, 0.0), Err(ConditioningError::NonFinite));
         assert_eq!(c.push(0.0, f32::INFINITY, 0.0), Err(ConditioningError::NonFinite));
-        assert_eq!(MeasuredTrace::<60>::new().finish(), Err(ConditioningError::TooShort));
-        let mut flat: MeasuredTrace<60> = MeasuredTrace::new();
+        assert_eq!(ConditionedWindow::<60>::new().finish(), Err(ConditioningError::TooShort));
+        let mut flat: ConditionedWindow<60> = ConditionedWindow::new();
         for _ in 0..(60 * DECIMATION) {
             flat.push(1.0, -1.0, 0.0).unwrap();
         }
         assert_eq!(flat.finish(), Err(ConditioningError::NoExcitation));
-        let mut full: MeasuredTrace<60> = MeasuredTrace::new();
+        let mut full: ConditionedWindow<60> = ConditionedWindow::new();
         let mut last = Ok(());
         for k in 0..(61 * DECIMATION) {
             last = full.push(k as f32, 0.0, -(k as f32));

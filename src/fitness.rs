@@ -30,7 +30,7 @@
 //! every recording (`docs/decisions/0020-evidence-over-flights.md`).
 
 use crate::command::{AnyCommandCursor, Command, CommandCursor, CommandSource, SampledCursor};
-use crate::conditioning::{ConditioningError, MeasuredEnvelope, MeasuredTrace, SensorErrorEnvelope, DECIMATION};
+use crate::conditioning::{ConditionedWindow, ConditioningError, MeasuredEnvelope, SensorErrorEnvelope, DECIMATION};
 use crate::effects::ModelEffects;
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::model::{ModelState, MonitorModel};
@@ -71,11 +71,11 @@ pub const MAX_POOLED_RECORDINGS: usize = 10;
 pub const MAX_POOLED_FAST_INTERVALS: usize = MAX_FAST_INTERVALS + 2 * (MAX_POOLED_RECORDINGS - 1);
 
 /// One more recording of the same actuator for a pooled fitness ([`CurrentFit::pooled_with`]):
-/// a finished measured trace and the command it was measured under.
+/// a finished conditioned window and the command it was measured under.
 #[derive(Clone, Copy, Debug)]
 pub struct PooledTrace<'a, const W: usize> {
-    /// The measured trace ([`MeasuredTrace::finish`]ed).
-    pub trace: &'a MeasuredTrace<W>,
+    /// The conditioned window ([`ConditionedWindow::finish`]ed).
+    pub trace: &'a ConditionedWindow<W>,
     /// The command (a [`crate::Profile`] or a sampled command) the trace was measured under.
     pub command: Command<'a>,
 }
@@ -239,10 +239,10 @@ fn run_window<const TERMS: bool, const SHARED_STEP: bool>(
     }
 }
 
-/// The paper's fitness over a measured trace: an [`Objective`] over the 8 fault parameters.
+/// The paper's fitness over a conditioned window: an [`Objective`] over the 8 fault parameters.
 #[derive(Clone, Debug)]
 pub struct CurrentFit<'a, const W: usize> {
-    trace: &'a MeasuredTrace<W>,
+    trace: &'a ConditionedWindow<W>,
     params: EmaParams,
     command: Command<'a>,
     effects: ModelEffects,
@@ -282,11 +282,11 @@ impl RegimeWeights<'_> {
 
 impl<'a, const W: usize> CurrentFit<'a, W> {
     /// The fitness of the monitor model of `params`, driven by `command` (a [`crate::Profile`] or
-    /// a sampled command), against `trace`. Only a finished trace ([`MeasuredTrace::finish`]) has
+    /// a sampled command), against `trace`. Only a finished trace ([`ConditionedWindow::finish`]) has
     /// the weights `w_i` the fitness needs: an unfinished one is refused with
     /// [`ConditioningError::Finished`].
     pub fn new(
-        trace: &'a MeasuredTrace<W>,
+        trace: &'a ConditionedWindow<W>,
         params: EmaParams,
         command: impl Into<Command<'a>>,
     ) -> Result<Self, ConditioningError> {
@@ -419,8 +419,8 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
         &self.command
     }
 
-    /// The (first) measured trace.
-    pub fn trace(&self) -> &'a MeasuredTrace<W> {
+    /// The (first) conditioned window.
+    pub fn trace(&self) -> &'a ConditionedWindow<W> {
         self.trace
     }
 
@@ -479,7 +479,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
 pub enum PoolError {
     /// More than [`MAX_POOLED_RECORDINGS`] recordings.
     TooMany,
-    /// The pooled recording `index` is not finished ([`MeasuredTrace::finish`]).
+    /// The pooled recording `index` is not finished ([`ConditionedWindow::finish`]).
     Unfinished {
         /// Its index among the pooled ones (0: the second recording).
         index: usize,
@@ -505,10 +505,10 @@ impl core::fmt::Display for PoolError {
 
 /// The recordings of a fitness in turn: the first (`trace` under `command`), then `more`.
 fn recordings<'s, 'a: 's, const W: usize>(
-    trace: &'a MeasuredTrace<W>,
+    trace: &'a ConditionedWindow<W>,
     command: &'s Command<'a>,
     more: &'s [PooledTrace<'a, W>],
-) -> impl Iterator<Item = (&'a MeasuredTrace<W>, &'s Command<'a>)> + 's {
+) -> impl Iterator<Item = (&'a ConditionedWindow<W>, &'s Command<'a>)> + 's {
     core::iter::once((trace, command)).chain(more.iter().map(|p| (p.trace, &p.command)))
 }
 

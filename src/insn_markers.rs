@@ -8,7 +8,7 @@
 //! the plugin reports the longest step of each identification region and the longest slice of
 //! the run, what an integrator schedules the monitor by.
 
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::flight::{FlightCall, FlightHooks};
 use ema_monitor::monitor::Start;
 use ema_monitor::report_log;
@@ -57,11 +57,11 @@ impl FlightHooks for CountedRegion<'_> {
         ema_identification_end();
     }
 
-    fn keep_window<const W: usize>(&mut self, slot: u8, window: &MeasuredTrace<W>, temperature_c: f32) -> bool {
+    fn keep_window<const W: usize>(&mut self, slot: u8, window: &ConditionedWindow<W>, temperature_c: f32) -> bool {
         record_flash::keep_window(self.flash, slot, window, temperature_c)
     }
 
-    fn load_window<const W: usize>(&mut self, slot: u8, out: &mut MeasuredTrace<W>) -> Option<f32> {
+    fn load_window<const W: usize>(&mut self, slot: u8, out: &mut ConditionedWindow<W>) -> Option<f32> {
         record_flash::load_window(self.flash, slot, out)
     }
 }

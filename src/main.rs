@@ -25,7 +25,7 @@ use panic_probe as _; // panic → defmt message → `udf` → HardFault → exi
 
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use ema_monitor::acquisition::{Sampler, SamplerConfig, SAMPLER_QUEUE};
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::flight::{Acquired, HealthMonitor};
 use ema_monitor::monitor::ONBOARD_WINDOW;
 use ema_monitor::trace::PackedTrace;
@@ -94,7 +94,7 @@ fn main() -> ! {
         Ok(c) => c,
         Err(e) => refuse("reader", e),
     };
-    let mut window = MeasuredTrace::<ONBOARD_WINDOW>::new();
+    let mut window = ConditionedWindow::<ONBOARD_WINDOW>::new();
     let acquired = monitor.acquire(&mut live, &mut window, trace.sample_rate_hz() as f32);
     qemu_live::disarm(); // no interrupt falls in the instruction-counted regions
     if let Err(e) = live.outcome() {
@@ -142,7 +142,7 @@ fn main() -> ! {
 #[inline(never)]
 fn fly(
     monitor: &HealthMonitor<'_>,
-    window: &MeasuredTrace<ONBOARD_WINDOW>,
+    window: &ConditionedWindow<ONBOARD_WINDOW>,
     acquired: &Acquired,
     flash: &mut RecordFlash,
 ) -> bool {

@@ -61,15 +61,15 @@ pub fn estimate_temperature_c<const W: usize>(fit: &CurrentFit<'_, W>, params: &
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::conditioning::{MeasuredTrace, DECIMATION};
+    use crate::conditioning::{ConditionedWindow, DECIMATION};
     use crate::fitness::simulate_window;
     use crate::monitor::ONBOARD_WINDOW;
     use crate::optimizer::rng::Rng;
     use crate::profile::Profile;
     use crate::unit::Tolerances;
 
-    fn trace_at(unit: &EmaParams, temperature_c: f32, seed: u64) -> MeasuredTrace<ONBOARD_WINDOW> {
-        let mut t = MeasuredTrace::new();
+    fn trace_at(unit: &EmaParams, temperature_c: f32, seed: u64) -> ConditionedWindow<ONBOARD_WINDOW> {
+        let mut t = ConditionedWindow::new();
         let n = (Profile::STANDARD.duration_s() / unit.control_period_s) as usize / DECIMATION;
         let mut rng = Rng::new(seed);
         simulate_window(

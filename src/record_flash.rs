@@ -7,7 +7,7 @@
 use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicBool, Ordering};
 
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::flight::HealthMonitor;
 use ema_monitor::persist::{window_encoded_len, HealthStore, KeptRecord, RamFlash, RecordOrigin, StoreError};
 use ema_monitor::report_log;
@@ -47,7 +47,7 @@ const WINDOW_BUFFER_LEN: usize = window_encoded_len(ema_monitor::persist::store:
 pub fn keep_window<const W: usize>(
     flash: &mut RecordFlash,
     slot: u8,
-    window: &MeasuredTrace<W>,
+    window: &ConditionedWindow<W>,
     temperature_c: f32,
 ) -> bool {
     let mut buffer = [0u8; WINDOW_BUFFER_LEN];
@@ -60,7 +60,7 @@ pub fn keep_window<const W: usize>(
 /// Reads commissioning window `slot` back from `flash` into `out` ([`HealthStore::load_window`]);
 /// `None` (logged) when it cannot. Not inlined, as [`keep_window`].
 #[inline(never)]
-pub fn load_window<const W: usize>(flash: &mut RecordFlash, slot: u8, out: &mut MeasuredTrace<W>) -> Option<f32> {
+pub fn load_window<const W: usize>(flash: &mut RecordFlash, slot: u8, out: &mut ConditionedWindow<W>) -> Option<f32> {
     let mut buffer = [0u8; WINDOW_BUFFER_LEN];
     report_log::log_window_loaded(slot, open(flash).and_then(|mut store| store.load_window(slot, out, &mut buffer)))
 }

@@ -2,7 +2,7 @@
 //! the nominal actuator's noise on every frame (the measured envelope's: 0.29 A of controller
 //! jitter on the pair current, 0.02 A on each sensor), from a seeded generator.
 
-use crate::conditioning::{MeasuredTrace, DECIMATION, ONBOARD_WINDOW};
+use crate::conditioning::{ConditionedWindow, DECIMATION, ONBOARD_WINDOW};
 use crate::faults::FaultVector;
 use crate::fitness::simulate_window;
 use crate::optimizer::rng::Rng;
@@ -25,8 +25,8 @@ pub(crate) fn noisy_frames(params: &EmaParams, truth: &FaultVector, seed: u64, m
 }
 
 /// The closed window of [`noisy_frames`].
-pub(crate) fn noisy_trace(params: &EmaParams, truth: &FaultVector, seed: u64) -> MeasuredTrace<ONBOARD_WINDOW> {
-    let mut t = MeasuredTrace::<ONBOARD_WINDOW>::new();
+pub(crate) fn noisy_trace(params: &EmaParams, truth: &FaultVector, seed: u64) -> ConditionedWindow<ONBOARD_WINDOW> {
+    let mut t = ConditionedWindow::<ONBOARD_WINDOW>::new();
     noisy_frames(params, truth, seed, |[a, b, c]| t.push(a, b, c).unwrap());
     t.finish().unwrap();
     t

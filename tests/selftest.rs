@@ -23,7 +23,7 @@ use ema_monitor::acquisition::{
     PhaseCalibration, PhaseCurrentReader, PhaseCurrents, PhasePin, ReplayAdc, Sampler, SamplerConfig, SamplerConsumer,
     SamplerState, SAMPLER_QUEUE,
 };
-use ema_monitor::conditioning::{ConditioningError, MeasuredTrace, DECIMATION};
+use ema_monitor::conditioning::{ConditionedWindow, ConditioningError, DECIMATION};
 use ema_monitor::fitness::{simulate_window, CurrentFit};
 use ema_monitor::health::HealthReport;
 use ema_monitor::model::{ModelState, MonitorModel};
@@ -455,7 +455,7 @@ fn model_short_circuit_shape_function() -> Result<(), &'static str> {
 }
 
 fn conditioning_refuses_bad_input() -> Result<(), &'static str> {
-    let mut t = MeasuredTrace::<60>::new();
+    let mut t = ConditionedWindow::<60>::new();
     ensure(t.push(f32::NAN, 0.0, 0.0) == Err(ConditioningError::NonFinite), "NaN accepted")?;
     ensure(t.finish() == Err(ConditioningError::TooShort), "empty trace accepted")?;
     for _ in 0..60 * DECIMATION {
@@ -465,7 +465,7 @@ fn conditioning_refuses_bad_input() -> Result<(), &'static str> {
 }
 
 /// A noise-free "measurement" made by the monitor model itself.
-fn self_trace(k: &FaultVector, t: &mut MeasuredTrace<600>) -> Result<(), &'static str> {
+fn self_trace(k: &FaultVector, t: &mut ConditionedWindow<600>) -> Result<(), &'static str> {
     let mut ok = true;
     simulate_window(&EmaParams::NOMINAL, &Profile::STANDARD, k, 600, |_, i, _| {
         for _ in 0..DECIMATION {
@@ -479,7 +479,7 @@ fn self_trace(k: &FaultVector, t: &mut MeasuredTrace<600>) -> Result<(), &'stati
 
 fn fitness_zero_at_the_true_vector() -> Result<(), &'static str> {
     let truth = FaultVector([0.3, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.4]);
-    let mut t = MeasuredTrace::new();
+    let mut t = ConditionedWindow::new();
     self_trace(&truth, &mut t)?;
     let fit = CurrentFit::new(&t, EmaParams::NOMINAL, Profile::STANDARD).map_err(|_| "trace not finished")?;
     ensure(fit.error(&truth) == 0.0, "nonzero at the truth")?;
@@ -505,7 +505,7 @@ fn pso_minimises_a_sphere() -> Result<(), &'static str> {
 }
 
 fn identification_refuses_impossible_config() -> Result<(), &'static str> {
-    let mut t = MeasuredTrace::new();
+    let mut t = ConditionedWindow::new();
     self_trace(&FaultVector::HEALTHY, &mut t)?;
     let mut params = EmaParams::NOMINAL;
     params.motor_inertia_kg_m2 = -1.0;
@@ -526,7 +526,7 @@ fn identification_under_the_sampled_standard_profile() -> Result<(), &'static st
     command.load_profile(&Profile::STANDARD, 1, &EmaParams::NOMINAL).map_err(|_| "sampling refused")?;
     let command: &SampledCommand<8500> = command;
     ensure(manoeuvre_frames(command, &EmaParams::NOMINAL) == 8500, "sampled frame count")?;
-    let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
+    let mut trace = ConditionedWindow::<ONBOARD_WINDOW>::new();
     acquire_built_in(&mut trace)?;
     let config =
         IdentifyConfig { max_iterations: 3, selection_polish_max_evaluations: 60, ..IdentifyConfig::onboard() };
@@ -539,7 +539,7 @@ fn identification_under_the_sampled_standard_profile() -> Result<(), &'static st
 /// One identification of `trace` under `command`, run to its end.
 #[inline(never)]
 fn short_identification(
-    trace: &MeasuredTrace<ONBOARD_WINDOW>,
+    trace: &ConditionedWindow<ONBOARD_WINDOW>,
     command: Command<'_>,
     config: &IdentifyConfig,
 ) -> Result<HealthReport, &'static str> {
@@ -661,7 +661,7 @@ fn persist_dead_flash_is_an_error() -> Result<(), &'static str> {
 /// vector bits, `README.md`), the warm identification of the same recording finishes with the
 /// same status, no probe fired, and a small fraction of the cold evaluations (1611).
 fn warm_start_from_the_cold_report() -> Result<(), &'static str> {
-    let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
+    let mut trace = ConditionedWindow::<ONBOARD_WINDOW>::new();
     acquire_built_in(&mut trace)?;
     let prior = [0x3e7fb45d, 0, 0, 0, 0, 0, 0x3f000000, 0x3efe3b61].map(f32::from_bits);
     let (report, warm) = warm_identification(&trace, &prior)?;
@@ -673,7 +673,7 @@ fn warm_start_from_the_cold_report() -> Result<(), &'static str> {
 
 /// Acquires and conditions the built-in trace into `trace` as the firmware does (replay ADC,
 /// nominal calibration, default checks).
-fn acquire_built_in(trace: &mut MeasuredTrace<ONBOARD_WINDOW>) -> Result<(), &'static str> {
+fn acquire_built_in(trace: &mut ConditionedWindow<ONBOARD_WINDOW>) -> Result<(), &'static str> {
     let t = PackedTrace::parse(BUILT_IN).map_err(|_| "built-in trace invalid")?;
     let mut reader = PhaseCurrentReader::new(
         ReplayAdc::new(t),
@@ -689,7 +689,7 @@ fn acquire_built_in(trace: &mut MeasuredTrace<ONBOARD_WINDOW>) -> Result<(), &'s
 /// A warm identification of `trace` from `prior`, run to its end.
 #[inline(never)]
 fn warm_identification(
-    trace: &MeasuredTrace<ONBOARD_WINDOW>,
+    trace: &ConditionedWindow<ONBOARD_WINDOW>,
     prior: &[f32; 8],
 ) -> Result<(HealthReport, monitor::WarmReport), &'static str> {
     let config = IdentifyConfig::onboard();

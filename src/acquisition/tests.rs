@@ -389,7 +389,7 @@ fn frame_check_in_amperes_runs_the_reader_checks() {
 
 #[test]
 fn acquire_masks_and_counts_refused_frames() {
-    use crate::conditioning::MeasuredTrace;
+    use crate::conditioning::ConditionedWindow;
     let frames: std::vec::Vec<[u16; 3]> = (0..400u16)
         .map(|i| {
             let d = (i % 50) * 4 + 100;
@@ -402,7 +402,7 @@ fn acquire_masks_and_counts_refused_frames() {
         .collect();
     let bytes = packed(&frames);
     let mut r = reader(&bytes);
-    let mut trace = MeasuredTrace::<128>::new();
+    let mut trace = ConditionedWindow::<128>::new();
     let summary = crate::monitor::acquire(&mut r, &mut trace).unwrap();
     assert_eq!((summary.frames, summary.refused, summary.longest_refused_run), (400, 1, 1));
     assert!(!summary.is_sensor_fault());
@@ -415,7 +415,7 @@ fn acquire_masks_and_counts_refused_frames() {
 
 #[test]
 fn frame_limit_ends_a_live_source_on_the_manoeuvre_frame_count() {
-    use crate::conditioning::MeasuredTrace;
+    use crate::conditioning::ConditionedWindow;
     use crate::{EmaParams, Profile};
     assert_eq!(manoeuvre_frames(&Profile::STANDARD, &EmaParams::NOMINAL), 8500);
     // a source that never ends (a live ADC), counting its reads
@@ -433,7 +433,7 @@ fn frame_limit_ends_a_live_source_on_the_manoeuvre_frame_count() {
         AcquisitionConfig::DEFAULT,
     );
     let mut limited = FrameLimit::new(live, 400);
-    let mut trace = MeasuredTrace::<128>::new();
+    let mut trace = ConditionedWindow::<128>::new();
     let summary = crate::monitor::acquire(&mut limited, &mut trace).unwrap();
     assert_eq!((summary.frames, summary.refused), (400, 0));
     assert_eq!((trace.len(), limited.remaining(), limited.source().frames_read()), (100, 0, 400));

@@ -1,16 +1,16 @@
 use super::*;
-use crate::conditioning::MeasuredTrace;
+use crate::conditioning::ConditionedWindow;
 use crate::health::Status;
 use crate::monitor::{Identification, IdentifyConfig, ONBOARD_WINDOW};
 use crate::profile::Profile;
 
 /// The monitor model's own trace of the healthy `unit` at `temperature_c`, with the nominal
 /// actuator's noise ([`crate::test_traces`]).
-fn noisy_trace(unit: &EmaParams, temperature_c: f32, seed: u64) -> MeasuredTrace<ONBOARD_WINDOW> {
+fn noisy_trace(unit: &EmaParams, temperature_c: f32, seed: u64) -> ConditionedWindow<ONBOARD_WINDOW> {
     crate::test_traces::noisy_trace(&unit.at_temperature(temperature_c), &FaultVector::HEALTHY, seed)
 }
 
-fn fit_of<'a>(trace: &'a MeasuredTrace<ONBOARD_WINDOW>) -> CurrentFit<'a, ONBOARD_WINDOW> {
+fn fit_of<'a>(trace: &'a ConditionedWindow<ONBOARD_WINDOW>) -> CurrentFit<'a, ONBOARD_WINDOW> {
     let config = IdentifyConfig::onboard();
     CurrentFit::new(trace, EmaParams::NOMINAL, Profile::STANDARD)
         .unwrap()
@@ -20,7 +20,7 @@ fn fit_of<'a>(trace: &'a MeasuredTrace<ONBOARD_WINDOW>) -> CurrentFit<'a, ONBOAR
 
 /// Commissions `unit` on three recordings at `temperatures` (noise seeds `10·seed + r`).
 fn commission_unit(unit: &EmaParams, temperatures: [f32; 3], seed: u64) -> Baseline {
-    let traces: [MeasuredTrace<ONBOARD_WINDOW>; 3] =
+    let traces: [ConditionedWindow<ONBOARD_WINDOW>; 3] =
         core::array::from_fn(|r| noisy_trace(unit, temperatures[r], seed * 10 + r as u64));
     let fits: [CurrentFit<'_, ONBOARD_WINDOW>; 3] = core::array::from_fn(|r| fit_of(&traces[r]));
     let flights: [CommissioningFlight<'_, '_, ONBOARD_WINDOW>; 3] =

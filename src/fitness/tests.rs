@@ -3,9 +3,9 @@ use crate::conditioning::MIN_SAMPLES;
 use crate::profile::Profile;
 
 /// A "measurement" made by the monitor model itself (noise-free), through the conditioner.
-fn self_trace(k: &FaultVector) -> MeasuredTrace<2200> {
+fn self_trace(k: &FaultVector) -> ConditionedWindow<2200> {
     let (p, profile) = (EmaParams::NOMINAL, Profile::STANDARD);
-    let mut c = MeasuredTrace::new();
+    let mut c = ConditionedWindow::new();
     let n = (profile.duration_s() / p.control_period_s) as usize / DECIMATION;
     simulate_window(&p, &profile, k, n, |_, i, _| {
         // feed DECIMATION identical frames whose I_3eq is the block value
@@ -20,7 +20,7 @@ fn self_trace(k: &FaultVector) -> MeasuredTrace<2200> {
 
 #[test]
 fn an_unfinished_trace_is_refused_not_indexed() {
-    let mut trace = MeasuredTrace::<2200>::new();
+    let mut trace = ConditionedWindow::<2200>::new();
     assert_eq!(CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).err(), Some(ConditioningError::Finished));
     for k in 0..(MIN_SAMPLES + 5) * DECIMATION {
         let i = if k % 50 < 25 { 1.0 } else { 2.0 };
@@ -143,7 +143,7 @@ fn pooled_recordings_weigh_by_samples_and_one_recording_is_unchanged() {
     assert!(both.error_abandoning(&k, exact * 0.3) > exact * 0.3);
     assert_eq!(both.error_abandoning(&k, exact * 2.0), exact);
     // an unfinished recording or too many are refused
-    let unfinished = MeasuredTrace::<2200>::new();
+    let unfinished = ConditionedWindow::<2200>::new();
     let bad = [PooledTrace { trace: &unfinished, command: Command::Profile(Profile::STANDARD) }];
     assert_eq!(single.clone().pooled_with(&bad).err(), Some(PoolError::Unfinished { index: 0 }));
     let many = [more[0]; MAX_POOLED_RECORDINGS];

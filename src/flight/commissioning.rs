@@ -22,7 +22,7 @@
 
 use super::{Flight, FlightHooks, HealthMonitor};
 use crate::commissioning::{commission, Baseline, BaselineFit, CommissioningFlight, SWARM_ITERATIONS, SWARM_PARTICLES};
-use crate::conditioning::MeasuredTrace;
+use crate::conditioning::ConditionedWindow;
 use crate::faults::FaultVector;
 use crate::flight::Acquired;
 use crate::health::{Abstain, HealthReport, Status};
@@ -42,7 +42,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     #[inline(never)]
     pub(super) fn commissioning_flight(
         &self,
-        trace: &MeasuredTrace<W>,
+        trace: &ConditionedWindow<W>,
         acquired: &Acquired,
         record: &mut HealthRecord,
         hooks: &mut impl FlightHooks,
@@ -85,7 +85,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     /// baseline, which is kept when the flight reads HEALTHY (module doc).
     fn last_commissioning_flight(
         &self,
-        trace: &MeasuredTrace<W>,
+        trace: &ConditionedWindow<W>,
         acquired: &Acquired,
         record: &mut HealthRecord,
         hooks: &mut impl FlightHooks,
@@ -121,7 +121,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     #[inline(never)]
     fn fit_baseline(
         &self,
-        trace: &MeasuredTrace<W>,
+        trace: &ConditionedWindow<W>,
         temperature_c: f32,
         kept: u8,
         hooks: &mut impl FlightHooks,
@@ -130,7 +130,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         if n > KEPT {
             return None;
         }
-        let mut windows: [MeasuredTrace<W>; KEPT] = core::array::from_fn(|_| MeasuredTrace::new());
+        let mut windows: [ConditionedWindow<W>; KEPT] = core::array::from_fn(|_| ConditionedWindow::new());
         // the current flight first, then the windows read back
         let mut temperatures = [temperature_c; KEPT + 1];
         for (slot, (window, t)) in windows.iter_mut().zip(temperatures.iter_mut().skip(1)).enumerate().take(n) {

@@ -41,7 +41,7 @@
 //! an honest `INCONCLUSIVE` or `SENSOR_FAULT` report.
 
 use crate::acquisition::{PhaseCurrents, SensorCheck};
-use crate::conditioning::MeasuredTrace;
+use crate::conditioning::ConditionedWindow;
 use crate::health::{Abstain, HealthReport, Status};
 use crate::monitor::evidence::{self, PooledFlight};
 use crate::monitor::{
@@ -93,13 +93,13 @@ pub trait FlightHooks {
     /// `temperature_c`) in flash for the last commissioning flight
     /// ([`crate::persist::HealthStore::keep_window`]); `false` when it cannot, which ends the
     /// commissioning without a baseline. Without flash (the default) nothing is kept.
-    fn keep_window<const W: usize>(&mut self, slot: u8, window: &MeasuredTrace<W>, temperature_c: f32) -> bool {
+    fn keep_window<const W: usize>(&mut self, slot: u8, window: &ConditionedWindow<W>, temperature_c: f32) -> bool {
         let _ = (slot, window, temperature_c);
         false
     }
     /// Reads commissioning window `slot` back into `out` and gives its flight's temperature;
     /// `None` when it cannot ([`crate::persist::HealthStore::load_window`]).
-    fn load_window<const W: usize>(&mut self, slot: u8, out: &mut MeasuredTrace<W>) -> Option<f32> {
+    fn load_window<const W: usize>(&mut self, slot: u8, out: &mut ConditionedWindow<W>) -> Option<f32> {
         let _ = (slot, out);
         None
     }
@@ -319,7 +319,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     pub fn acquire<S: PhaseCurrents>(
         &self,
         source: &mut S,
-        trace: &mut MeasuredTrace<W>,
+        trace: &mut ConditionedWindow<W>,
         sample_rate_hz: f32,
     ) -> Result<Acquired, MonitorError> {
         let summary = monitor::acquire(source, trace)?;
@@ -334,7 +334,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     /// out of range) leaves `record` as it was.
     pub fn diagnose(
         &self,
-        trace: &MeasuredTrace<W>,
+        trace: &ConditionedWindow<W>,
         acquired: &Acquired,
         record: &mut HealthRecord,
         hooks: &mut impl FlightHooks,
@@ -351,7 +351,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     /// leaves untouched. The caller saves [`KeptRecord::savable`] alone.
     pub fn diagnose_kept(
         &self,
-        trace: &MeasuredTrace<W>,
+        trace: &ConditionedWindow<W>,
         acquired: &Acquired,
         kept: &mut KeptRecord,
         hooks: &mut impl FlightHooks,
@@ -367,7 +367,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     /// [`HealthMonitor::diagnose`], a new record commissioning the unit only when `commission`.
     fn diagnose_on(
         &self,
-        trace: &MeasuredTrace<W>,
+        trace: &ConditionedWindow<W>,
         acquired: &Acquired,
         record: &mut HealthRecord,
         hooks: &mut impl FlightHooks,
@@ -403,7 +403,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     #[inline(always)]
     fn fly(
         &self,
-        trace: &MeasuredTrace<W>,
+        trace: &ConditionedWindow<W>,
         acquired: &Acquired,
         record: &mut HealthRecord,
         hooks: &mut impl FlightHooks,
@@ -452,7 +452,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     #[inline(never)]
     fn identify(
         &self,
-        trace: &MeasuredTrace<W>,
+        trace: &ConditionedWindow<W>,
         params: &EmaParams,
         prior: Option<[f32; 8]>,
         hooks: &mut impl FlightHooks,
@@ -480,7 +480,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     /// `report` with its uncertainty ([`with_uncertainty`]: the fitness built again, 9 model runs
     /// in lockstep). Not inlined, as [`HealthMonitor::identify`].
     #[inline(never)]
-    fn with_uncertainty(&self, trace: &MeasuredTrace<W>, params: &EmaParams, report: HealthReport) -> HealthReport {
+    fn with_uncertainty(&self, trace: &ConditionedWindow<W>, params: &EmaParams, report: HealthReport) -> HealthReport {
         with_uncertainty(trace, *params, self.command, &self.config, report)
     }
 
@@ -490,7 +490,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     fn record(
         &self,
         record: &mut HealthRecord,
-        trace: &MeasuredTrace<W>,
+        trace: &ConditionedWindow<W>,
         params: &EmaParams,
         report: &HealthReport,
         cold: bool,

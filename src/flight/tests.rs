@@ -60,7 +60,7 @@ fn flights_start_cold_then_warm_and_pool_their_evidence_on_units_off_nominal() {
         let monitor = HealthMonitor::onboard(*unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
         let mut record = HealthRecord::new();
         for flight in 1..=3u32 {
-            let mut trace = MeasuredTrace::new();
+            let mut trace = ConditionedWindow::new();
             let mut source = Frames::of(unit, &truth, 100 * u as u64 + u64::from(flight));
             let acquired = monitor.acquire(&mut source, &mut trace, 10_000.0).unwrap();
             assert_eq!(acquired.summary.frames, 8500);
@@ -84,7 +84,7 @@ fn the_flight_api_reports_what_the_identification_reports() {
     let unit = units()[0];
     let truth = FaultVector([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
     let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
-    let mut trace = MeasuredTrace::new();
+    let mut trace = ConditionedWindow::new();
     let acquired = monitor.acquire(&mut Frames::of(&unit, &truth, 7), &mut trace, 10_000.0).unwrap();
     let mut record = HealthRecord::new();
     let flight = monitor.diagnose(&trace, &acquired, &mut record, &mut NoHooks).unwrap();
@@ -103,7 +103,7 @@ fn the_flight_api_reports_what_the_identification_reports() {
 fn a_refused_flight_leaves_the_record_as_it_was_and_a_bad_rate_abstains() {
     let unit = units()[1];
     let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
-    let mut trace = MeasuredTrace::new();
+    let mut trace = ConditionedWindow::new();
     let healthy = FaultVector::HEALTHY;
     let acquired = monitor.acquire(&mut Frames::of(&unit, &healthy, 3), &mut trace, 8_000.0).unwrap();
     let mut record = HealthRecord::new();
@@ -113,7 +113,7 @@ fn a_refused_flight_leaves_the_record_as_it_was_and_a_bad_rate_abstains() {
     assert!(!record.has_prior(), "an abstention is no prior for a warm start");
     // a window the acquisition did not close is refused, and nothing is recorded
     let before = record;
-    let open = MeasuredTrace::new();
+    let open = ConditionedWindow::new();
     let e = monitor.diagnose(&open, &acquired, &mut record, &mut NoHooks).unwrap_err();
     assert!(matches!(e, MonitorError::Conditioning(_)), "{e:?}");
     assert!(record.same_bits(&before));
@@ -141,7 +141,7 @@ fn a_record_of_other_parameters_or_another_unit_is_archived_and_a_new_history_st
     for other in others {
         assert_ne!(other.identity(), monitor.identity());
         let mut loaded = own;
-        let mut trace = MeasuredTrace::new();
+        let mut trace = ConditionedWindow::new();
         let acquired = other.acquire(&mut Frames::of(&b, &FaultVector::HEALTHY, 5), &mut trace, 10_000.0).unwrap();
         assert_eq!(
             other.diagnose(&trace, &acquired, &mut loaded, &mut NoHooks).unwrap_err(),
@@ -169,7 +169,7 @@ fn a_flight_with_a_temperature_is_diagnosed_at_that_temperature() {
         let monitor = HealthMonitor::onboard(*unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
         for temperature_c in [-35.0f32, 65.0] {
             let hot_or_cold = unit.at_temperature(temperature_c);
-            let mut trace = MeasuredTrace::new();
+            let mut trace = ConditionedWindow::new();
             let seed = 40 + u as u64;
             let acquired = monitor.acquire(&mut Frames::of(&hot_or_cold, &truth, seed), &mut trace, 10_000.0).unwrap();
             let read = Acquired { temperature_c, ..acquired };
@@ -213,14 +213,14 @@ impl FlashHooks {
 }
 
 impl FlightHooks for FlashHooks {
-    fn keep_window<const W: usize>(&mut self, slot: u8, window: &MeasuredTrace<W>, temperature_c: f32) -> bool {
+    fn keep_window<const W: usize>(&mut self, slot: u8, window: &ConditionedWindow<W>, temperature_c: f32) -> bool {
         let mut buffer = core::mem::take(&mut self.buffer);
         let kept = self.store().keep_window(slot, window, temperature_c, &mut buffer).is_ok();
         self.buffer = buffer;
         kept
     }
 
-    fn load_window<const W: usize>(&mut self, slot: u8, out: &mut MeasuredTrace<W>) -> Option<f32> {
+    fn load_window<const W: usize>(&mut self, slot: u8, out: &mut ConditionedWindow<W>) -> Option<f32> {
         let mut buffer = core::mem::take(&mut self.buffer);
         let loaded = self.store().load_window(slot, out, &mut buffer).ok().flatten();
         self.buffer = buffer;
@@ -239,7 +239,7 @@ fn fly_at(
     record: &mut HealthRecord,
     hooks: &mut impl FlightHooks,
 ) -> Flight {
-    let mut trace = MeasuredTrace::new();
+    let mut trace = ConditionedWindow::new();
     let frames = &mut Frames::of(&unit.at_temperature(temperature_c), truth, seed);
     let acquired = monitor.acquire(frames, &mut trace, 10_000.0).unwrap();
     let flight = monitor.diagnose(&trace, &Acquired { temperature_c, ..acquired }, record, hooks).unwrap();
@@ -259,7 +259,7 @@ fn without_commissioning_built_a_collecting_record_is_refused_and_kept() {
     use crate::persist::Commissioning;
     let unit = units()[0];
     let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
-    let mut trace = MeasuredTrace::new();
+    let mut trace = ConditionedWindow::new();
     let truth = FaultVector([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
     let acquired = monitor.acquire(&mut Frames::of(&unit, &truth, 11), &mut trace, 10_000.0).unwrap();
     let mut record = HealthRecord::for_unit(monitor.identity());
@@ -363,7 +363,7 @@ fn commissioning_without_flash_or_on_an_unusable_flight_keeps_nothing() {
     wild.relative_sigma[0] = 2.0;
     assert_eq!(base.with_commissioning(2, wild).unwrap_err(), MonitorError::Commissioning);
     let monitor = base.with_commissioning(2, t).unwrap();
-    let mut trace = MeasuredTrace::new();
+    let mut trace = ConditionedWindow::new();
     let acquired = monitor.acquire(&mut Frames::of(&unit, &FaultVector::HEALTHY, 9), &mut trace, 10_000.0).unwrap();
     // a flight at the wrong rate does not count
     let mut record = HealthRecord::new();
@@ -412,7 +412,7 @@ fn acquire_bench(
     bytes: &[u8],
     rest: usize,
     config: crate::acquisition::AcquisitionConfig,
-) -> (MeasuredTrace<{ crate::monitor::ONBOARD_WINDOW }>, Acquired) {
+) -> (ConditionedWindow<{ crate::monitor::ONBOARD_WINDOW }>, Acquired) {
     use crate::acquisition::{Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
     let adc = ReplayAdc::new(crate::trace::PackedTrace::parse(bytes).unwrap());
     let mut reader = PhaseCurrentReader::new(adc, (PhaseA, PhaseB, PhaseC), Calibration::NOMINAL, config).unwrap();
@@ -420,7 +420,7 @@ fn acquire_bench(
         reader.read_rest_frame().unwrap();
     }
     PhaseCurrents::start_recording(&mut reader);
-    let mut trace = MeasuredTrace::new();
+    let mut trace = ConditionedWindow::new();
     let acquired = monitor.acquire(&mut reader, &mut trace, 10_000.0).unwrap();
     (trace, acquired)
 }
@@ -545,7 +545,7 @@ fn fly_kept(
     kept: &mut crate::persist::KeptRecord,
     hooks: &mut FlashHooks,
 ) -> Flight {
-    let mut trace = MeasuredTrace::new();
+    let mut trace = ConditionedWindow::new();
     let acquired = monitor.acquire(&mut Frames::of(unit, truth, seed), &mut trace, 10_000.0).unwrap();
     monitor.diagnose_kept(&trace, &acquired, kept, hooks).unwrap()
 }

@@ -2,7 +2,7 @@
 //! search, and the on-board constants; the search box and the swarm's seeded starting points.
 
 use super::MonitorError;
-use crate::conditioning::MeasuredTrace;
+use crate::conditioning::ConditionedWindow;
 use crate::conditioning::DECIMATION;
 use crate::effects::ModelEffects;
 use crate::faults::{FaultVector, FAULT_COUNT};
@@ -138,7 +138,7 @@ impl IdentifyConfig {
 /// weight): what the identification minimises, and what its uncertainty and the evidence over
 /// flights evaluate again after it.
 pub fn configured_fit<'a, const W: usize>(
-    trace: &'a MeasuredTrace<W>,
+    trace: &'a ConditionedWindow<W>,
     params: EmaParams,
     command: impl Into<Command<'a>>,
     config: &IdentifyConfig,

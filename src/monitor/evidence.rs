@@ -48,7 +48,7 @@
 use super::config::{configured_fit, IdentifyConfig};
 use super::groups::{group_present, without_group, FAULT_GROUPS};
 use super::identification::Identification;
-use crate::conditioning::MeasuredTrace;
+use crate::conditioning::ConditionedWindow;
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::CurrentFit;
 use crate::health::{FaultMode, HealthReport};
@@ -442,7 +442,7 @@ pub fn record_flight<const W: usize>(
 /// without evidence.
 pub fn record_flight_on<'a, const W: usize>(
     record: &mut HealthRecord,
-    trace: &'a MeasuredTrace<W>,
+    trace: &'a ConditionedWindow<W>,
     params: EmaParams,
     command: impl Into<Command<'a>>,
     config: &IdentifyConfig,

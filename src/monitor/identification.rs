@@ -11,7 +11,7 @@ use super::stage::{Selection, Stage, WarmReport, WarmStage, WarmState};
 use super::MonitorError;
 use super::MODEL_MISMATCH_A;
 use crate::command::Command;
-use crate::conditioning::{ConditioningError, MeasuredTrace, DECIMATION};
+use crate::conditioning::{ConditionedWindow, ConditioningError, DECIMATION};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::{CurrentFit, PooledTrace};
 use crate::health::{window_score, Abstain, FitCheck, HealthReport, Status as HealthStatus};
@@ -206,7 +206,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     /// [`IdentifyConfig::prior`] set, the identification is a warm start from it
     /// ([`Identification::warm`]).
     pub fn new(
-        trace: &'a MeasuredTrace<W>,
+        trace: &'a ConditionedWindow<W>,
         params: EmaParams,
         command: impl Into<Command<'a>>,
         config: &IdentifyConfig,
@@ -259,7 +259,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     /// all is [`super::plan_start`]'s decision (a cold one is required on the first flight, after
     /// maintenance, periodically, and after a warm result that failed its fit check).
     pub fn warm(
-        trace: &'a MeasuredTrace<W>,
+        trace: &'a ConditionedWindow<W>,
         params: EmaParams,
         command: impl Into<Command<'a>>,
         config: &IdentifyConfig,
@@ -551,8 +551,8 @@ pub(super) mod tests {
     use crate::profile::Profile;
 
     /// A noise-free "measurement" of the monitor model with faults `k`, through conditioning.
-    fn self_trace(k: &FaultVector) -> MeasuredTrace<ONBOARD_WINDOW> {
-        let mut t = MeasuredTrace::new();
+    fn self_trace(k: &FaultVector) -> ConditionedWindow<ONBOARD_WINDOW> {
+        let mut t = ConditionedWindow::new();
         let n = (Profile::STANDARD.duration_s() / EmaParams::NOMINAL.control_period_s) as usize / DECIMATION;
         simulate_window(&EmaParams::NOMINAL, &Profile::STANDARD, k, n, |_, i, _| {
             for _ in 0..DECIMATION {
@@ -566,7 +566,7 @@ pub(super) mod tests {
 
     /// The model's own trace of `truth` on the nominal actuator, with its noise
     /// ([`crate::test_traces`]).
-    pub(in crate::monitor) fn noisy_self_trace(truth: &FaultVector, seed: u64) -> MeasuredTrace<ONBOARD_WINDOW> {
+    pub(in crate::monitor) fn noisy_self_trace(truth: &FaultVector, seed: u64) -> ConditionedWindow<ONBOARD_WINDOW> {
         crate::test_traces::noisy_trace(&EmaParams::NOMINAL, truth, seed)
     }
 
@@ -673,7 +673,7 @@ pub(super) mod tests {
         // in that window.
         let truth = FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
         let judged = |bump: f32| {
-            let mut t = MeasuredTrace::<ONBOARD_WINDOW>::new();
+            let mut t = ConditionedWindow::<ONBOARD_WINDOW>::new();
             let n = (Profile::STANDARD.duration_s() / EmaParams::NOMINAL.control_period_s) as usize / DECIMATION;
             let mut rng = crate::optimizer::rng::Rng::new(3);
             simulate_window(&EmaParams::NOMINAL, &Profile::STANDARD, &truth, n, |j, i, _| {
@@ -747,7 +747,7 @@ pub(super) mod tests {
         let short = Profile::new(&[crate::profile::Segment::Hold { start_s: 0.0, value_rad: 0.0 }], 0.1, 0.6).unwrap();
         let r = Identification::<ONBOARD_WINDOW, 8>::new(&trace, EmaParams::NOMINAL, short, &IdentifyConfig::default());
         assert!(matches!(r, Err(MonitorError::TraceLongerThanProfile)));
-        let unfinished = MeasuredTrace::<ONBOARD_WINDOW>::new();
+        let unfinished = ConditionedWindow::<ONBOARD_WINDOW>::new();
         let r = Identification::<ONBOARD_WINDOW, 8>::new(
             &unfinished,
             EmaParams::NOMINAL,

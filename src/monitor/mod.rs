@@ -47,7 +47,7 @@ pub use warm::{
 };
 
 use crate::acquisition::{AcquisitionError, GainCheck, PhaseCurrents, MAX_GAIN_MISMATCH};
-use crate::conditioning::{ConditioningError, MeasuredTrace};
+use crate::conditioning::{ConditionedWindow, ConditioningError};
 use crate::fitness::PoolError;
 use crate::optimizer::ConfigError;
 
@@ -56,7 +56,7 @@ use crate::optimizer::ConfigError;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum MonitorError {
-    /// The measured trace was refused.
+    /// The conditioned window was refused.
     Conditioning(ConditioningError),
     /// The optimizer settings were refused.
     Optimizer(ConfigError),
@@ -130,7 +130,7 @@ impl From<ConfigError> for MonitorError {
 /// ([`AcquisitionSummary::is_sensor_fault`], [`crate::health::HealthReport::with_acquisition`]).
 pub fn acquire<const W: usize, S: PhaseCurrents>(
     source: &mut S,
-    trace: &mut MeasuredTrace<W>,
+    trace: &mut ConditionedWindow<W>,
 ) -> Result<AcquisitionSummary, MonitorError> {
     let mut summary = AcquisitionSummary::default();
     let mut gains = GainCheck::new();

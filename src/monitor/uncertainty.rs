@@ -57,7 +57,7 @@ use super::groups::{group_present, FAULT_GROUPS};
 use super::identification::Identification;
 use super::verdict::{window_noise_variance_a2, MODEL_MISMATCH_A};
 use crate::command::Command;
-use crate::conditioning::MeasuredTrace;
+use crate::conditioning::ConditionedWindow;
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::{CurrentFit, EVIDENCE_WINDOW_SAMPLES};
 use crate::health::{lag_correlation, HealthReport, Uncertainty};
@@ -363,7 +363,7 @@ pub fn uncertainty_at<const W: usize>(
 /// intervals) and the 9 models run in lockstep. A fitness the configuration refuses leaves the
 /// report as it is (the identification refused it first).
 pub fn with_uncertainty<'a, const W: usize>(
-    trace: &'a MeasuredTrace<W>,
+    trace: &'a ConditionedWindow<W>,
     params: EmaParams,
     command: impl Into<Command<'a>>,
     config: &IdentifyConfig,
@@ -512,8 +512,8 @@ mod tests {
 
     /// The model's own trace of `truth` with Gaussian noise of `sigma` A on the pair current of
     /// every frame (0: noise-free), from the seeded generator `seed`.
-    fn trace_of(truth: &FaultVector, sigma: f32, seed: u64) -> MeasuredTrace<ONBOARD_WINDOW> {
-        let mut t = MeasuredTrace::<ONBOARD_WINDOW>::new();
+    fn trace_of(truth: &FaultVector, sigma: f32, seed: u64) -> ConditionedWindow<ONBOARD_WINDOW> {
+        let mut t = ConditionedWindow::<ONBOARD_WINDOW>::new();
         let n = (Profile::STANDARD.duration_s() / EmaParams::NOMINAL.control_period_s) as usize / DECIMATION;
         let mut rng = crate::optimizer::rng::Rng::new(seed);
         simulate_window(&EmaParams::NOMINAL, &Profile::STANDARD, truth, n, |_, i, _| {
@@ -527,7 +527,7 @@ mod tests {
         t
     }
 
-    fn fit_of(t: &MeasuredTrace<ONBOARD_WINDOW>) -> CurrentFit<'_, ONBOARD_WINDOW> {
+    fn fit_of(t: &ConditionedWindow<ONBOARD_WINDOW>) -> CurrentFit<'_, ONBOARD_WINDOW> {
         CurrentFit::new(t, EmaParams::NOMINAL, Profile::STANDARD).unwrap().with_fast_regime_weight(0.1).unwrap()
     }
 

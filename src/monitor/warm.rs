@@ -393,7 +393,7 @@ mod tests {
     use super::super::identification::tests::noisy_self_trace;
     use super::super::stage::WarmReport;
     use super::*;
-    use crate::conditioning::MeasuredTrace;
+    use crate::conditioning::ConditionedWindow;
     use crate::health::HealthReport;
     use crate::monitor::{MonitorError, ONBOARD_POPULATION, ONBOARD_WINDOW};
     use crate::params::EmaParams;
@@ -401,13 +401,13 @@ mod tests {
 
     type Id<'a> = Identification<'a, ONBOARD_WINDOW, ONBOARD_POPULATION>;
 
-    fn cold(trace: &MeasuredTrace<ONBOARD_WINDOW>) -> HealthReport {
+    fn cold(trace: &ConditionedWindow<ONBOARD_WINDOW>) -> HealthReport {
         let mut id = Id::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &IdentifyConfig::onboard()).unwrap();
         id.run(u32::MAX);
         id.report()
     }
 
-    fn warm(trace: &MeasuredTrace<ONBOARD_WINDOW>, prior: &FaultVector) -> (HealthReport, WarmReport) {
+    fn warm(trace: &ConditionedWindow<ONBOARD_WINDOW>, prior: &FaultVector) -> (HealthReport, WarmReport) {
         let config = IdentifyConfig::onboard();
         let mut id = Id::warm(trace, EmaParams::NOMINAL, Profile::STANDARD, &config, &prior.0).unwrap();
         id.run(u32::MAX);

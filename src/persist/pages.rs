@@ -249,7 +249,7 @@ pub fn check_pages<F: NorFlash>(flash: &mut F, range: Range<u32>) -> Result<Page
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::conditioning::MeasuredTrace;
+    use crate::conditioning::ConditionedWindow;
     use crate::optimizer::rng::splitmix64;
     use crate::persist::store::MAX_KEPT_SAMPLES;
     use crate::persist::tests::{is, record_after};
@@ -286,7 +286,7 @@ mod tests {
     fn pages_the_crate_wrote_are_never_repaired() {
         fn run<const N: usize, const P: usize>(seed: u64) -> usize {
             let window = |n: usize, phase: f32| {
-                MeasuredTrace::<600>::from_samples((0..n).map(|j| libm::sinf(0.02 * j as f32 + phase))).unwrap()
+                ConditionedWindow::<600>::from_samples((0..n).map(|j| libm::sinf(0.02 * j as f32 + phase))).unwrap()
             };
             let mut buffer = vec![0u8; window_encoded_len(MAX_KEPT_SAMPLES)];
             let mut state = seed;

@@ -11,7 +11,7 @@ use super::flash::RAM_FLASH_WORD;
 use super::store::MAX_KEPT_SAMPLES;
 use super::tests::{is, record_after};
 use super::*;
-use crate::conditioning::MeasuredTrace;
+use crate::conditioning::ConditionedWindow;
 use crate::optimizer::rng::splitmix64_mix;
 
 /// Seeds of the torn patterns at each cut point.
@@ -252,10 +252,10 @@ impl Operation for Archive {
 
 /// The sweeps' commissioning window: 600 block means, kept as four chunks (three full, one short),
 /// so that a keep crosses pages on the small flash of the sweep.
-type Window = MeasuredTrace<600>;
+type Window = ConditionedWindow<600>;
 
 fn window(phase: f32) -> Window {
-    MeasuredTrace::from_samples((0..600).map(|j| 4.0 * libm::sinf(0.013 * j as f32 + phase) + 0.5)).unwrap()
+    ConditionedWindow::from_samples((0..600).map(|j| 4.0 * libm::sinf(0.013 * j as f32 + phase) + 0.5)).unwrap()
 }
 
 const WINDOW_BUFFER: usize = window::window_encoded_len(MAX_KEPT_SAMPLES);

@@ -31,7 +31,7 @@ use super::flash::{block_on, Blocking};
 use super::pages::{check_pages, MAX_PAGES};
 use super::record::{HealthRecord, RecordError};
 use super::window::{decode_window_into, encode_window, encoded_len_of, WindowError, WINDOW_HEADER_LEN};
-use crate::conditioning::MeasuredTrace;
+use crate::conditioning::ConditionedWindow;
 
 /// The map key of the health record.
 pub const RECORD_KEY: u8 = 0x48; // 'H'
@@ -224,7 +224,7 @@ impl<F: NorFlash> HealthStore<F> {
     pub fn keep_window<const W: usize>(
         &mut self,
         slot: u8,
-        window: &MeasuredTrace<W>,
+        window: &ConditionedWindow<W>,
         temperature_c: f32,
         buffer: &mut [u8],
     ) -> Result<(), StoreError> {
@@ -255,7 +255,7 @@ impl<F: NorFlash> HealthStore<F> {
     pub fn load_window<const W: usize>(
         &mut self,
         slot: u8,
-        out: &mut MeasuredTrace<W>,
+        out: &mut ConditionedWindow<W>,
         buffer: &mut [u8],
     ) -> Result<Option<f32>, StoreError> {
         if slot >= WINDOW_SLOTS {

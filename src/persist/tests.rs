@@ -425,11 +425,11 @@ fn a_large_page_holds_the_computed_number_of_copies() {
 
 #[test]
 fn commissioning_windows_are_kept_beside_the_record() {
-    use crate::conditioning::MeasuredTrace;
+    use crate::conditioning::ConditionedWindow;
     let mut flash = Box::new(RamFlash::<8, 4096>::new());
     let mut s = HealthStore::new(&mut *flash, 0..RamFlash::<8, 4096>::CAPACITY as u32).unwrap();
     let window = |phase: f32| {
-        MeasuredTrace::<2200>::from_samples((0..2125).map(|j| 4.0 * libm::sinf(0.01 * j as f32 + phase))).unwrap()
+        ConditionedWindow::<2200>::from_samples((0..2125).map(|j| 4.0 * libm::sinf(0.01 * j as f32 + phase))).unwrap()
     };
     let mut buffer = [0u8; window::window_encoded_len(2200) + 32];
     let record = record_after(3);
@@ -439,7 +439,7 @@ fn commissioning_windows_are_kept_beside_the_record() {
     for _ in 0..30 {
         s.save(&record).unwrap();
     }
-    let mut out = MeasuredTrace::<2200>::new();
+    let mut out = ConditionedWindow::<2200>::new();
     assert_eq!(s.load_window(1, &mut out, &mut buffer), Ok(Some(35.0)));
     assert!(out.current_a().zip(window(1.0).current_a()).all(|(a, b)| a.to_bits() == b.to_bits()));
     assert_eq!(s.load_window(0, &mut out, &mut buffer), Ok(Some(-20.0)));
@@ -461,11 +461,11 @@ fn commissioning_windows_are_kept_beside_the_record() {
 /// never as chunks of both.
 #[test]
 fn a_window_kept_again_and_cut_never_reads_as_two_windows_spliced() {
-    use crate::conditioning::MeasuredTrace;
+    use crate::conditioning::ConditionedWindow;
     let window = |phase: f32| {
-        MeasuredTrace::<600>::from_samples((0..600).map(|j| 4.0 * libm::sinf(0.01 * j as f32 + phase))).unwrap()
+        ConditionedWindow::<600>::from_samples((0..600).map(|j| 4.0 * libm::sinf(0.01 * j as f32 + phase))).unwrap()
     };
-    let same = |a: &MeasuredTrace<600>, b: &MeasuredTrace<600>| {
+    let same = |a: &ConditionedWindow<600>, b: &ConditionedWindow<600>| {
         a.len() == b.len() && a.current_a().zip(b.current_a()).all(|(x, y)| x.to_bits() == y.to_bits())
     };
     let mut buffer = [0u8; window::window_encoded_len(600)];
@@ -482,7 +482,7 @@ fn a_window_kept_again_and_cut_never_reads_as_two_windows_spliced() {
         let mut flash = s.into_flash();
         flash.power_on();
         let mut s = HealthStore::new(flash, 0..16_384).unwrap();
-        let mut out = MeasuredTrace::<600>::new();
+        let mut out = ConditionedWindow::<600>::new();
         match s.load_window(1, &mut out, &mut buffer) {
             Ok(Some(t)) if t == -5.0 => assert!(same(&out, &window(0.0)), "cut {cut}"),
             Ok(Some(t)) => assert!(t == 7.0 && same(&out, &window(2.0)), "cut {cut}: {t}"),

@@ -1,7 +1,7 @@
 //! A commissioning flight's conditioned window, kept in flash until the last commissioning
 //! flight fits the unit's baseline to all of them at once (`docs/commissioning.md`). The window
 //! is kept as its block means alone: the weights follow from them
-//! ([`MeasuredTrace::rebuild`]), so the window read back is the acquired one bit for bit.
+//! ([`ConditionedWindow::rebuild`]), so the window read back is the acquired one bit for bit.
 //!
 //! **Layout** (little-endian, `f32` as its IEEE-754 bits):
 //!
@@ -11,9 +11,9 @@
 //! | 1 | 1 | reserved, 0 |
 //! | 2 | 2 | window samples `n` (`u16`) |
 //! | 4 | 4 | the flight's temperature (°C, NaN when none was read) |
-//! | 8 | 4·n | the block means ([`MeasuredTrace::current_a`]) |
+//! | 8 | 4·n | the block means ([`ConditionedWindow::current_a`]) |
 
-use crate::conditioning::{ConditioningError, MeasuredTrace};
+use crate::conditioning::{ConditionedWindow, ConditioningError};
 
 /// Format version of a kept window.
 pub const WINDOW_VERSION: u8 = 1;
@@ -38,14 +38,14 @@ pub enum WindowError {
     Version(u8),
     /// Not the length its sample count says.
     Length,
-    /// The samples do not make a window ([`MeasuredTrace::rebuild`]).
+    /// The samples do not make a window ([`ConditionedWindow::rebuild`]).
     Conditioning(ConditioningError),
 }
 
 /// Writes `window` (closed) and the flight's `temperature_c` into `out`; returns the bytes
 /// written.
 pub fn encode_window<const W: usize>(
-    window: &MeasuredTrace<W>,
+    window: &ConditionedWindow<W>,
     temperature_c: f32,
     out: &mut [u8],
 ) -> Result<usize, WindowError> {
@@ -81,9 +81,9 @@ pub fn encoded_len_of(bytes: &[u8]) -> Result<usize, WindowError> {
     }
 }
 
-/// Rebuilds the window of `bytes` into `out` ([`MeasuredTrace::rebuild`]); returns the flight's
+/// Rebuilds the window of `bytes` into `out` ([`ConditionedWindow::rebuild`]); returns the flight's
 /// temperature.
-pub fn decode_window_into<const W: usize>(bytes: &[u8], out: &mut MeasuredTrace<W>) -> Result<f32, WindowError> {
+pub fn decode_window_into<const W: usize>(bytes: &[u8], out: &mut ConditionedWindow<W>) -> Result<f32, WindowError> {
     if bytes.len() != encoded_len_of(bytes)? {
         return Err(WindowError::Length);
     }
@@ -104,8 +104,8 @@ pub fn decode_window_into<const W: usize>(bytes: &[u8], out: &mut MeasuredTrace<
 mod tests {
     use super::*;
 
-    fn window() -> MeasuredTrace<300> {
-        MeasuredTrace::from_samples((0..240).map(|j| 3.0 * libm::sinf(0.05 * j as f32) + 0.01 * j as f32)).unwrap()
+    fn window() -> ConditionedWindow<300> {
+        ConditionedWindow::from_samples((0..240).map(|j| 3.0 * libm::sinf(0.05 * j as f32) + 0.01 * j as f32)).unwrap()
     }
 
     #[test]
@@ -114,7 +114,7 @@ mod tests {
         let mut bytes = [0u8; window_encoded_len(300)];
         let len = encode_window(&w, -12.5, &mut bytes).unwrap();
         assert_eq!(len, window_encoded_len(240));
-        let mut back = MeasuredTrace::<300>::from_samples((0..100).map(|j| j as f32)).unwrap();
+        let mut back = ConditionedWindow::<300>::from_samples((0..100).map(|j| j as f32)).unwrap();
         assert_eq!(decode_window_into(&bytes[..len], &mut back), Ok(-12.5));
         assert!(back.current_a().zip(w.current_a()).all(|(a, b)| a.to_bits() == b.to_bits()));
         assert!(back.weights().zip(w.weights()).all(|(a, b)| a.to_bits() == b.to_bits()));
@@ -126,9 +126,9 @@ mod tests {
         let w = window();
         let mut bytes = [0u8; window_encoded_len(240)];
         assert_eq!(encode_window(&w, 0.0, &mut bytes[..100]), Err(WindowError::BufferTooSmall));
-        assert_eq!(encode_window(&MeasuredTrace::<300>::new(), 0.0, &mut bytes), Err(WindowError::NotKeepable));
+        assert_eq!(encode_window(&ConditionedWindow::<300>::new(), 0.0, &mut bytes), Err(WindowError::NotKeepable));
         let len = encode_window(&w, f32::NAN, &mut bytes).unwrap();
-        let mut out = MeasuredTrace::<300>::new();
+        let mut out = ConditionedWindow::<300>::new();
         assert!(decode_window_into(&bytes[..len], &mut out).unwrap().is_nan());
         assert_eq!(decode_window_into(&bytes[..len - 4], &mut out), Err(WindowError::Length));
         assert_eq!(decode_window_into(&bytes[..3], &mut out), Err(WindowError::Length));
@@ -138,7 +138,7 @@ mod tests {
         let mut nan = bytes;
         nan[8..12].copy_from_slice(&f32::NAN.to_bits().to_le_bytes());
         assert_eq!(decode_window_into(&nan, &mut out), Err(WindowError::Conditioning(ConditioningError::NonFinite)));
-        let mut small = MeasuredTrace::<100>::new();
+        let mut small = ConditionedWindow::<100>::new();
         assert_eq!(
             decode_window_into(&bytes[..len], &mut small),
             Err(WindowError::Conditioning(ConditioningError::WindowFull))

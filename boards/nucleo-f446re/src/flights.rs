@@ -15,7 +15,7 @@
 
 use cortex_m::peripheral::DWT;
 use ema_monitor::acquisition::{AcquisitionError, SamplerConfig, SamplerConsumer, TemperatureSensor};
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::flight::{Acquired, Flight, HealthMonitor};
 use ema_monitor::monitor::ONBOARD_WINDOW;
 use ema_monitor::persist::KeptRecord;
@@ -92,7 +92,7 @@ pub fn run<W: FnMut()>(
                 FRAME_RATE_HZ
             );
         }
-        let mut trace = MeasuredTrace::<ONBOARD_WINDOW>::new();
+        let mut trace = ConditionedWindow::<ONBOARD_WINDOW>::new();
         let acquired = board.monitor.acquire(live, &mut trace, FRAME_RATE_HZ as f32);
         isr = dma_sampling::disarm().unwrap_or_else(|| failsafe("sampler interrupt state lost"));
         announce = match (live.outcome(), acquired) {
@@ -132,7 +132,7 @@ impl Board<'_> {
     /// One acquired flight: the record loaded again when it may not be saved, then the flight
     /// diagnosed, reported (log, then the USART2 line), added to the record and saved when the
     /// record may be.
-    fn fly(&mut self, trace: &MeasuredTrace<ONBOARD_WINDOW>, acquired: &Acquired) {
+    fn fly(&mut self, trace: &ConditionedWindow<ONBOARD_WINDOW>, acquired: &Acquired) {
         if self.record.needs_load() {
             self.record = health_flash::load(&mut self.flash, self.watchdog);
             health_flash::adopt(&mut self.flash, self.watchdog, &self.monitor, &mut self.record);

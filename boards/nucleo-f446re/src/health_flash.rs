@@ -15,7 +15,7 @@
 
 use core::ops::Range;
 
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::flight::HealthMonitor;
 use ema_monitor::persist::store::MAX_KEPT_SAMPLES;
 use ema_monitor::persist::{window_encoded_len, EraseGuard, EraseGuarded, FlashFault};
@@ -162,7 +162,7 @@ pub fn keep_window<const W: usize>(
     flash: &mut LockedFlash,
     watchdog: &Watchdog,
     slot: u8,
-    window: &MeasuredTrace<W>,
+    window: &ConditionedWindow<W>,
     temperature_c: f32,
 ) -> bool {
     let mut buffer = [0u8; window_encoded_len(MAX_KEPT_SAMPLES)];
@@ -178,7 +178,7 @@ pub fn load_window<const W: usize>(
     flash: &mut LockedFlash,
     watchdog: &Watchdog,
     slot: u8,
-    out: &mut MeasuredTrace<W>,
+    out: &mut ConditionedWindow<W>,
 ) -> Option<f32> {
     let mut buffer = [0u8; window_encoded_len(MAX_KEPT_SAMPLES)];
     report_log::log_window_loaded(slot, with_store(flash, watchdog, |s| s.load_window(slot, out, &mut buffer)))

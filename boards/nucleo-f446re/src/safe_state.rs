@@ -5,7 +5,7 @@
 
 use cortex_m::peripheral::DWT;
 use cortex_m_rt::{exception, ExceptionFrame};
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::flight::{FlightCall, FlightHooks};
 use ema_monitor::monitor::Start;
 use ema_monitor::report_log;
@@ -165,11 +165,11 @@ impl FlightHooks for WatchdogHooks<'_> {
         }
     }
 
-    fn keep_window<const W: usize>(&mut self, slot: u8, window: &MeasuredTrace<W>, temperature_c: f32) -> bool {
+    fn keep_window<const W: usize>(&mut self, slot: u8, window: &ConditionedWindow<W>, temperature_c: f32) -> bool {
         crate::health_flash::keep_window(self.flash, self.watchdog, slot, window, temperature_c)
     }
 
-    fn load_window<const W: usize>(&mut self, slot: u8, out: &mut MeasuredTrace<W>) -> Option<f32> {
+    fn load_window<const W: usize>(&mut self, slot: u8, out: &mut ConditionedWindow<W>) -> Option<f32> {
         crate::health_flash::load_window(self.flash, self.watchdog, slot, out)
     }
 }

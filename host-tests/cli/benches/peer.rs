@@ -45,7 +45,7 @@ use argmin::solver::particleswarm::{Particle, ParticleSwarm as ArgminParticleSwa
 use criterion::Criterion;
 use ema_cli::identify::{condition_recording, identify_trace, HOST_WINDOW};
 use ema_cli::recording::Recording;
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::fitness::{CurrentFit, FAST_REGIME_WEIGHT};
 use ema_monitor::monitor::{
     fault_bounds, starting_guesses, Algorithm, Identification, IdentifyConfig, ONBOARD_MAX_ITERATIONS,
@@ -83,7 +83,7 @@ fn cases() -> Vec<(&'static str, FaultVector)> {
 }
 
 /// The reference model records the standard manoeuvre with faults `truth`; conditioned like `ema identify`.
-fn record(name: &str, truth: FaultVector) -> Box<MeasuredTrace<HOST_WINDOW>> {
+fn record(name: &str, truth: FaultVector) -> Box<ConditionedWindow<HOST_WINDOW>> {
     let rec = simulate(&SimConfig { faults: truth, seed: NOISE_SEED, ..SimConfig::default() })
         .expect("the reference model simulates the standard manoeuvre");
     let recording = Recording::from_reference(&rec, Vec::new());
@@ -104,7 +104,7 @@ struct Outcome {
 /// `refine`: model selection and the polish after the global search (their evaluations come on top
 /// of the budget); without it, the optimizer alone at exactly the budget.
 fn ours(
-    trace: &MeasuredTrace<HOST_WINDOW>,
+    trace: &ConditionedWindow<HOST_WINDOW>,
     algorithm: Algorithm,
     max_iterations: u32,
     refine: bool,
@@ -128,7 +128,7 @@ fn ours(
 
 /// The objective every method solves: the on-board fitness, [`CurrentFit`] with the fast regime
 /// weighted by [`FAST_REGIME_WEIGHT`] (`IdentifyConfig::default()`'s).
-fn objective(trace: &MeasuredTrace<HOST_WINDOW>) -> CurrentFit<'_, HOST_WINDOW> {
+fn objective(trace: &ConditionedWindow<HOST_WINDOW>) -> CurrentFit<'_, HOST_WINDOW> {
     CurrentFit::new(trace, EmaParams::NOMINAL, Profile::STANDARD)
         .expect("a conditioned trace is finished")
         .with_fast_regime_weight(FAST_REGIME_WEIGHT)
@@ -179,7 +179,7 @@ impl CostFunction for ArgminFit<'_> {
 
 /// The core's model selection and polish started from `k` (an outside optimizer's best), as
 /// `ema identify` runs them after its own swarm ([`Identification::skip_global_search`]).
-fn refine(trace: &MeasuredTrace<HOST_WINDOW>, k: FaultVector) -> Outcome {
+fn refine(trace: &ConditionedWindow<HOST_WINDOW>, k: FaultVector) -> Outcome {
     let start = Instant::now();
     let mut id: Box<Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>> = Box::new(
         Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &IdentifyConfig::default())
@@ -213,7 +213,7 @@ fn uniform(rng: &mut Xoshiro256PlusPlus, lo: f64, hi: f64) -> f64 {
 
 /// argmin's particle swarm, `ONBOARD_POPULATION` particles, the same evaluation budget as `max_iterations` of ours
 /// (argmin's initial sweep is not an iteration: it runs `max_iterations − 1` more).
-fn argmin_pso(trace: &MeasuredTrace<HOST_WINDOW>, max_iterations: u32, setup: ArgminSetup, seed: u64) -> Outcome {
+fn argmin_pso(trace: &ConditionedWindow<HOST_WINDOW>, max_iterations: u32, setup: ArgminSetup, seed: u64) -> Outcome {
     let calls = Cell::new(0u64);
     let objective = objective(trace);
     let start = Instant::now();
@@ -266,7 +266,7 @@ fn argmin_pso(trace: &MeasuredTrace<HOST_WINDOW>, max_iterations: u32, setup: Ar
 }
 
 /// Our DE with an explicit configuration (for the variant sweep), set up as `Identification` does.
-fn de_variant(trace: &MeasuredTrace<HOST_WINDOW>, config: DeConfig, seed: u64) -> Outcome {
+fn de_variant(trace: &ConditionedWindow<HOST_WINDOW>, config: DeConfig, seed: u64) -> Outcome {
     let mut fit = objective(trace);
     let start = Instant::now();
     let mut de = Box::new(
@@ -308,7 +308,7 @@ impl Method {
         }
     }
 
-    fn solve(self, trace: &MeasuredTrace<HOST_WINDOW>, max_iterations: u32, seed: u64) -> Outcome {
+    fn solve(self, trace: &ConditionedWindow<HOST_WINDOW>, max_iterations: u32, seed: u64) -> Outcome {
         match self {
             Method::OursPso => ours(trace, Algorithm::Pso, max_iterations, false, seed),
             Method::ArgminShipped => argmin_pso(trace, max_iterations, ArgminSetup::Shipped, seed),
@@ -337,7 +337,7 @@ fn mean(values: impl Iterator<Item = f64>) -> f64 {
 }
 
 /// A recording of the comparison: its name, the injected vector and the conditioned trace.
-type Case = (&'static str, FaultVector, Box<MeasuredTrace<HOST_WINDOW>>);
+type Case = (&'static str, FaultVector, Box<ConditionedWindow<HOST_WINDOW>>);
 
 /// The comparison table (and the per-recording Err%) for `budgets` on `recordings`, each method run once per
 /// optimizer seed of [`OPTIMIZER_SEEDS`].
@@ -476,7 +476,7 @@ fn de_sweep(recordings: &[Case]) {
 }
 
 /// Criterion: one identification of each method at the small budget on the friction recording.
-fn criterion_group(trace: &MeasuredTrace<HOST_WINDOW>) {
+fn criterion_group(trace: &ConditionedWindow<HOST_WINDOW>) {
     let mut c = Criterion::default()
         .sample_size(10)
         .warm_up_time(std::time::Duration::from_millis(500))

@@ -14,7 +14,7 @@ use std::path::Path;
 use criterion::{criterion_group, criterion_main, Criterion};
 use ema_cli::identify::{condition_recording, run_to_end, HOST_WINDOW};
 use ema_cli::recording::Recording;
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::health::HealthReport;
 use ema_monitor::monitor::{Identification, IdentifyConfig, ONBOARD_POPULATION};
 use ema_monitor::{EmaParams, FaultVector, Profile};
@@ -22,7 +22,7 @@ use ema_reference::{simulate, SimConfig};
 
 /// The on-board identification of `trace`, run to its end by `run`.
 fn identify(
-    trace: &MeasuredTrace<HOST_WINDOW>,
+    trace: &ConditionedWindow<HOST_WINDOW>,
     config: &IdentifyConfig,
     run: impl FnOnce(&mut Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>),
 ) -> HealthReport {

@@ -16,7 +16,7 @@
 use std::process::ExitCode;
 
 use ema_cli::flights::{flight_seed, flight_trace, fly, pooled};
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::monitor::evidence::{mode_name, mode_present, Decision, Evidence, EVIDENCE_MODES};
 use ema_monitor::FaultVector;
 use rayon::prelude::*;
@@ -110,8 +110,8 @@ struct Series {
 }
 
 fn series(truth: &FaultVector, mode: Option<usize>, key: u64, flights: usize, o: &Options, pool: bool) -> Series {
-    let mut traces: Vec<Box<MeasuredTrace<8192>>> = Vec::new();
-    let trace = |traces: &mut Vec<Box<MeasuredTrace<8192>>>, f: usize| {
+    let mut traces: Vec<Box<ConditionedWindow<8192>>> = Vec::new();
+    let trace = |traces: &mut Vec<Box<ConditionedWindow<8192>>>, f: usize| {
         while traces.len() <= f {
             traces.push(flight_trace(truth, flight_seed(key, traces.len())).expect("simulation"));
         }
@@ -159,7 +159,7 @@ fn series(truth: &FaultVector, mode: Option<usize>, key: u64, flights: usize, o:
     if pool {
         for &n in &o.pool {
             trace(&mut traces, n - 1);
-            let refs: Vec<&MeasuredTrace<8192>> = traces.iter().take(n).map(|t| &**t).collect();
+            let refs: Vec<&ConditionedWindow<8192>> = traces.iter().take(n).map(|t| &**t).collect();
             let report = pooled(&refs, key ^ 0x77).expect("pooled identification");
             let hit = mode.is_some_and(|m| mode_present(&report.faults, m));
             let false_hit = (0..EVIDENCE_MODES).any(|m| Some(m) != mode && mode_present(&report.faults, m));

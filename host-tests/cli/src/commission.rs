@@ -30,7 +30,7 @@ use ema_monitor::commissioning::{
     commission, Baseline, BaselineFit, CommissioningFlight, MAX_COMMISSIONING_FLIGHTS, SWARM_ITERATIONS,
     SWARM_PARTICLES,
 };
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::health::Status;
 use ema_monitor::monitor::{configured_fit, IdentifyConfig};
 use ema_monitor::unit::{unit_field, unit_name, Tolerances, UNIT_PARAM_COUNT};
@@ -140,7 +140,7 @@ pub fn run(args: &CommissionArgs) -> Result<String, CliError> {
         None => Tolerances::TYPICAL,
     };
     let resolved = resolve_command(args.command, &args.profile)?;
-    let mut traces: Vec<(Box<MeasuredTrace<HOST_WINDOW>>, ModelCommand, f32)> = Vec::new();
+    let mut traces: Vec<(Box<ConditionedWindow<HOST_WINDOW>>, ModelCommand, f32)> = Vec::new();
     let mut independent = f32::INFINITY;
     for path in &args.files {
         let load = args.recording.load(path, resolved.as_ref().and_then(ModelCommand::profile), &base)?;
@@ -215,8 +215,8 @@ pub fn run(args: &CommissionArgs) -> Result<String, CliError> {
 /// One recording to commission from, acquired.
 #[derive(Clone, Copy, Debug)]
 pub struct CommissioningRecording<'a> {
-    /// Its measured trace.
-    pub trace: &'a MeasuredTrace<HOST_WINDOW>,
+    /// Its conditioned window.
+    pub trace: &'a ConditionedWindow<HOST_WINDOW>,
     /// What drives the monitor model.
     pub command: Command<'a>,
     /// Its mean temperature (°C); NaN without one (20 °C).

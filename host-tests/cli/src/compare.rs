@@ -14,7 +14,7 @@
 //! drift of its rotor angle taken out.
 
 use clap::{Args, ValueEnum};
-use ema_monitor::conditioning::{MeasuredEnvelope, MeasuredTrace, DECIMATION};
+use ema_monitor::conditioning::{ConditionedWindow, MeasuredEnvelope, DECIMATION};
 use ema_monitor::fitness::CurrentFit;
 use ema_monitor::model::{ModelState, MonitorModel};
 use ema_monitor::profile::ProfileCursor;
@@ -148,7 +148,7 @@ pub fn compare_case(
     let profile = Profile::STANDARD;
     let config = SimConfig { params, faults, seed, ..SimConfig::default() };
     let rec = simulate(&config).map_err(|e| CliError::Simulation(e.to_string()))?;
-    let mut trace = Box::new(MeasuredTrace::<HOST_WINDOW>::new());
+    let mut trace = Box::new(ConditionedWindow::<HOST_WINDOW>::new());
     for s in &rec.samples {
         let i = s.phase_current_a;
         trace.push(i[0] as f32, i[1] as f32, i[2] as f32).map_err(|e| CliError::Simulation(e.to_string()))?;

@@ -7,7 +7,7 @@
 
 use std::path::PathBuf;
 
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::health::HealthReport;
 use ema_monitor::monitor::evidence::{mode_present, Decision, Evidence, FlightEvidence, EVIDENCE_MODES};
 use ema_monitor::monitor::{Identification, IdentifyConfig, ONBOARD_POPULATION};
@@ -28,7 +28,7 @@ pub fn flight_seed(series: u64, flight: usize) -> u64 {
 
 /// One flight's recording of the actuator with faults `truth` (standard manoeuvre, sensor noise
 /// from `seed`), conditioned.
-pub fn flight_trace(truth: &FaultVector, seed: u64) -> Result<Box<MeasuredTrace<HOST_WINDOW>>, CliError> {
+pub fn flight_trace(truth: &FaultVector, seed: u64) -> Result<Box<ConditionedWindow<HOST_WINDOW>>, CliError> {
     let config = SimConfig { faults: *truth, seed, ..SimConfig::default() };
     let rec = simulate(&config).map_err(|e| CliError::Simulation(e.to_string()))?;
     let recording = Recording::from_reference(&rec, Vec::new());
@@ -52,7 +52,11 @@ pub struct FlightRecord {
 }
 
 /// Identifies `trace` with the on-board settings (optimizer seed `seed`) and adds it to `evidence`.
-pub fn fly(trace: &MeasuredTrace<HOST_WINDOW>, seed: u64, evidence: &mut Evidence) -> Result<FlightRecord, CliError> {
+pub fn fly(
+    trace: &ConditionedWindow<HOST_WINDOW>,
+    seed: u64,
+    evidence: &mut Evidence,
+) -> Result<FlightRecord, CliError> {
     let config = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
     let mut id: Box<Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>> = Box::new(
         Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &config)
@@ -68,7 +72,7 @@ pub fn fly(trace: &MeasuredTrace<HOST_WINDOW>, seed: u64, evidence: &mut Evidenc
 }
 
 /// The pooled diagnosis of `traces` (the on-board settings, optimizer seed `seed`).
-pub fn pooled(traces: &[&MeasuredTrace<HOST_WINDOW>], seed: u64) -> Result<HealthReport, CliError> {
+pub fn pooled(traces: &[&ConditionedWindow<HOST_WINDOW>], seed: u64) -> Result<HealthReport, CliError> {
     let config = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
     let commands = vec![Command::Profile(Profile::STANDARD); traces.len()];
     crate::runtime::identification::identify_pooled(traces, &commands, &EmaParams::NOMINAL, &config)

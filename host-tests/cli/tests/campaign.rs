@@ -182,7 +182,7 @@ fn runs_csv_matches_the_results_and_does_not_depend_on_threads() {
 /// The reference model's noisy recording (seed 5) of `faults`, conditioned on the nominal actuator.
 fn conditioned(
     faults: FaultVector,
-) -> Box<ema_monitor::conditioning::MeasuredTrace<{ ema_cli::identify::HOST_WINDOW }>> {
+) -> Box<ema_monitor::conditioning::ConditionedWindow<{ ema_cli::identify::HOST_WINDOW }>> {
     let rec = simulate(&SimConfig { faults, seed: 5, ..SimConfig::default() }).expect("sim");
     let recording = ema_cli::recording::Recording::from_reference(&rec, Vec::new());
     ema_cli::identify::condition_recording(

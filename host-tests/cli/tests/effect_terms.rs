@@ -14,7 +14,7 @@
 
 use std::sync::OnceLock;
 
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::effects::{EffectId, ModelEffects};
 use ema_monitor::fitness::{simulate_window, simulate_window_with_effects};
 use ema_monitor::model::{ModelState, MonitorModel};
@@ -25,9 +25,9 @@ use ema_reference::{simulate, Effect, Effects, SimConfig};
 const W: usize = 2200;
 
 /// Conditioned `I_3eq` of a reference recording (noise on, seed 3).
-fn reference_trace(effects: Effects, k: &FaultVector) -> Box<MeasuredTrace<W>> {
+fn reference_trace(effects: Effects, k: &FaultVector) -> Box<ConditionedWindow<W>> {
     let rec = simulate(&SimConfig { seed: 3, effects, faults: *k, ..SimConfig::default() }).expect("valid config");
-    let mut trace = Box::new(MeasuredTrace::<W>::new());
+    let mut trace = Box::new(ConditionedWindow::<W>::new());
     for s in &rec.samples {
         let i = s.phase_current_a;
         trace.push(i[0] as f32, i[1] as f32, i[2] as f32).expect("the standard profile fits the window");
@@ -37,7 +37,7 @@ fn reference_trace(effects: Effects, k: &FaultVector) -> Box<MeasuredTrace<W>> {
 }
 
 /// RMS of the monitor model's residual, smoothed over `blocks` conditioned blocks.
-fn residual_rms(trace: &MeasuredTrace<W>, k: &FaultVector, effects: &ModelEffects, blocks: usize) -> f64 {
+fn residual_rms(trace: &ConditionedWindow<W>, k: &FaultVector, effects: &ModelEffects, blocks: usize) -> f64 {
     let n = trace.len();
     let mut r = vec![0.0f64; n];
     let measured: Vec<f32> = trace.current_a().collect();

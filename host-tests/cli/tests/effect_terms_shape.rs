@@ -6,16 +6,16 @@
 //! or its excess over that floor; `hall_misalignment` must remove nearly all of its excess (the
 //! pair model's commutation loss takes the offset into account).
 
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::fitness::simulate_window_with_effects;
 use ema_monitor::{EffectId, EmaParams, FaultVector, ModelEffects, Profile};
 use ema_reference::{simulate, Effect, Effects, SimConfig};
 
 const W: usize = 2200;
 
-fn recording(effects: Effects, k: FaultVector) -> Box<MeasuredTrace<W>> {
+fn recording(effects: Effects, k: FaultVector) -> Box<ConditionedWindow<W>> {
     let rec = simulate(&SimConfig { seed: 3, effects, faults: k, ..SimConfig::default() }).expect("simulates");
-    let mut trace = Box::new(MeasuredTrace::<W>::new());
+    let mut trace = Box::new(ConditionedWindow::<W>::new());
     for s in &rec.samples {
         let i = s.phase_current_a;
         trace.push(i[0] as f32, i[1] as f32, i[2] as f32).expect("fits the window");
@@ -25,7 +25,7 @@ fn recording(effects: Effects, k: FaultVector) -> Box<MeasuredTrace<W>> {
 }
 
 /// RMS of the residual `I_3eq − Ĩ_MM` averaged over blocks of 5 window samples.
-fn smoothed_residual_a(trace: &MeasuredTrace<W>, k: &FaultVector, effects: &ModelEffects) -> f64 {
+fn smoothed_residual_a(trace: &ConditionedWindow<W>, k: &FaultVector, effects: &ModelEffects) -> f64 {
     let n = trace.len();
     let mut r = vec![0.0f64; n];
     let measured: Vec<f32> = trace.current_a().collect();

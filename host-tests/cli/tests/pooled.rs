@@ -11,7 +11,7 @@ use common::{accepted, s, scratch};
 use ema_cli::identify::{identify_recording, summary_line};
 use ema_cli::pooled::identify_pooled;
 use ema_cli::recording::Recording;
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::{Command, EmaParams, Profile};
 
@@ -38,7 +38,7 @@ fn one_recording_is_the_single_recording_identification() {
     let config = IdentifyConfig { max_iterations: 3, ..IdentifyConfig::default() };
     let single = identify_recording(&rec, &a, &EmaParams::NOMINAL, &Profile::STANDARD, &config).unwrap();
     let trace = ema_cli::identify::condition_recording(&rec, &a, &EmaParams::NOMINAL, &Profile::STANDARD).unwrap();
-    let traces: [&MeasuredTrace<{ ema_cli::identify::HOST_WINDOW }>; 1] = [&trace];
+    let traces: [&ConditionedWindow<{ ema_cli::identify::HOST_WINDOW }>; 1] = [&trace];
     let pooled =
         identify_pooled(&traces, &[Command::Profile(Profile::STANDARD)], &EmaParams::NOMINAL, &config).unwrap();
     assert_eq!(summary_line(&pooled.report), summary_line(&single.report));

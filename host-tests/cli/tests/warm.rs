@@ -14,7 +14,7 @@ use std::path::PathBuf;
 use ema_cli::campaign::SplitMix;
 use ema_cli::identify::{condition_recording, HOST_WINDOW};
 use ema_cli::recording::Recording;
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::health::HealthReport;
 use ema_monitor::monitor::{Identification, IdentifyConfig, WarmReport, ONBOARD_POPULATION};
 use ema_monitor::{EmaParams, FaultVector, Profile};
@@ -22,7 +22,7 @@ use ema_reference::{simulate, SimConfig};
 use rayon::prelude::*;
 
 /// A reference-model recording of `truth` (noise from `seed`), conditioned.
-fn flight(truth: &FaultVector, seed: u64) -> Box<MeasuredTrace<HOST_WINDOW>> {
+fn flight(truth: &FaultVector, seed: u64) -> Box<ConditionedWindow<HOST_WINDOW>> {
     let config = SimConfig { faults: *truth, seed, profile: Profile::STANDARD, ..SimConfig::default() };
     let rec = simulate(&config).expect("simulation");
     let recording = Recording::from_reference(&rec, Vec::new());
@@ -30,7 +30,7 @@ fn flight(truth: &FaultVector, seed: u64) -> Box<MeasuredTrace<HOST_WINDOW>> {
         .expect("conditioning")
 }
 
-fn cold(trace: &MeasuredTrace<HOST_WINDOW>, seed: u64) -> HealthReport {
+fn cold(trace: &ConditionedWindow<HOST_WINDOW>, seed: u64) -> HealthReport {
     let config = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
     let mut id: Box<Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>> =
         Box::new(Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap());
@@ -38,7 +38,7 @@ fn cold(trace: &MeasuredTrace<HOST_WINDOW>, seed: u64) -> HealthReport {
     id.report()
 }
 
-fn warm(trace: &MeasuredTrace<HOST_WINDOW>, prior: &FaultVector) -> (HealthReport, WarmReport) {
+fn warm(trace: &ConditionedWindow<HOST_WINDOW>, prior: &FaultVector) -> (HealthReport, WarmReport) {
     let config = IdentifyConfig::onboard();
     let mut id: Box<Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>> =
         Box::new(Identification::warm(trace, EmaParams::NOMINAL, Profile::STANDARD, &config, &prior.0).unwrap());

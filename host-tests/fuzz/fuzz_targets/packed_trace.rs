@@ -7,7 +7,7 @@
 #![no_main]
 
 use ema_monitor::acquisition::{AcquisitionConfig, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
-use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
+use ema_monitor::conditioning::{ConditionedWindow, DECIMATION};
 use ema_monitor::monitor::{self, ONBOARD_WINDOW};
 use ema_monitor::trace::{PackedTrace, ADC_MAX};
 use ema_monitor::EmaParams;
@@ -24,7 +24,7 @@ fuzz_target!(|data: &[u8]| {
     else {
         panic!("the nominal calibration and default settings are valid");
     };
-    let mut trace = Box::new(MeasuredTrace::<ONBOARD_WINDOW>::new());
+    let mut trace = Box::new(ConditionedWindow::<ONBOARD_WINDOW>::new());
     match monitor::acquire(&mut reader, &mut trace) {
         Ok(summary) => {
             assert!(trace.is_finished());

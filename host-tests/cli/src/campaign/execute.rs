@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::fitness::PooledTrace;
 use ema_monitor::monitor::{Algorithm, Identification, IdentifyConfig, MonitorError, ONBOARD_POPULATION};
 use ema_monitor::{Command, EmaParams, FaultVector, Profile};
@@ -111,7 +111,7 @@ pub fn execute(
 /// The pooled identification of `first` and `more` (every recording under `profile`) to its
 /// end, as `ema identify A.csv B.csv …` runs it, with the report's 1σ on the pooled fitness.
 fn identify_pooled<'a, const W: usize>(
-    first: &'a MeasuredTrace<W>,
+    first: &'a ConditionedWindow<W>,
     more: &'a [PooledTrace<'a, W>],
     params: &EmaParams,
     profile: &Profile,

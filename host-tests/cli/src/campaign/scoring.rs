@@ -2,7 +2,7 @@
 //! detectability floor (the part of the error that is a limit of the recording) and how the
 //! report's "not detectable below" bounds read against the truth.
 
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::fitness::{CurrentFit, PooledTrace};
 use ema_monitor::health::{HealthReport, Uncertainty};
 use ema_monitor::monitor::{group_pays, group_present, without_group, IdentifyConfig, FAULT_GROUPS};
@@ -88,7 +88,7 @@ pub fn coverage(truth: &FaultVector, estimate: &FaultVector, sigma: &[f32; 8]) -
 /// Not a strict bound: the truth is not the monitor model's best fit (its mismatch floor), and a
 /// nearby vector can fit better.
 pub fn detectability_floor<const W: usize>(
-    trace: &MeasuredTrace<W>,
+    trace: &ConditionedWindow<W>,
     params: &EmaParams,
     profile: &Profile,
     config: &IdentifyConfig,
@@ -100,7 +100,7 @@ pub fn detectability_floor<const W: usize>(
 /// [`detectability_floor`] of the pooled fitness over `trace` and the recordings `more` (every
 /// one under `profile`): the criterion weighs the evidence of every flight at once.
 pub fn detectability_floor_pooled<'a, const W: usize>(
-    trace: &'a MeasuredTrace<W>,
+    trace: &'a ConditionedWindow<W>,
     more: &'a [PooledTrace<'a, W>],
     params: &EmaParams,
     profile: &Profile,

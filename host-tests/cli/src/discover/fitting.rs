@@ -3,7 +3,7 @@
 //! from several starts, a BIC comparison of their end points, model selection as on board and a
 //! polish.
 
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::effects::MAX_SEVERITY;
 use ema_monitor::fitness::simulate_window_with_effects;
 use ema_monitor::monitor::{fault_bounds, group_pays, group_present, without_group, FAULT_GROUPS, SELECTION_REFIT};
@@ -44,7 +44,7 @@ impl Part {
 /// The paper's weighted fitness over one [`Part`] of the trace, with effect severities fitted
 /// beside the faults: `x = (k_1 … k_8, s_1 … s_{D−8})`, `s_j` the severity of `free[j]`.
 pub struct PartFit<'a, const W: usize> {
-    trace: &'a MeasuredTrace<W>,
+    trace: &'a ConditionedWindow<W>,
     params: EmaParams,
     /// The command that drives the model (a profile or the recording's own).
     profile: Command<'a>,
@@ -57,7 +57,7 @@ impl<'a, const W: usize> PartFit<'a, W> {
     /// The fitness over `part` of the actuator `params` with `base` effects on and the severities of
     /// `free` fitted.
     pub fn new(
-        trace: &'a MeasuredTrace<W>,
+        trace: &'a ConditionedWindow<W>,
         params: EmaParams,
         profile: impl Into<Command<'a>>,
         base: ModelEffects,
@@ -232,7 +232,7 @@ fn select_groups<const W: usize, const D: usize>(
 ///    severity on one recording of `scripts/discover-matrix`), and a compass polish (≤ 400
 ///    evaluations).
 pub fn fit_model<const W: usize>(
-    trace: &MeasuredTrace<W>,
+    trace: &ConditionedWindow<W>,
     params: &EmaParams,
     profile: &Command<'_>,
     free: &[EffectId],
@@ -249,7 +249,7 @@ pub fn fit_model<const W: usize>(
 
 /// [`fit_model`] in `D` = 8 + (free effects, at most 2) dimensions.
 fn fit_d<const W: usize, const D: usize>(
-    trace: &MeasuredTrace<W>,
+    trace: &ConditionedWindow<W>,
     params: &EmaParams,
     profile: &Command<'_>,
     free: &[EffectId],

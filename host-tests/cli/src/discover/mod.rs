@@ -62,7 +62,7 @@ use std::time::Instant;
 
 use clap::Args;
 use ema_monitor::command::CommandSource;
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::fitness::CurrentFit;
 use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::{Command, EffectId, EmaParams, FaultVector, ModelEffects};
@@ -140,7 +140,7 @@ pub struct DiscoverArgs {
 /// Runs the whole workflow on a conditioned trace of the actuator `params`, the model driven by
 /// `command` (a profile or the recording's sampled command).
 pub fn discover<'c, const W: usize>(
-    trace: &MeasuredTrace<W>,
+    trace: &ConditionedWindow<W>,
     params: &EmaParams,
     command: impl CommandSource<'c>,
     file: &Path,
@@ -157,7 +157,7 @@ pub fn discover<'c, const W: usize>(
 /// and the on-board diagnoses; its message names the step. The truth is the caller's to set
 /// ([`Discovery::truth`], `None` here): it scores the result and changes nothing in it.
 pub fn discover_with_progress<'c, const W: usize>(
-    trace: &MeasuredTrace<W>,
+    trace: &ConditionedWindow<W>,
     params: &EmaParams,
     command: impl CommandSource<'c>,
     file: &Path,
@@ -176,7 +176,7 @@ pub fn discover_with_progress<'c, const W: usize>(
 
 /// [`discover_with_progress`] on the current rayon pool.
 fn discover_in_pool<const W: usize>(
-    trace: &MeasuredTrace<W>,
+    trace: &ConditionedWindow<W>,
     params: &EmaParams,
     profile: &Command<'_>,
     file: &Path,

@@ -2,7 +2,7 @@
 //! part and scores it on the held-out part against the best fit without a new effect; the naming
 //! rules decide whether its winner is named (`docs/decisions/0009-effect-naming-rules.md`).
 
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::{Command, EffectId, EmaParams, ModelEffects};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
@@ -194,7 +194,7 @@ fn delta_bic(n_eff: f64, before: f32, after: f32, extra_parameters: f64) -> f64 
 /// better fault fit would pass for evidence of an effect.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn search_round<const W: usize>(
-    trace: &MeasuredTrace<W>,
+    trace: &ConditionedWindow<W>,
     params: &EmaParams,
     profile: &Command<'_>,
     on: &[EffectId],

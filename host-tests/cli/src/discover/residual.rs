@@ -2,7 +2,7 @@
 //! block means and the structural residual (its 2 ms means), with the floors that judge it.
 
 use ema_monitor::command::CommandSource;
-use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
+use ema_monitor::conditioning::{ConditionedWindow, DECIMATION};
 use ema_monitor::fitness::simulate_window_with_effects;
 use ema_monitor::{EmaParams, FaultVector, ModelEffects};
 
@@ -53,7 +53,7 @@ pub struct Series {
 /// Runs the model with `k` and `effects` along `trace`, driven by `profile` (a profile or a
 /// sampled command).
 pub fn series<'c, const W: usize>(
-    trace: &MeasuredTrace<W>,
+    trace: &ConditionedWindow<W>,
     params: &EmaParams,
     profile: impl CommandSource<'c>,
     k: &FaultVector,

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::health::{FaultMode, Status};
 use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::unit::{Tolerances, MAX_RELATIVE_SIGMA};
@@ -125,7 +125,7 @@ pub fn fly_unit(seed: u64) -> Result<UnitResult, CliError> {
         .map_err(|e| CliError::flag("--seed", format!("unit {seed}: {e}")))?;
     let command = standard();
     let path = flight_path();
-    let mut traces: Vec<Box<MeasuredTrace<HOST_WINDOW>>> = Vec::new();
+    let mut traces: Vec<Box<ConditionedWindow<HOST_WINDOW>>> = Vec::new();
     for (r, &t) in COMMISSIONING_C.iter().enumerate() {
         let rec = record(&unit.params, &FaultVector::HEALTHY, t, flight_seed(seed, r as u64))?;
         let (trace, _) = condition_recording_checked_for(&rec, path, &EmaParams::NOMINAL, &command)?;

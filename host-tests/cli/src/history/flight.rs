@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::health::HealthReport;
 use ema_monitor::monitor::{self as core_monitor, IdentifyConfig, WarmReport};
 use ema_monitor::EmaParams;
@@ -38,7 +38,7 @@ pub struct FlightResult {
     /// What the warm stages did (`None`: a cold flight).
     pub warm: Option<WarmReport>,
     /// The conditioned recording (the evidence of the flight is measured on it).
-    pub trace: Box<MeasuredTrace<HOST_WINDOW>>,
+    pub trace: Box<ConditionedWindow<HOST_WINDOW>>,
 }
 
 /// Identifies one flight's `recording` (named `label` in errors) driven by `command`, as the

@@ -8,7 +8,7 @@
 
 use std::path::{Path, PathBuf};
 
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::effects::ModelEffects;
 use ema_monitor::fitness::MAX_POOLED_RECORDINGS;
 use ema_monitor::monitor::{AcquisitionSummary, IdentifyConfig, MonitorError};
@@ -74,7 +74,7 @@ pub fn run(args: &IdentifyArgs, config: &IdentifyConfig, params: &EmaParams) -> 
         loads.iter().map(|(path, _, load)| (path.as_path(), &load.recording)).collect();
     let model = pooled_model_params(&recordings, params)?;
     let params = &model.params;
-    let mut traces: Vec<Box<MeasuredTrace<HOST_WINDOW>>> = Vec::new();
+    let mut traces: Vec<Box<ConditionedWindow<HOST_WINDOW>>> = Vec::new();
     let mut commands: Vec<ModelCommand> = Vec::new();
     let mut acquired: Vec<AcquisitionSummary> = Vec::new();
     let mut first_load: Option<LoadSummary> = None;
@@ -92,7 +92,7 @@ pub fn run(args: &IdentifyArgs, config: &IdentifyConfig, params: &EmaParams) -> 
         return Err(CliError::usage("give a recording CSV or --firmware-trace PACKED_TRACE"));
     };
     let config = IdentifyConfig { independent_frames_per_block: frames_per_block, ..*config };
-    let refs: Vec<&MeasuredTrace<HOST_WINDOW>> = traces.iter().map(|t| &**t).collect();
+    let refs: Vec<&ConditionedWindow<HOST_WINDOW>> = traces.iter().map(|t| &**t).collect();
     let cores: Vec<Command<'_>> = commands.iter().map(ModelCommand::command).collect();
     let spinner = progress::spinner(format!("identifying {} recordings", files.len()), args.progress.visible());
     let outcome = identify_pooled(&refs, &cores, params, &config).map_err(|e| pooled_error(first_path, &e));

@@ -9,7 +9,7 @@ use std::path::Path;
 use ema_monitor::acquisition::{
     replay_config, AcquisitionError, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, PhaseCurrents, ReplayAdc,
 };
-use ema_monitor::conditioning::{MeasuredTrace, DECIMATION};
+use ema_monitor::conditioning::{ConditionedWindow, DECIMATION};
 use ema_monitor::health::{Abstain, HealthReport, Status};
 use ema_monitor::monitor::{self, IdentifyConfig, ONBOARD_WINDOW};
 use ema_monitor::trace::{PackedTrace, TraceHeader};
@@ -109,7 +109,7 @@ pub fn firmware_trace_outcome_for(
         }
     }
     reader.start_recording();
-    let mut trace = Box::new(MeasuredTrace::<ONBOARD_WINDOW>::new());
+    let mut trace = Box::new(ConditionedWindow::<ONBOARD_WINDOW>::new());
     let acquired = monitor::acquire(&mut reader, &mut trace).map_err(|e| Refusal::new("acquisition", e))?;
     let outcome = run_identification(&trace, params, Command::Profile(*profile), config)
         .map_err(|e| Refusal::new("identification", e))?;

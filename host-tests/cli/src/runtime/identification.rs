@@ -8,7 +8,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use ema_monitor::command::CommandSource;
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::fitness::{PoolError, PooledTrace, MAX_POOLED_RECORDINGS};
 use ema_monitor::health::HealthReport;
 use ema_monitor::monitor::{
@@ -131,7 +131,7 @@ pub fn identify_unit_recording(
 /// Identifies a conditioned trace (any window size) of the actuator `params`, the model driven by
 /// `command` (a profile or a sampled command); `path` names the input in messages.
 pub fn identify_trace<'c, const W: usize>(
-    trace: &MeasuredTrace<W>,
+    trace: &ConditionedWindow<W>,
     params: &EmaParams,
     command: impl CommandSource<'c>,
     config: &IdentifyConfig,
@@ -144,7 +144,7 @@ pub fn identify_trace<'c, const W: usize>(
 /// (`HealthMonitor::diagnose`) runs it,
 /// with the 1σ and detectable-below severities of the reported vector.
 pub fn run_identification<const W: usize>(
-    trace: &MeasuredTrace<W>,
+    trace: &ConditionedWindow<W>,
     params: &EmaParams,
     command: Command<'_>,
     config: &IdentifyConfig,
@@ -196,7 +196,7 @@ pub fn run_to_end<const W: usize, const P: usize>(id: &mut Identification<'_, W,
 /// One trace gives exactly the single-recording identification. At most
 /// [`MAX_POOLED_RECORDINGS`] traces, as many commands as traces.
 pub fn identify_pooled<const W: usize>(
-    traces: &[&MeasuredTrace<W>],
+    traces: &[&ConditionedWindow<W>],
     commands: &[Command<'_>],
     params: &EmaParams,
     config: &IdentifyConfig,

@@ -1,4 +1,4 @@
-//! A recording into the measured trace the core identifies: the checks it passes before it
+//! A recording into the conditioned window the core identifies: the checks it passes before it
 //! drives the monitor model (sample rate, and the command column against the profile), then its
 //! acquisition through the core ([`super::source`]) into a window of [`HOST_WINDOW`] samples.
 //!
@@ -9,7 +9,7 @@
 
 use std::path::Path;
 
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::monitor::AcquisitionSummary;
 use ema_monitor::{EmaParams, Profile};
 
@@ -67,7 +67,7 @@ fn check_for(recording: &Recording, path: &Path, params: &EmaParams, command: &M
 }
 
 /// Checks a recording made under `profile` (read from `path`, used for messages) and conditions it into the
-/// measured trace the core identifies (`I_3eq` block means and weights), every frame as it is:
+/// conditioned window the core identifies (`I_3eq` block means and weights), every frame as it is:
 /// the input of `ema discover`, `ema campaign` and the investigations, which study the model on
 /// recordings whose sensor effects the frame checks would refuse (a sensor offset breaks the sum
 /// rule). `ema identify` conditions through [`condition_recording_checked`].
@@ -76,7 +76,7 @@ pub fn condition_recording(
     path: &Path,
     params: &EmaParams,
     profile: &Profile,
-) -> Result<Box<MeasuredTrace<HOST_WINDOW>>, CliError> {
+) -> Result<Box<ConditionedWindow<HOST_WINDOW>>, CliError> {
     check_recording(recording, path, profile, params)?;
     Ok(acquire_recording(recording, path, FrameChecks::None)?.0)
 }
@@ -87,7 +87,7 @@ pub fn condition_recording_for(
     path: &Path,
     params: &EmaParams,
     command: &ModelCommand,
-) -> Result<Box<MeasuredTrace<HOST_WINDOW>>, CliError> {
+) -> Result<Box<ConditionedWindow<HOST_WINDOW>>, CliError> {
     check_for(recording, path, params, command)?;
     Ok(acquire_recording(recording, path, FrameChecks::None)?.0)
 }
@@ -102,7 +102,7 @@ pub fn condition_recording_checked(
     path: &Path,
     params: &EmaParams,
     profile: &Profile,
-) -> Result<(Box<MeasuredTrace<HOST_WINDOW>>, AcquisitionSummary), CliError> {
+) -> Result<(Box<ConditionedWindow<HOST_WINDOW>>, AcquisitionSummary), CliError> {
     check_recording(recording, path, profile, params)?;
     acquire_recording(recording, path, FrameChecks::OnBoard)
 }
@@ -113,7 +113,7 @@ pub fn condition_recording_checked_for(
     path: &Path,
     params: &EmaParams,
     command: &ModelCommand,
-) -> Result<(Box<MeasuredTrace<HOST_WINDOW>>, AcquisitionSummary), CliError> {
+) -> Result<(Box<ConditionedWindow<HOST_WINDOW>>, AcquisitionSummary), CliError> {
     check_for(recording, path, params, command)?;
     acquire_recording(recording, path, FrameChecks::OnBoard)
 }

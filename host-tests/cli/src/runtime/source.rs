@@ -16,7 +16,7 @@ use std::path::Path;
 use ema_monitor::acquisition::{
     AcquisitionConfig, AcquisitionError, Calibration, FrameCheck, PhaseCurrents, PhaseFrame, SensorCheck,
 };
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::monitor::{self, AcquisitionSummary, MonitorError};
 
 use crate::error::CliError;
@@ -98,15 +98,15 @@ impl PhaseCurrents for RecordingSource<'_> {
 }
 
 /// Every row of `recording` (read from `path`, named in errors) through [`monitor::acquire`]
-/// into a new measured trace of `W` window samples, under `checks`. A frame the window refuses
+/// into a new conditioned window of `W` window samples, under `checks`. A frame the window refuses
 /// names its file line; a window refused when it closes (too short, no excitation) names the file.
 pub fn acquire_recording<const W: usize>(
     recording: &Recording,
     path: &Path,
     checks: FrameChecks,
-) -> Result<(Box<MeasuredTrace<W>>, AcquisitionSummary), CliError> {
+) -> Result<(Box<ConditionedWindow<W>>, AcquisitionSummary), CliError> {
     let mut source = RecordingSource::new(recording, checks).map_err(|e| CliError::input(path, e.to_string()))?;
-    let mut trace = Box::new(MeasuredTrace::<W>::new());
+    let mut trace = Box::new(ConditionedWindow::<W>::new());
     match monitor::acquire(&mut source, &mut trace) {
         Ok(summary) => Ok((trace, summary)),
         // before the end of the data the window refused the last frame read; after it, it

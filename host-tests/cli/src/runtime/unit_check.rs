@@ -16,7 +16,7 @@ use ema_monitor::commissioning::{
     commission, every_phase_shorted, fault_pays_over_unit, BaselineFit, CommissioningFlight, SWARM_ITERATIONS,
     SWARM_PARTICLES,
 };
-use ema_monitor::conditioning::MeasuredTrace;
+use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::health::{Abstain, HealthReport, Status};
 use ema_monitor::monitor::{configured_fit, group_present, IdentifyConfig, FAULT_GROUPS};
 use ema_monitor::unit::{Tolerances, UNIT_PARAM_COUNT};
@@ -43,7 +43,7 @@ pub struct UnitCheck {
 /// with `config`), for a unit known to within `tolerances`: `None` when there is nothing to check
 /// (no fault reported, or tolerances all zero: the unit is exactly its parameters).
 pub fn check_unit<const W: usize>(
-    trace: &MeasuredTrace<W>,
+    trace: &ConditionedWindow<W>,
     params: &EmaParams,
     command: Command<'_>,
     config: &IdentifyConfig,
