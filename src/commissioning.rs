@@ -11,7 +11,7 @@
 //! J(z) = Σ_r n_r·E_r(P_r(z)) / (2·s²) + ½·|z|²,    P_r(z) = apply(base, z) at the temperature T_r
 //! ```
 //!
-//! with `E_r` the fitness of recording `r` ([`CurrentFit::error_of_unit`], healthy faults),
+//! with `E_r` the fitness of recording `r` ([`EquivalentCurrentFit::error_of_unit`], healthy faults),
 //! `n_r` its window samples and `s² = σ² + m²` the noise of a window sample and the monitor
 //! model's structural mismatch ([`MODEL_MISMATCH_A`]). A direction the recordings do not see
 //! stays at the prior's 0 (nominal); one they see moves as far as the data ask.
@@ -35,7 +35,7 @@
 //! recordings against the new baseline before it keeps it.
 
 use crate::faults::FaultVector;
-use crate::fitness::CurrentFit;
+use crate::fitness::EquivalentCurrentFit;
 use crate::health::DEGRADED_AT;
 use crate::model::MonitorModel;
 use crate::monitor::{covariance_noise_a2, window_noise_variance_a2, MODEL_MISMATCH_A};
@@ -77,7 +77,7 @@ pub const OUT_OF_TOLERANCE_CONFIDENCE: f32 = 2.0;
 #[derive(Clone, Copy, Debug)]
 pub struct CommissioningFlight<'f, 'a, const W: usize> {
     /// The fitness of the recording.
-    pub fit: &'f CurrentFit<'a, W>,
+    pub fit: &'f EquivalentCurrentFit<'a, W>,
     /// Its temperature (°C); NaN when unknown: the parameters are taken at 20 °C.
     pub temperature_c: f32,
 }

@@ -13,7 +13,7 @@
 //! only grows: an evaluation can stop as soon as it exceeds the value it must beat
 //! (early abandoning, see [`crate::optimizer::Objective`]).
 //!
-//! **Fast-regime weight** (ours, [`CurrentFit::with_fast_regime_weight`]; the paper's fitness is
+//! **Fast-regime weight** (ours, [`EquivalentCurrentFit::with_fast_regime_weight`]; the paper's fitness is
 //! weight 1): in the step and reversal transients (the healthy model's `|ω_m|` above
 //! [`FAST_REGIME_SPEED_RAD_S`]) the residual is dominated by what the monitor model gets only
 //! approximately (the current through each commutation above the dip onset), not by noise, and
@@ -22,7 +22,7 @@
 //! Their terms are multiplied by `ρ` ([`FAST_REGIME_WEIGHT`] in the monitor's configuration):
 //! `E(k) = (1/n)·Σ_i ρ_i·w_i·r_i²`, `ρ_i = ρ` in the fast regime, 1 elsewhere.
 //!
-//! **Pooled recordings** ([`CurrentFit::pooled_with`]): one fault vector fitted to several
+//! **Pooled recordings** ([`EquivalentCurrentFit::pooled_with`]): one fault vector fitted to several
 //! recordings of one actuator (several flights). Each recording is simulated from rest under its
 //! own command, and the terms of all of them are summed and divided by their total sample count
 //! `n = Σ_r n_r`, so `E` stays a sample-weighted mean in A² and one recording gives exactly the
@@ -45,7 +45,7 @@ use heapless::Vec;
 /// `V_dc/(4k_0)` = 519 rad/s.
 pub const FAST_REGIME_SPEED_RAD_S: f32 = 300.0;
 
-/// The weight `ρ` of a fast-regime sample in the monitor's fitness ([`CurrentFit::with_fast_regime_weight`]).
+/// The weight `ρ` of a fast-regime sample in the monitor's fitness ([`EquivalentCurrentFit::with_fast_regime_weight`]).
 /// 0.1 removes the spurious eccentricities of high short circuits and low gains that the
 /// fast-regime mismatch draws; the price is low eccentricities, whose evidence lies mostly in the
 /// fast regime. The campaigns behind the value are in `docs/decisions/0001-fast-regime-weight.md`.
@@ -60,7 +60,7 @@ pub fn fast_regime_weight_is_valid(weight: f32) -> bool {
 /// ones weigh 1).
 pub const MAX_FAST_INTERVALS: usize = 8;
 
-/// Most recordings one fitness pools ([`CurrentFit::pooled_with`]): the first one and up to
+/// Most recordings one fitness pools ([`EquivalentCurrentFit::pooled_with`]): the first one and up to
 /// `MAX_POOLED_RECORDINGS − 1` more.
 pub const MAX_POOLED_RECORDINGS: usize = 10;
 
@@ -70,7 +70,7 @@ pub const MAX_POOLED_RECORDINGS: usize = 10;
 /// few hundred bytes.
 pub const MAX_POOLED_FAST_INTERVALS: usize = MAX_FAST_INTERVALS + 2 * (MAX_POOLED_RECORDINGS - 1);
 
-/// One more recording of the same actuator for a pooled fitness ([`CurrentFit::pooled_with`]):
+/// One more recording of the same actuator for a pooled fitness ([`EquivalentCurrentFit::pooled_with`]):
 /// a finished conditioned window and the command it was measured under.
 #[derive(Clone, Copy, Debug)]
 pub struct PooledTrace<'a, const W: usize> {
@@ -80,7 +80,7 @@ pub struct PooledTrace<'a, const W: usize> {
     pub command: Command<'a>,
 }
 
-/// Window samples per evidence window ([`CurrentFit::window_errors`]): 100, i.e. 40 ms, about
+/// Window samples per evidence window ([`EquivalentCurrentFit::window_errors`]): 100, i.e. 40 ms, about
 /// one reversal's transient. Longer traces get longer windows so that there are at most
 /// [`MAX_EVIDENCE_WINDOWS`].
 pub const EVIDENCE_WINDOW_SAMPLES: usize = 100;
@@ -100,7 +100,7 @@ pub struct WindowErrors {
     pub samples: usize,
 }
 
-/// The residual sums of one evidence window ([`CurrentFit::residual_windows`]), with
+/// The residual sums of one evidence window ([`EquivalentCurrentFit::residual_windows`]), with
 /// `u_i = √(ρ_i·w_i)·r_i` the weighted residual of sample `i`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct WindowResidual {
@@ -171,7 +171,7 @@ fn run_window_shared<const TERMS: bool>(
 }
 
 /// [`simulate_window_with_effects`] with `sink` compiled into the loop: the objective's hot path
-/// ([`CurrentFit::error_of_unit`]).
+/// ([`EquivalentCurrentFit::error_of_unit`]).
 fn simulate_window_inlined<'c>(
     params: &EmaParams,
     command: impl CommandSource<'c>,
@@ -239,14 +239,15 @@ fn run_window<const TERMS: bool, const SHARED_STEP: bool>(
     }
 }
 
-/// The paper's fitness over a conditioned window: an [`Objective`] over the 8 fault parameters.
+/// The paper's fitness of the equivalent current `I_3eq` (amperes, not "the current one") over a
+/// conditioned window: an [`Objective`] over the 8 fault parameters.
 #[derive(Clone, Debug)]
-pub struct CurrentFit<'a, const W: usize> {
+pub struct EquivalentCurrentFit<'a, const W: usize> {
     trace: &'a ConditionedWindow<W>,
     params: EmaParams,
     command: Command<'a>,
     effects: ModelEffects,
-    /// The recordings pooled after the first ([`CurrentFit::pooled_with`]; empty: one recording).
+    /// The recordings pooled after the first ([`EquivalentCurrentFit::pooled_with`]; empty: one recording).
     more: &'a [PooledTrace<'a, W>],
     /// Window-sample intervals `[start, end)` of the fast regime, in order, indexed over the
     /// recordings in turn (the first one's samples, then the next one's, …).
@@ -280,7 +281,7 @@ impl RegimeWeights<'_> {
     }
 }
 
-impl<'a, const W: usize> CurrentFit<'a, W> {
+impl<'a, const W: usize> EquivalentCurrentFit<'a, W> {
     /// The fitness of the monitor model of `params`, driven by `command` (a [`crate::Profile`] or
     /// a sampled command), against `trace`. Only a finished trace ([`ConditionedWindow::finish`]) has
     /// the weights `w_i` the fitness needs: an unfinished one is refused with
@@ -437,7 +438,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
 
     /// `E(k)` of the monitor model of another unit `params` against the same recordings (with
     /// the fast-regime intervals found for the fitness's own parameters), abandoned as
-    /// [`CurrentFit::error_abandoning`]: the objective of commissioning
+    /// [`EquivalentCurrentFit::error_abandoning`]: the objective of commissioning
     /// ([`crate::commissioning`]), which moves the unit's parameters instead of the faults.
     pub fn error_of_unit(&self, params: &EmaParams, k: &FaultVector, abandon_above: f32) -> f32 {
         let n = self.samples();
@@ -473,7 +474,7 @@ impl<'a, const W: usize> CurrentFit<'a, W> {
     }
 }
 
-/// Why [`CurrentFit::pooled_with`] refused the recordings.
+/// Why [`EquivalentCurrentFit::pooled_with`] refused the recordings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum PoolError {
@@ -512,7 +513,7 @@ fn recordings<'s, 'a: 's, const W: usize>(
     core::iter::once((trace, command)).chain(more.iter().map(|p| (p.trace, &p.command)))
 }
 
-impl<const W: usize> CurrentFit<'_, W> {
+impl<const W: usize> EquivalentCurrentFit<'_, W> {
     /// `E(k)` split over windows of [`EVIDENCE_WINDOW_SAMPLES`] (more when the trace would need
     /// more than [`MAX_EVIDENCE_WINDOWS`]): one model run per recording. Pooled recordings are
     /// windowed in turn, as one long trace.
@@ -573,8 +574,8 @@ impl<const W: usize> CurrentFit<'_, W> {
         self.residual_windows(k, |_, _| {}).0
     }
 
-    /// [`CurrentFit::effective_samples`] of `k` and, from the same model run, the residual sums of
-    /// each evidence window (the windows of [`CurrentFit::window_errors`], which also end at the
+    /// [`EquivalentCurrentFit::effective_samples`] of `k` and, from the same model run, the residual sums of
+    /// each evidence window (the windows of [`EquivalentCurrentFit::window_errors`], which also end at the
     /// end of each pooled recording) handed to `sink(window, sums)` at the window's end: the
     /// goodness-of-fit test's two statistics ([`crate::health::FitCheck`]). Returns `n_eff` and
     /// the number of windows handed to `sink`.
@@ -628,7 +629,7 @@ fn clamp_unit(x: f32, hi: f32) -> f32 {
     }
 }
 
-impl<const W: usize> Objective<FAULT_COUNT> for CurrentFit<'_, W> {
+impl<const W: usize> Objective<FAULT_COUNT> for EquivalentCurrentFit<'_, W> {
     fn cost(&mut self, x: &[f32; FAULT_COUNT], abandon_above: f32) -> f32 {
         self.error_abandoning(&FaultVector(*x), abandon_above)
     }

@@ -228,14 +228,14 @@ pub const FIT_TEST_Z: f32 = 4.753;
 /// residual of the best vector is noise of variance `σ² + m²` per window sample (`σ²` the sensor,
 /// ripple and controller-jitter noise of a block mean, `m` the monitor model's documented
 /// structural mismatch), so with `n_eff` effective samples (AR(1)-corrected,
-/// [`crate::fitness::CurrentFit::effective_samples`]) `T = n_eff·E/(w̄·(σ² + m²))` follows a
+/// [`crate::fitness::EquivalentCurrentFit::effective_samples`]) `T = n_eff·E/(w̄·(σ² + m²))` follows a
 /// chi-square distribution with `n_eff` degrees of freedom, `w̄` the mean sample weight of `E`.
 /// Its normal approximation `z = (T − n_eff)/√(2·n_eff)` above [`FIT_TEST_Z`] rejects the fit.
 ///
 /// **Window by window.** An effect outside the model concentrates its misfit where the
 /// manoeuvre excites it (a compliant transmission in the fast reversal), and averaged over the
 /// whole recording that misfit hides under the noise of the quiet parts. The same hypothesis
-/// holds in every evidence window `j` ([`crate::fitness::CurrentFit::residual_windows`]):
+/// holds in every evidence window `j` ([`crate::fitness::EquivalentCurrentFit::residual_windows`]):
 /// `T_j = ν_j·S_j/(V_j·(σ² + m²))` is chi-square with `ν_j` degrees of freedom, `S_j = Σ ρ_i·w_i·r_i²`
 /// and `V_j = Σ ρ_i·w_i` over the window and `ν_j` its own AR(1)-corrected sample count
 /// ([`window_score`], Wilson–Hilferty). The largest of the `J` window scores is compared with the

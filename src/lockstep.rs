@@ -8,7 +8,7 @@
 
 use crate::command::{AnyCommandCursor, CommandCursor};
 use crate::conditioning::{MeasuredEnvelope, SensorErrorEnvelope, DECIMATION};
-use crate::fitness::CurrentFit;
+use crate::fitness::EquivalentCurrentFit;
 use crate::model::{ModelState, MonitorModel};
 use crate::params::EmaParams;
 
@@ -18,7 +18,7 @@ use crate::params::EmaParams;
 pub(crate) fn lockstep<const M: usize, const W: usize>(
     models: &[MonitorModel; M],
     params: &EmaParams,
-    fit: &CurrentFit<'_, W>,
+    fit: &EquivalentCurrentFit<'_, W>,
     sink: impl FnMut(f32, f32, &[f32; M]),
 ) {
     let terms = models.first().is_some_and(MonitorModel::has_step_terms);
@@ -35,7 +35,7 @@ fn run<const TERMS: bool, const M: usize, const W: usize>(
     models: &[MonitorModel; M],
     params: &EmaParams,
     mut command: AnyCommandCursor<'_>,
-    fit: &CurrentFit<'_, W>,
+    fit: &EquivalentCurrentFit<'_, W>,
     mut sink: impl FnMut(f32, f32, &[f32; M]),
 ) {
     let envelope = MeasuredEnvelope::of(params);

@@ -15,7 +15,7 @@
 //! already shorted; on pbit such a short's bound grows 1.5–1.8× (`docs/results/temperature-cost.md`).
 
 use crate::faults::FaultVector;
-use crate::fitness::CurrentFit;
+use crate::fitness::EquivalentCurrentFit;
 use crate::params::EmaParams;
 
 /// Golden-section steps of [`estimate_temperature_c`]: the bracket shrinks by 0.618 per step,
@@ -26,7 +26,7 @@ pub const TEMPERATURE_SEARCH_STEPS: usize = 15;
 /// unit `params` (at 20 °C) fits `fit`'s recording best ([`TEMPERATURE_SEARCH_STEPS`] + 2
 /// evaluations of the fitness). A fitness that is not unimodal in the temperature gives one of its
 /// local minima; an empty range gives its one temperature.
-pub fn estimate_temperature_c<const W: usize>(fit: &CurrentFit<'_, W>, params: &EmaParams) -> f32 {
+pub fn estimate_temperature_c<const W: usize>(fit: &EquivalentCurrentFit<'_, W>, params: &EmaParams) -> f32 {
     let (mut lo, mut hi) = (params.temperature_min_c, params.temperature_max_c);
     if lo.is_nan() || hi.is_nan() || lo >= hi {
         return lo;
@@ -95,13 +95,13 @@ mod tests {
             Tolerances::TYPICAL.apply(&EmaParams::NOMINAL, &[1.0, -1.0, 1.0, 0.5, 0.0, -1.0, 1.0, 1.0, 0.0, 0.0, 0.5]);
         for (seed, t) in [(1, -40.0f32), (2, -5.0), (3, 35.0), (4, 70.0)] {
             let trace = trace_at(&unit, t, seed);
-            let fit = CurrentFit::new(&trace, unit, Profile::STANDARD).unwrap();
+            let fit = EquivalentCurrentFit::new(&trace, unit, Profile::STANDARD).unwrap();
             let found = estimate_temperature_c(&fit, &unit);
             assert!((found - t).abs() < 5.0, "{t} °C read as {found}");
         }
         let empty = EmaParams { temperature_min_c: 10.0, temperature_max_c: 10.0, ..unit };
         let trace = trace_at(&unit, 20.0, 5);
-        let fit = CurrentFit::new(&trace, unit, Profile::STANDARD).unwrap();
+        let fit = EquivalentCurrentFit::new(&trace, unit, Profile::STANDARD).unwrap();
         assert_eq!(estimate_temperature_c(&fit, &empty), 10.0);
     }
 }

@@ -24,7 +24,7 @@ use ema_monitor::acquisition::{
     SamplerState, SAMPLER_QUEUE,
 };
 use ema_monitor::conditioning::{ConditionedWindow, ConditioningError, DECIMATION};
-use ema_monitor::fitness::{simulate_window, CurrentFit};
+use ema_monitor::fitness::{simulate_window, EquivalentCurrentFit};
 use ema_monitor::health::HealthReport;
 use ema_monitor::model::{ModelState, MonitorModel};
 use ema_monitor::monitor::{self, Identification, IdentifyConfig, MonitorError, ONBOARD_WINDOW};
@@ -481,7 +481,7 @@ fn fitness_zero_at_the_true_vector() -> Result<(), &'static str> {
     let truth = FaultVector([0.3, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.4]);
     let mut t = ConditionedWindow::new();
     self_trace(&truth, &mut t)?;
-    let fit = CurrentFit::new(&t, EmaParams::NOMINAL, Profile::STANDARD).map_err(|_| "trace not finished")?;
+    let fit = EquivalentCurrentFit::new(&t, EmaParams::NOMINAL, Profile::STANDARD).map_err(|_| "trace not finished")?;
     ensure(fit.error(&truth) == 0.0, "nonzero at the truth")?;
     let mut other = truth;
     other.0[7] = 0.6;

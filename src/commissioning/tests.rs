@@ -10,9 +10,9 @@ fn noisy_trace(unit: &EmaParams, temperature_c: f32, seed: u64) -> ConditionedWi
     crate::test_traces::noisy_trace(&unit.at_temperature(temperature_c), &FaultVector::HEALTHY, seed)
 }
 
-fn fit_of<'a>(trace: &'a ConditionedWindow<ONBOARD_WINDOW>) -> CurrentFit<'a, ONBOARD_WINDOW> {
+fn fit_of<'a>(trace: &'a ConditionedWindow<ONBOARD_WINDOW>) -> EquivalentCurrentFit<'a, ONBOARD_WINDOW> {
     let config = IdentifyConfig::onboard();
-    CurrentFit::new(trace, EmaParams::NOMINAL, Profile::STANDARD)
+    EquivalentCurrentFit::new(trace, EmaParams::NOMINAL, Profile::STANDARD)
         .unwrap()
         .with_fast_regime_weight(config.fast_regime_weight)
         .unwrap()
@@ -22,7 +22,7 @@ fn fit_of<'a>(trace: &'a ConditionedWindow<ONBOARD_WINDOW>) -> CurrentFit<'a, ON
 fn commission_unit(unit: &EmaParams, temperatures: [f32; 3], seed: u64) -> Baseline {
     let traces: [ConditionedWindow<ONBOARD_WINDOW>; 3] =
         core::array::from_fn(|r| noisy_trace(unit, temperatures[r], seed * 10 + r as u64));
-    let fits: [CurrentFit<'_, ONBOARD_WINDOW>; 3] = core::array::from_fn(|r| fit_of(&traces[r]));
+    let fits: [EquivalentCurrentFit<'_, ONBOARD_WINDOW>; 3] = core::array::from_fn(|r| fit_of(&traces[r]));
     let flights: [CommissioningFlight<'_, '_, ONBOARD_WINDOW>; 3] =
         core::array::from_fn(|r| CommissioningFlight { fit: &fits[r], temperature_c: temperatures[r] });
     let independent = IdentifyConfig::onboard().independent_frames_per_block;

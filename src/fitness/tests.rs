@@ -21,16 +21,22 @@ fn self_trace(k: &FaultVector) -> ConditionedWindow<2200> {
 #[test]
 fn an_unfinished_trace_is_refused_not_indexed() {
     let mut trace = ConditionedWindow::<2200>::new();
-    assert_eq!(CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).err(), Some(ConditioningError::Finished));
+    assert_eq!(
+        EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).err(),
+        Some(ConditioningError::Finished)
+    );
     for k in 0..(MIN_SAMPLES + 5) * DECIMATION {
         let i = if k % 50 < 25 { 1.0 } else { 2.0 };
         trace.push(i, -i, 0.0).unwrap();
     }
     // samples in, weights not yet computed: still refused
     assert!(!trace.is_empty());
-    assert_eq!(CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).err(), Some(ConditioningError::Finished));
+    assert_eq!(
+        EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).err(),
+        Some(ConditioningError::Finished)
+    );
     trace.finish().unwrap();
-    let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
+    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
     assert!(fit.error(&FaultVector::HEALTHY).is_finite());
 }
 
@@ -38,7 +44,7 @@ fn an_unfinished_trace_is_refused_not_indexed() {
 fn the_true_vector_has_zero_error_and_others_do_not() {
     let truth = FaultVector([0.3, 0.1, 0.0, 0.2, 0.0, 0.0, 0.5, 0.4]);
     let trace = self_trace(&truth);
-    let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
+    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
     assert_eq!(fit.error(&truth), 0.0);
     for i in [0usize, 1, 3, 7] {
         let mut k = truth;
@@ -51,7 +57,7 @@ fn the_true_vector_has_zero_error_and_others_do_not() {
 fn effective_samples_fall_with_a_correlated_residual() {
     let truth = FaultVector::HEALTHY;
     let trace = self_trace(&truth);
-    let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
+    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
     let n = trace.len() as f32;
     // A wrong gain leaves a smooth (strongly correlated) residual: far fewer than n samples.
     let wrong = FaultVector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.3]);
@@ -65,7 +71,7 @@ fn effective_samples_fall_with_a_correlated_residual() {
 fn fast_regime_is_the_step_and_the_reversal_and_weighs_only_there() {
     let truth = FaultVector([0.2, 0.0, 0.0, 0.1, 0.0, 0.0, 0.5, 0.5]);
     let trace = self_trace(&FaultVector::HEALTHY);
-    let paper = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
+    let paper = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
     let ours = paper.clone().with_fast_regime_weight(0.1).unwrap();
     let (intervals, weight) = ours.fast_regime();
     assert_eq!(weight, 0.1);
@@ -97,8 +103,10 @@ fn fast_regime_is_the_step_and_the_reversal_and_weighs_only_there() {
 #[test]
 fn window_errors_split_the_error() {
     let trace = self_trace(&FaultVector::HEALTHY);
-    let fit =
-        CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap().with_fast_regime_weight(0.1).unwrap();
+    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD)
+        .unwrap()
+        .with_fast_regime_weight(0.1)
+        .unwrap();
     let k = FaultVector([0.2, 0.0, 0.0, 0.1, 0.0, 0.0, 0.5, 0.45]);
     let w = fit.window_errors(&k);
     assert_eq!((w.window_samples, w.samples), (EVIDENCE_WINDOW_SAMPLES, trace.len()));
@@ -114,16 +122,20 @@ fn pooled_recordings_weigh_by_samples_and_one_recording_is_unchanged() {
     let (a, b) =
         (self_trace(&FaultVector::HEALTHY), self_trace(&FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5])));
     let k = FaultVector([0.1, 0.0, 0.0, 0.1, 0.0, 0.0, 0.5, 0.45]);
-    let single =
-        CurrentFit::new(&a, EmaParams::NOMINAL, Profile::STANDARD).unwrap().with_fast_regime_weight(0.1).unwrap();
+    let single = EquivalentCurrentFit::new(&a, EmaParams::NOMINAL, Profile::STANDARD)
+        .unwrap()
+        .with_fast_regime_weight(0.1)
+        .unwrap();
     let none: [PooledTrace<'_, 2200>; 0] = [];
     let same = single.clone().pooled_with(&none).unwrap();
     assert_eq!(same.error(&k).to_bits(), single.error(&k).to_bits());
     assert_eq!(same.window_errors(&k), single.window_errors(&k));
     assert_eq!(same.effective_samples(&k).to_bits(), single.effective_samples(&k).to_bits());
     // two recordings: E is the sample-weighted mean of the two, n_eff their sum
-    let fit_b =
-        CurrentFit::new(&b, EmaParams::NOMINAL, Profile::STANDARD).unwrap().with_fast_regime_weight(0.1).unwrap();
+    let fit_b = EquivalentCurrentFit::new(&b, EmaParams::NOMINAL, Profile::STANDARD)
+        .unwrap()
+        .with_fast_regime_weight(0.1)
+        .unwrap();
     let more = [PooledTrace { trace: &b, command: Command::Profile(Profile::STANDARD) }];
     let both = single.clone().pooled_with(&more).unwrap();
     assert_eq!(both.recording_count(), 2);
@@ -153,7 +165,7 @@ fn pooled_recordings_weigh_by_samples_and_one_recording_is_unchanged() {
 #[test]
 fn abandoning_returns_above_the_bound_or_the_exact_value() {
     let trace = self_trace(&FaultVector::HEALTHY);
-    let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
+    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
     let k = FaultVector([0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.8]);
     let exact = fit.error(&k);
     assert!(exact > 0.0);

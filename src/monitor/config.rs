@@ -6,7 +6,7 @@ use crate::conditioning::ConditionedWindow;
 use crate::conditioning::DECIMATION;
 use crate::effects::ModelEffects;
 use crate::faults::{FaultVector, FAULT_COUNT};
-use crate::fitness::{CurrentFit, FAST_REGIME_WEIGHT};
+use crate::fitness::{EquivalentCurrentFit, FAST_REGIME_WEIGHT};
 use crate::optimizer::pattern::PatternConfig;
 use crate::optimizer::Bounds;
 use crate::{Command, EmaParams};
@@ -142,8 +142,8 @@ pub fn configured_fit<'a, const W: usize>(
     params: EmaParams,
     command: impl Into<Command<'a>>,
     config: &IdentifyConfig,
-) -> Result<CurrentFit<'a, W>, MonitorError> {
-    CurrentFit::new(trace, params, command)?
+) -> Result<EquivalentCurrentFit<'a, W>, MonitorError> {
+    EquivalentCurrentFit::new(trace, params, command)?
         .with_effects(config.effects)
         .with_fast_regime_weight(config.fast_regime_weight)
         .ok_or(MonitorError::FastRegimeWeight)

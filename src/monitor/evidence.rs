@@ -3,7 +3,7 @@
 //! one flight is found after a few (`docs/decisions/0020-evidence-over-flights.md`).
 //!
 //! **One flight** ([`flight_evidence`]). With Gaussian residuals of `n` effective samples
-//! ([`CurrentFit::effective_samples`], the count model selection uses), the log-likelihood ratio
+//! ([`EquivalentCurrentFit::effective_samples`], the count model selection uses), the log-likelihood ratio
 //! of the diagnosis with mode `m` against the diagnosis without it is
 //!
 //! ```text
@@ -50,7 +50,7 @@ use super::groups::{group_present, without_group, FAULT_GROUPS};
 use super::identification::Identification;
 use crate::conditioning::ConditionedWindow;
 use crate::faults::{FaultVector, FAULT_COUNT};
-use crate::fitness::CurrentFit;
+use crate::fitness::EquivalentCurrentFit;
 use crate::health::{FaultMode, HealthReport};
 use crate::persist::HealthRecord;
 use crate::{Command, EmaParams};
@@ -254,7 +254,11 @@ fn quadratic_min(e0: f32, (a, ea): (f32, f32), (b, eb): (f32, f32), lo: f32, hi:
 
 /// One flight's evidence per mode (module doc) from the fitness `fit` the diagnosis `k` of cost
 /// `cost` was fitted on: at most [`MAX_FLIGHT_EVALUATIONS`] evaluations.
-pub fn flight_evidence<const W: usize>(fit: &CurrentFit<'_, W>, k: &FaultVector, cost: f32) -> FlightEvidence {
+pub fn flight_evidence<const W: usize>(
+    fit: &EquivalentCurrentFit<'_, W>,
+    k: &FaultVector,
+    cost: f32,
+) -> FlightEvidence {
     let n = fit.effective_samples(k);
     let mut evaluations = 1u32;
     let mut eval = |x: &[f32; FAULT_COUNT]| {
@@ -393,7 +397,7 @@ impl PooledFlight {
 /// no diagnosis, or no fitness, adds the flight as it is and no evidence: `None`.
 pub fn record_flight<const W: usize>(
     record: &mut HealthRecord,
-    fit: Option<&CurrentFit<'_, W>>,
+    fit: Option<&EquivalentCurrentFit<'_, W>>,
     params: &EmaParams,
     report: &HealthReport,
     cold: bool,
@@ -495,7 +499,7 @@ fn golden(f: &mut impl FnMut(f32) -> f32, lo: f32, hi: f32, evaluations: u32) ->
 /// its cost and the evaluations spent (at most [`MAX_REFIT_EVALUATIONS`]); `k` and `cost` when
 /// nothing lowers the cost.
 pub fn refit_mode<const W: usize>(
-    fit: &CurrentFit<'_, W>,
+    fit: &EquivalentCurrentFit<'_, W>,
     k: &FaultVector,
     cost: f32,
     mode: usize,

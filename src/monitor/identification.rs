@@ -13,7 +13,7 @@ use super::MODEL_MISMATCH_A;
 use crate::command::Command;
 use crate::conditioning::{ConditionedWindow, ConditioningError, DECIMATION};
 use crate::faults::{FaultVector, FAULT_COUNT};
-use crate::fitness::{CurrentFit, PooledTrace};
+use crate::fitness::{EquivalentCurrentFit, PooledTrace};
 use crate::health::{window_score, Abstain, FitCheck, HealthReport, Status as HealthStatus};
 #[cfg(feature = "de")]
 use crate::optimizer::de::{DeConfig, DifferentialEvolution};
@@ -181,7 +181,7 @@ fn warm_start_point(prior: &[f32; FAULT_COUNT]) -> Result<[f32; FAULT_COUNT], Mo
 /// One fault identification in progress: `W` window samples, `P` individuals.
 #[derive(Clone, Debug)]
 pub struct Identification<'a, const W: usize, const P: usize> {
-    pub(super) fit: CurrentFit<'a, W>,
+    pub(super) fit: EquivalentCurrentFit<'a, W>,
     solver: Solver<P>,
     pub(super) params: EmaParams,
     pub(super) config: IdentifyConfig,
@@ -274,7 +274,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     }
 
     /// The same identification with `more` recordings of the same actuator pooled after the
-    /// first: one fault vector fitted to all of them ([`CurrentFit::pooled_with`]). Call it before
+    /// first: one fault vector fitted to all of them ([`EquivalentCurrentFit::pooled_with`]). Call it before
     /// the first [`Identification::step`].
     pub fn pooled_with(mut self, more: &'a [PooledTrace<'a, W>]) -> Result<Self, MonitorError> {
         self.fit = self.fit.pooled_with(more).map_err(MonitorError::Pool)?;
@@ -475,7 +475,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     }
 
     /// The fitness being minimised (to evaluate other vectors against the same trace).
-    pub fn fitness(&self) -> &CurrentFit<'a, W> {
+    pub fn fitness(&self) -> &EquivalentCurrentFit<'a, W> {
         &self.fit
     }
 

@@ -59,7 +59,7 @@ use super::verdict::{window_noise_variance_a2, MODEL_MISMATCH_A};
 use crate::command::Command;
 use crate::conditioning::ConditionedWindow;
 use crate::faults::{FaultVector, FAULT_COUNT};
-use crate::fitness::{CurrentFit, EVIDENCE_WINDOW_SAMPLES};
+use crate::fitness::{EquivalentCurrentFit, EVIDENCE_WINDOW_SAMPLES};
 use crate::health::{lag_correlation, HealthReport, Uncertainty};
 use crate::model::MonitorModel;
 use crate::params::EmaParams;
@@ -106,7 +106,7 @@ pub struct Fisher {
     pub steps: [f32; FAULT_COUNT],
     /// The fitness `E` at `k` (A²).
     pub error: f32,
-    /// Effective samples of the residual at `k` (AR(1), as [`CurrentFit::effective_samples`]).
+    /// Effective samples of the residual at `k` (AR(1), as [`EquivalentCurrentFit::effective_samples`]).
     pub effective_samples: f32,
     /// Window samples.
     pub samples: usize,
@@ -125,7 +125,7 @@ impl Fisher {
     /// The sensitivities of `fit` (the monitor model of `params` against its trace) at `k`: one
     /// lockstep run of 9 models (module doc). Groups present in `k` ([`group_present`]) are the
     /// free parameters; the others are stepped up from healthy.
-    pub fn at<const W: usize>(fit: &CurrentFit<'_, W>, params: &EmaParams, k: &FaultVector) -> Self {
+    pub fn at<const W: usize>(fit: &EquivalentCurrentFit<'_, W>, params: &EmaParams, k: &FaultVector) -> Self {
         let present: [bool; FAULT_GROUPS.len()] = core::array::from_fn(|g| group_present(&k.0, FAULT_GROUPS[g]));
         let eccentric = present[5];
         let mut steps = [FISHER_STEP; FAULT_COUNT];
@@ -346,7 +346,7 @@ pub fn covariance_noise_a2(params: &EmaParams, independent_frames: f32) -> f32 {
 /// The uncertainty of `k` on the recording of `fit`: its [`Fisher`] sums (9 model runs), the 1σ
 /// for the noise of [`covariance_noise_a2`] and the detectable-below severities.
 pub fn uncertainty_at<const W: usize>(
-    fit: &CurrentFit<'_, W>,
+    fit: &EquivalentCurrentFit<'_, W>,
     params: &EmaParams,
     k: &FaultVector,
     independent_frames: f32,
@@ -527,8 +527,11 @@ mod tests {
         t
     }
 
-    fn fit_of(t: &ConditionedWindow<ONBOARD_WINDOW>) -> CurrentFit<'_, ONBOARD_WINDOW> {
-        CurrentFit::new(t, EmaParams::NOMINAL, Profile::STANDARD).unwrap().with_fast_regime_weight(0.1).unwrap()
+    fn fit_of(t: &ConditionedWindow<ONBOARD_WINDOW>) -> EquivalentCurrentFit<'_, ONBOARD_WINDOW> {
+        EquivalentCurrentFit::new(t, EmaParams::NOMINAL, Profile::STANDARD)
+            .unwrap()
+            .with_fast_regime_weight(0.1)
+            .unwrap()
     }
 
     #[test]

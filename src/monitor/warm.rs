@@ -40,7 +40,7 @@ use super::identification::Identification;
 use super::selection::group_pays;
 use super::stage::{Selection, Stage, WarmStage};
 use crate::faults::{FaultVector, FAULT_COUNT};
-use crate::fitness::CurrentFit;
+use crate::fitness::EquivalentCurrentFit;
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
 use crate::optimizer::{Bounds, Objective, Optimizer, SearchStatus, TerminationReason};
 
@@ -199,7 +199,7 @@ fn present_free(k: &[f32; FAULT_COUNT]) -> [bool; FAULT_COUNT] {
 /// search's best point and cost once it is done.
 fn step_counted<const W: usize>(
     search: &mut PatternSearch<FAULT_COUNT>,
-    fit: &mut CurrentFit<'_, W>,
+    fit: &mut EquivalentCurrentFit<'_, W>,
     evaluations: &mut u32,
 ) -> Option<([f32; FAULT_COUNT], f32)> {
     let before = search.evaluations();

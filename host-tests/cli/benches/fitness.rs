@@ -3,7 +3,7 @@
 //!
 //! `cd host-tests && cargo bench -p ema-cli --bench fitness`: the reference model records the
 //! standard manoeuvre with the built-in trace's fault (friction k1 = 0.25, noise seed 1), conditioned
-//! like `ema identify`; criterion times [`CurrentFit::error`] (the on-board fitness, fast regime
+//! like `ema identify`; criterion times [`EquivalentCurrentFit::error`] (the on-board fitness, fast regime
 //! weighted by [`FAST_REGIME_WEIGHT`], no early abandoning) at the true vector and at a vector with
 //! eccentricity (its shape function costs a sine and cosine of the rotor angle per step). Compare
 //! two builds with criterion's baselines: `-- --save-baseline before`, then `-- --baseline before`.
@@ -14,7 +14,7 @@ use std::path::Path;
 use criterion::{criterion_group, criterion_main, Criterion};
 use ema_cli::identify::condition_recording;
 use ema_cli::recording::Recording;
-use ema_monitor::fitness::{CurrentFit, FAST_REGIME_WEIGHT};
+use ema_monitor::fitness::{EquivalentCurrentFit, FAST_REGIME_WEIGHT};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 
@@ -24,7 +24,7 @@ fn bench(c: &mut Criterion) {
     let recording = Recording::from_reference(&rec, Vec::new());
     let trace = condition_recording(&recording, Path::new("standard.csv"), &EmaParams::NOMINAL, &Profile::STANDARD)
         .expect("conditions");
-    let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD)
+    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD)
         .expect("a conditioned trace is finished")
         .with_fast_regime_weight(FAST_REGIME_WEIGHT)
         .expect("the on-board weight is valid");

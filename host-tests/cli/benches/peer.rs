@@ -16,7 +16,7 @@
 //!    - **argmin PSO as shipped**: `argmin::solver::particleswarm::ParticleSwarm` 0.11 with its defaults
 //!      (SPSO 2011 coefficients, uniform random start in the box, clamping), 50 particles, `max_iters` 29 or
 //!      199 (argmin's initial sweep is not an iteration: 50 + 29·50 = 1 500 and 50 + 199·50 = 10 000
-//!      evaluations), seeded `Xoshiro256PlusPlus::seed_from_u64(seed)`; it calls [`CurrentFit`] in `f64`
+//!      evaluations), seeded `Xoshiro256PlusPlus::seed_from_u64(seed)`; it calls [`EquivalentCurrentFit`] in `f64`
 //!      through a thin adapter that rounds to `f32` and brings the point into our box ([`fault_bounds`]);
 //!    - **argmin PSO, our objective and seeds**: the same argmin solver given our start (the basin seeds as
 //!      its first particles) and our early-abandoning objective ([`ArgminFit`]);
@@ -46,7 +46,7 @@ use criterion::Criterion;
 use ema_cli::identify::{condition_recording, identify_trace, HOST_WINDOW};
 use ema_cli::recording::Recording;
 use ema_monitor::conditioning::ConditionedWindow;
-use ema_monitor::fitness::{CurrentFit, FAST_REGIME_WEIGHT};
+use ema_monitor::fitness::{EquivalentCurrentFit, FAST_REGIME_WEIGHT};
 use ema_monitor::monitor::{
     fault_bounds, starting_guesses, Algorithm, Identification, IdentifyConfig, ONBOARD_MAX_ITERATIONS,
     ONBOARD_POPULATION,
@@ -126,10 +126,10 @@ fn ours(
     }
 }
 
-/// The objective every method solves: the on-board fitness, [`CurrentFit`] with the fast regime
+/// The objective every method solves: the on-board fitness, [`EquivalentCurrentFit`] with the fast regime
 /// weighted by [`FAST_REGIME_WEIGHT`] (`IdentifyConfig::default()`'s).
-fn objective(trace: &ConditionedWindow<HOST_WINDOW>) -> CurrentFit<'_, HOST_WINDOW> {
-    CurrentFit::new(trace, EmaParams::NOMINAL, Profile::STANDARD)
+fn objective(trace: &ConditionedWindow<HOST_WINDOW>) -> EquivalentCurrentFit<'_, HOST_WINDOW> {
+    EquivalentCurrentFit::new(trace, EmaParams::NOMINAL, Profile::STANDARD)
         .expect("a conditioned trace is finished")
         .with_fast_regime_weight(FAST_REGIME_WEIGHT)
         .expect("the on-board weight is valid")
@@ -145,7 +145,7 @@ fn to_fault_vector(p: &[f64]) -> FaultVector {
     FaultVector(x)
 }
 
-/// [`CurrentFit`] as an argmin cost function (`f64` in and out), counting its calls.
+/// [`EquivalentCurrentFit`] as an argmin cost function (`f64` in and out), counting its calls.
 ///
 /// With `particle_best` it abandons early as our swarm does: argmin evaluates the swarm in a fixed
 /// particle order after its initial sweep ([`argmin_pso`] hands it the evaluated initial swarm), so
@@ -153,7 +153,7 @@ fn to_fault_vector(p: &[f64]) -> FaultVector {
 /// particle's best cost. The returned partial sum is then above the particle's best, so argmin keeps
 /// the same personal and global bests as with the full cost.
 struct ArgminFit<'a> {
-    fit: CurrentFit<'a, HOST_WINDOW>,
+    fit: EquivalentCurrentFit<'a, HOST_WINDOW>,
     calls: &'a Cell<u64>,
     particle_best: Option<RefCell<Vec<f32>>>,
 }

@@ -15,7 +15,7 @@
 
 use clap::{Args, ValueEnum};
 use ema_monitor::conditioning::{ConditionedWindow, MeasuredEnvelope, DECIMATION};
-use ema_monitor::fitness::CurrentFit;
+use ema_monitor::fitness::EquivalentCurrentFit;
 use ema_monitor::model::{ModelState, MonitorModel};
 use ema_monitor::profile::ProfileCursor;
 use ema_monitor::{EmaParams, FaultVector, Profile};
@@ -176,7 +176,7 @@ pub fn compare_case(
             pos_n += 1;
         }
     }
-    let fit = CurrentFit::new(&*trace, params, profile).map_err(|e| CliError::Simulation(e.to_string()))?;
+    let fit = EquivalentCurrentFit::new(&*trace, params, profile).map_err(|e| CliError::Simulation(e.to_string()))?;
     let rms = |s: f64, n: usize| if n == 0 { 0.0 } else { (s / n as f64).sqrt() };
     Ok(CaseResult {
         name: name.to_string(),

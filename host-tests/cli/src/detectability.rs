@@ -18,7 +18,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use clap::Args;
-use ema_monitor::fitness::{CurrentFit, FAST_REGIME_WEIGHT};
+use ema_monitor::fitness::{EquivalentCurrentFit, FAST_REGIME_WEIGHT};
 use ema_monitor::health::{FaultMode, HealthReport, Uncertainty};
 use ema_monitor::monitor::{covariance_noise_a2, window_noise_variance_a2, Fisher, IdentifyConfig};
 use ema_monitor::{EmaParams, FaultVector, Profile, FAULT_COUNT};
@@ -139,7 +139,7 @@ pub fn case(
     let label = PathBuf::from(format!("detectability case {name}"));
     let trace = condition_recording(&recording, &label, params, profile)?;
     let frames = IdentifyConfig::default().independent_frames_per_block;
-    let fit = CurrentFit::new(&trace, *params, *profile)
+    let fit = EquivalentCurrentFit::new(&trace, *params, *profile)
         .map_err(|e| CliError::Simulation(e.to_string()))?
         .with_fast_regime_weight(FAST_REGIME_WEIGHT)
         .ok_or_else(|| CliError::Simulation("fast-regime weight refused".into()))?;

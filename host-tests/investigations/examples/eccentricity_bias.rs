@@ -51,7 +51,7 @@ use std::path::Path;
 
 use ema_cli::identify::condition_recording;
 use ema_cli::recording::Recording;
-use ema_monitor::fitness::{simulate_window, CurrentFit};
+use ema_monitor::fitness::{simulate_window, EquivalentCurrentFit};
 use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
@@ -136,7 +136,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let recording = Recording::from_reference(&rec, Vec::new());
             let label = format!("ecc {k6} {k7}");
             let trace = condition_recording(&recording, Path::new(&label), &params, &profile)?;
-            let fit = CurrentFit::new(&trace, params, profile)?.with_fast_regime_weight(weight).ok_or("weight")?;
+            let fit =
+                EquivalentCurrentFit::new(&trace, params, profile)?.with_fast_regime_weight(weight).ok_or("weight")?;
             let e = |a: f32, b: f32| fit.error(&vector(a, b));
             let (best, ba, bb) = minimise(e);
             // The signature alone: the recording's departure from the healthy recording against

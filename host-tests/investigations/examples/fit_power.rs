@@ -22,7 +22,7 @@ use ema_cli::campaign::{plan, CampaignArgs};
 use ema_cli::identify::{condition_recording, identify_trace, AlgorithmArg};
 use ema_cli::recording::Recording;
 use ema_cli::simulate::parse_effects;
-use ema_monitor::fitness::{simulate_window, CurrentFit};
+use ema_monitor::fitness::{simulate_window, EquivalentCurrentFit};
 use ema_monitor::monitor::{window_noise_variance_a2, Algorithm, IdentifyConfig, MODEL_MISMATCH_A};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
@@ -95,7 +95,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let trace = condition_recording(&recording, Path::new(&label), &EmaParams::NOMINAL, &profile)?;
         let id = IdentifyConfig { algorithm: Algorithm::Pso, seed: 1, ..IdentifyConfig::default() };
         let outcome = identify_trace(&trace, &EmaParams::NOMINAL, &profile, &id, Path::new(&label))?;
-        let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, profile)?
+        let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, profile)?
             .with_fast_regime_weight(id.fast_regime_weight)
             .ok_or("weight")?;
         let (intervals, weight) = fit.fast_regime();

@@ -1,6 +1,6 @@
 //! Where one fault vector fits a recording better than another, 40 ms window by window: the
 //! on-board fitness `E` (fast regime weighted as on board) split over the evidence windows
-//! ([`ema_monitor::fitness::CurrentFit::window_errors`]), and each window's gain `E_A − E_B`.
+//! ([`ema_monitor::fitness::EquivalentCurrentFit::window_errors`]), and each window's gain `E_A − E_B`.
 //! It is what the firmware's window check ([`ema_monitor::monitor::helps_without_its_best_window`])
 //! weighs: a group whose gain comes from one window alone is dropped.
 //!
@@ -18,7 +18,7 @@ use std::path::Path;
 use ema_cli::identify::condition_recording;
 use ema_cli::recording::read_recording;
 use ema_cli::simulate::parse_faults;
-use ema_monitor::fitness::{CurrentFit, FAST_REGIME_WEIGHT};
+use ema_monitor::fitness::{EquivalentCurrentFit, FAST_REGIME_WEIGHT};
 use ema_monitor::monitor::WINDOW_GAIN_SHARE;
 use ema_monitor::{EmaParams, Profile};
 
@@ -30,7 +30,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let recording = read_recording(file)?;
     let trace = condition_recording(&recording, Path::new(file), &EmaParams::NOMINAL, &Profile::STANDARD)?;
-    let fit = CurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD)?
+    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD)?
         .with_fast_regime_weight(FAST_REGIME_WEIGHT)
         .ok_or("fast-regime weight")?;
     let (k_a, k_b) = (parse_faults(a)?, parse_faults(b)?);

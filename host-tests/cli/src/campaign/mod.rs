@@ -19,7 +19,7 @@
 //! - the sensor-noise seed of the reference model and the optimizer's seed come from the same draw;
 //! - `--flights N`: each run records the same fault vector N times (same manoeuvre, the sensor
 //!   noise of flight `f > 0` seeded by [`flight_seed`]) and identifies the N recordings together
-//!   with the pooled fitness (`CurrentFit::pooled_with`, as `ema identify A.csv B.csv …` does),
+//!   with the pooled fitness (`EquivalentCurrentFit::pooled_with`, as `ema identify A.csv B.csv …` does),
 //!   so the cell measures what pooling evidence over flights buys.
 //!
 //! **Noise off.** `--noise off` is the paper's conditions: the recordings carry no sensor noise,

@@ -3,7 +3,7 @@
 //! report's "not detectable below" bounds read against the truth.
 
 use ema_monitor::conditioning::ConditionedWindow;
-use ema_monitor::fitness::{CurrentFit, PooledTrace};
+use ema_monitor::fitness::{EquivalentCurrentFit, PooledTrace};
 use ema_monitor::health::{HealthReport, Uncertainty};
 use ema_monitor::monitor::{group_pays, group_present, without_group, IdentifyConfig, FAULT_GROUPS};
 use ema_monitor::{EmaParams, FaultVector, Profile};
@@ -107,7 +107,7 @@ pub fn detectability_floor_pooled<'a, const W: usize>(
     config: &IdentifyConfig,
     truth: &FaultVector,
 ) -> FaultVector {
-    let Some(fit) = CurrentFit::new(trace, *params, *profile)
+    let Some(fit) = EquivalentCurrentFit::new(trace, *params, *profile)
         .ok()
         .map(|fit| fit.with_effects(config.effects))
         .and_then(|fit| fit.with_fast_regime_weight(config.fast_regime_weight))

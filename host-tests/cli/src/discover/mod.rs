@@ -17,7 +17,7 @@
 //!    and a polish) on alternate 25 ms chunks of the recording, and scored on the held-out chunks:
 //!    `ΔBIC = n_eff·ln(E_before/E_after) − Δp·ln(n_eff)` on each part (`Δp` the change in free
 //!    parameters, `n_eff` the residual's effective sample count,
-//!    [`CurrentFit::effective_samples`]). An effect is named only when the held-out ΔBIC exceeds
+//!    [`EquivalentCurrentFit::effective_samples`]). An effect is named only when the held-out ΔBIC exceeds
 //!    [`BIC_STRONG`] (Kass & Raftery's "very strong") and the in-sample one [`BIC_FIT_STRONG`]
 //!    ("strong"; for an effect that replaces faults: a fit of the fit part at least as good as the
 //!    reference's, [`Candidate::fit_gain`]), the fitted severity is neither negligible nor at its
@@ -63,7 +63,7 @@ use std::time::Instant;
 use clap::Args;
 use ema_monitor::command::CommandSource;
 use ema_monitor::conditioning::ConditionedWindow;
-use ema_monitor::fitness::CurrentFit;
+use ema_monitor::fitness::EquivalentCurrentFit;
 use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::{Command, EffectId, EmaParams, FaultVector, ModelEffects};
 use indicatif::ProgressBar;
@@ -211,7 +211,7 @@ fn discover_in_pool<const W: usize>(
     let regimes = regimes(&series_before);
     let orders = orders(&series_before);
     // 3. name: the reference (no effect) fitted on the fit part like every candidate
-    let fit = CurrentFit::new(trace, *params, *profile).map_err(|e| CliError::Simulation(e.to_string()))?;
+    let fit = EquivalentCurrentFit::new(trace, *params, *profile).map_err(|e| CliError::Simulation(e.to_string()))?;
     let n_eff_part = 0.5 * f64::from(fit.effective_samples(&before.k));
     let mut on: Vec<EffectId> = Vec::new();
     let mut named = Vec::new();

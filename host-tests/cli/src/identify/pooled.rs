@@ -1,5 +1,5 @@
 //! `ema identify A.csv B.csv …`: one fault vector fitted to several recordings of one actuator
-//! (several flights), with the core's pooled fitness ([`ema_monitor::fitness::CurrentFit::pooled_with`]):
+//! (several flights), with the core's pooled fitness ([`ema_monitor::fitness::EquivalentCurrentFit::pooled_with`]):
 //! each recording is simulated from rest under its own command and the errors are combined
 //! sample-weighted, so model selection's price is paid once for the evidence of every flight.
 //!
