@@ -230,8 +230,9 @@ impl Fisher {
     /// mode of [`crate::health::FaultMode::ALL`], for the modes whose groups are all absent
     /// (`None` for a mode found): `s_min + z·σ`, `s_min` the severity whose expected gain just
     /// pays the information criterion (kept half the time), `σ` the group's 1σ from `sigma`
-    /// ([`Fisher::sigma`]), `z` = 1.645 (`DETECTION_Z`). Severity units: `k1`, `k2`, the worst phase's
-    /// `k3..k5`, `k6`, and `2·|k8 − 0.5|` for the gain.
+    /// ([`Fisher::sigma`]), `z` = 1.645 (`DETECTION_Z`); with every `σ` zero, `s_min` itself.
+    /// Severity units: `k1`, `k2`, the worst phase's `k3..k5`, `k6`, and `2·|k8 − 0.5|` for the
+    /// gain.
     pub fn detectable_below(&self, sigma: &[f32; FAULT_COUNT]) -> [Option<f32>; 5] {
         let (free, d) = self.free();
         let n = self.samples as f32;
