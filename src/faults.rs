@@ -15,15 +15,254 @@
 //! Effect of a short circuit on phase j (`docs/model.md`): `R_j = R_0·(1−s_j)`, `L_j = L_0·(1−s_j)²`,
 //! `k_j = k_0·(1−s_j)`. Eccentricity (first-order, per-phase form, `docs/model.md`):
 //! `k_j(θ_m) = k_0·(1−s_j)·[1 + ζ·cos(θ_m − φ − j·2π/3)]`.
+//!
+//! Three index spaces name the faults, each a type with its names: a [`FaultParam`] is one
+//! element of `k`; a [`FaultGroup`] is the parameters that appear and disappear together (what
+//! model selection tests: each parameter alone, the eccentricity's magnitude with its phase); a
+//! [`FaultMode`] is what the health report gives a condition (the three phases' shorts are one
+//! short circuit). Every name and key the reports, files and command line use is here.
 
 use crate::params::EmaParams;
 
 /// Number of fault parameters in the vector.
 pub const FAULT_COUNT: usize = 8;
 
-/// Short names of the fault parameters, in vector order (used in reports, CSV and JSON).
-pub const FAULT_NAMES: [&str; FAULT_COUNT] =
-    ["friction", "backlash", "short_a", "short_b", "short_c", "eccentricity", "ecc_phase", "gain"];
+/// One parameter of the fault vector `k`, in vector order: [`FaultParam::index`] is its index
+/// in `k` (and in every per-parameter array).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FaultParam {
+    /// `k1`, dry friction.
+    Friction,
+    /// `k2`, backlash.
+    Backlash,
+    /// `k3`, partial short circuit of phase A.
+    ShortA,
+    /// `k4`, partial short circuit of phase B.
+    ShortB,
+    /// `k5`, partial short circuit of phase C.
+    ShortC,
+    /// `k6`, rotor static eccentricity, magnitude.
+    Eccentricity,
+    /// `k7`, the eccentricity's phase (not a severity).
+    EccentricityPhase,
+    /// `k8`, proportional gain drift.
+    GainDrift,
+}
+
+impl FaultParam {
+    /// All parameters in vector order.
+    pub const ALL: [FaultParam; FAULT_COUNT] = [
+        FaultParam::Friction,
+        FaultParam::Backlash,
+        FaultParam::ShortA,
+        FaultParam::ShortB,
+        FaultParam::ShortC,
+        FaultParam::Eccentricity,
+        FaultParam::EccentricityPhase,
+        FaultParam::GainDrift,
+    ];
+
+    /// The parameter's index in the fault vector.
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Machine key, as CSV columns, JSON fields and `--simulate` laws spell it: `friction`,
+    /// `backlash`, `short_a`, `short_b`, `short_c`, `eccentricity`, `ecc_phase`, `gain`.
+    pub const fn key(self) -> &'static str {
+        match self {
+            FaultParam::Friction => "friction",
+            FaultParam::Backlash => "backlash",
+            FaultParam::ShortA => "short_a",
+            FaultParam::ShortB => "short_b",
+            FaultParam::ShortC => "short_c",
+            FaultParam::Eccentricity => "eccentricity",
+            FaultParam::EccentricityPhase => "ecc_phase",
+            FaultParam::GainDrift => "gain",
+        }
+    }
+
+    /// The group the parameter appears and disappears with.
+    pub const fn group(self) -> FaultGroup {
+        match self {
+            FaultParam::Friction => FaultGroup::Friction,
+            FaultParam::Backlash => FaultGroup::Backlash,
+            FaultParam::ShortA => FaultGroup::ShortA,
+            FaultParam::ShortB => FaultGroup::ShortB,
+            FaultParam::ShortC => FaultGroup::ShortC,
+            FaultParam::Eccentricity | FaultParam::EccentricityPhase => FaultGroup::Eccentricity,
+            FaultParam::GainDrift => FaultGroup::GainDrift,
+        }
+    }
+}
+
+/// The parameters of the fault vector that appear and disappear together: what model selection
+/// tests, the probes of a warm start look for and the uncertainty reports on. Each group is one
+/// parameter, except the eccentricity: its magnitude and its phase.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FaultGroup {
+    /// Dry friction, `k1`.
+    Friction,
+    /// Backlash, `k2`.
+    Backlash,
+    /// Short circuit of phase A, `k3`.
+    ShortA,
+    /// Short circuit of phase B, `k4`.
+    ShortB,
+    /// Short circuit of phase C, `k5`.
+    ShortC,
+    /// Eccentricity, magnitude and phase, `k6` and `k7`.
+    Eccentricity,
+    /// Gain drift, `k8`.
+    GainDrift,
+}
+
+/// Number of fault groups.
+pub const GROUP_COUNT: usize = 7;
+
+impl FaultGroup {
+    /// All groups, in the order of their parameters in the vector.
+    pub const ALL: [FaultGroup; GROUP_COUNT] = [
+        FaultGroup::Friction,
+        FaultGroup::Backlash,
+        FaultGroup::ShortA,
+        FaultGroup::ShortB,
+        FaultGroup::ShortC,
+        FaultGroup::Eccentricity,
+        FaultGroup::GainDrift,
+    ];
+
+    /// The group's index in [`FaultGroup::ALL`] (and in every per-group array and bit set).
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The group of index `i` in [`FaultGroup::ALL`].
+    pub const fn from_index(i: usize) -> Option<FaultGroup> {
+        if i < GROUP_COUNT {
+            Some(FaultGroup::ALL[i])
+        } else {
+            None
+        }
+    }
+
+    /// The group's parameters, as `(first, last)` indices into the fault vector.
+    pub const fn params(self) -> (usize, usize) {
+        match self {
+            FaultGroup::Friction => (0, 0),
+            FaultGroup::Backlash => (1, 1),
+            FaultGroup::ShortA => (2, 2),
+            FaultGroup::ShortB => (3, 3),
+            FaultGroup::ShortC => (4, 4),
+            FaultGroup::Eccentricity => (5, 6),
+            FaultGroup::GainDrift => (7, 7),
+        }
+    }
+
+    /// The parameter that carries the group's severity (the eccentricity's magnitude, not its
+    /// phase).
+    pub const fn severity_param(self) -> FaultParam {
+        FaultParam::ALL[self.params().0]
+    }
+
+    /// The fault mode the group belongs to.
+    pub const fn mode(self) -> FaultMode {
+        match self {
+            FaultGroup::Friction => FaultMode::Friction,
+            FaultGroup::Backlash => FaultMode::Backlash,
+            FaultGroup::ShortA | FaultGroup::ShortB | FaultGroup::ShortC => FaultMode::ShortCircuit,
+            FaultGroup::Eccentricity => FaultMode::Eccentricity,
+            FaultGroup::GainDrift => FaultMode::GainDrift,
+        }
+    }
+
+    /// Name, for reports: `friction`, `backlash`, `short circuit A`, `short circuit B`, `short
+    /// circuit C`, `eccentricity`, `gain drift`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            FaultGroup::Friction => "friction",
+            FaultGroup::Backlash => "backlash",
+            FaultGroup::ShortA => "short circuit A",
+            FaultGroup::ShortB => "short circuit B",
+            FaultGroup::ShortC => "short circuit C",
+            FaultGroup::Eccentricity => "eccentricity",
+            FaultGroup::GainDrift => "gain drift",
+        }
+    }
+}
+
+/// The five fault modes of the paper: what the health report gives a condition, the evidence
+/// accumulates over flights and the health record keeps a history of.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FaultMode {
+    /// Dry friction growth (bearing and transmission wear).
+    Friction,
+    /// Backlash growth (gear and joint wear).
+    Backlash,
+    /// Partial turn-to-turn short circuit of a stator phase.
+    ShortCircuit,
+    /// Rotor static eccentricity (support bearing degradation).
+    Eccentricity,
+    /// Drift of the position loop's proportional gain (control electronics).
+    GainDrift,
+}
+
+/// Number of fault modes.
+pub const MODE_COUNT: usize = 5;
+
+impl FaultMode {
+    /// All modes in report order.
+    pub const ALL: [FaultMode; MODE_COUNT] = [
+        FaultMode::Friction,
+        FaultMode::Backlash,
+        FaultMode::ShortCircuit,
+        FaultMode::Eccentricity,
+        FaultMode::GainDrift,
+    ];
+
+    /// The mode's index in [`FaultMode::ALL`] (and in every per-mode array).
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Name, for reports: `friction`, `backlash`, `short circuit`, `eccentricity`, `gain drift`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            FaultMode::Friction => "friction",
+            FaultMode::Backlash => "backlash",
+            FaultMode::ShortCircuit => "short circuit",
+            FaultMode::Eccentricity => "eccentricity",
+            FaultMode::GainDrift => "gain drift",
+        }
+    }
+
+    /// Machine key, as the board's report line, campaign cells and `--modes` spell it:
+    /// `friction`, `backlash`, `short`, `eccentricity`, `gain`.
+    pub const fn key(self) -> &'static str {
+        match self {
+            FaultMode::Friction => "friction",
+            FaultMode::Backlash => "backlash",
+            FaultMode::ShortCircuit => "short",
+            FaultMode::Eccentricity => "eccentricity",
+            FaultMode::GainDrift => "gain",
+        }
+    }
+
+    /// The mode's groups, as `(first, last)` of [`FaultGroup::ALL`] (the three phases' shorts for
+    /// the short circuit, one group for every other mode).
+    pub const fn groups(self) -> (FaultGroup, FaultGroup) {
+        match self {
+            FaultMode::Friction => (FaultGroup::Friction, FaultGroup::Friction),
+            FaultMode::Backlash => (FaultGroup::Backlash, FaultGroup::Backlash),
+            FaultMode::ShortCircuit => (FaultGroup::ShortA, FaultGroup::ShortC),
+            FaultMode::Eccentricity => (FaultGroup::Eccentricity, FaultGroup::Eccentricity),
+            FaultMode::GainDrift => (FaultGroup::GainDrift, FaultGroup::GainDrift),
+        }
+    }
+}
 
 /// Largest shorted fraction of a phase's turns (`k_j = 1`).
 pub const MAX_SHORTED_FRACTION: f32 = 0.5;
@@ -164,6 +403,49 @@ mod tests {
         let expected = 100.0 * libm::sqrtf(0.5 * 0.03 * 0.03);
         assert!((across - expected).abs() < 1e-3, "{across} vs {expected}");
         assert!((same_side - expected).abs() < 1e-3, "{same_side} vs {expected}");
+    }
+
+    #[test]
+    fn the_three_index_spaces_agree() {
+        // every parameter in exactly its group's range, the groups tiling the vector in order
+        let mut next = 0;
+        for (g, group) in FaultGroup::ALL.iter().enumerate() {
+            assert_eq!(group.index(), g);
+            assert_eq!(FaultGroup::from_index(g), Some(*group));
+            let (first, last) = group.params();
+            assert_eq!(first, next, "{group:?}");
+            for param in &FaultParam::ALL[first..=last] {
+                assert_eq!(param.group(), *group);
+            }
+            next = last + 1;
+        }
+        assert_eq!(next, FAULT_COUNT);
+        assert_eq!(FaultGroup::from_index(GROUP_COUNT), None);
+        // every group in exactly its mode's range
+        for mode in FaultMode::ALL {
+            let (first, last) = mode.groups();
+            for group in &FaultGroup::ALL[first.index()..=last.index()] {
+                assert_eq!(group.mode(), mode);
+            }
+        }
+        assert!(FaultGroup::ALL.iter().all(|g| FaultMode::ALL[g.mode().index()] == g.mode()));
+        assert_eq!(
+            FaultParam::ALL.iter().map(|p| p.index()).collect::<std::vec::Vec<_>>(),
+            (0..FAULT_COUNT).collect::<std::vec::Vec<_>>()
+        );
+    }
+
+    #[test]
+    fn names_and_keys_are_distinct() {
+        let distinct = |names: &[&str]| names.iter().enumerate().all(|(i, a)| names[..i].iter().all(|b| a != b));
+        assert!(distinct(&FaultParam::ALL.map(FaultParam::key)));
+        assert!(distinct(&FaultGroup::ALL.map(FaultGroup::name)));
+        assert!(distinct(&FaultMode::ALL.map(FaultMode::name)));
+        assert!(distinct(&FaultMode::ALL.map(FaultMode::key)));
+        // keys are single tokens (a report line's fields, a CSV column, a flag's value)
+        let token = |k: &str| !k.is_empty() && k.bytes().all(|b| b.is_ascii_lowercase() || b == b'_');
+        assert!(FaultParam::ALL.iter().all(|p| token(p.key())));
+        assert!(FaultMode::ALL.iter().all(|m| token(m.key())));
     }
 
     #[test]

@@ -21,6 +21,7 @@
 //! and when the monitor abstains").
 
 use crate::acquisition::AcquisitionSummary;
+pub use crate::faults::FaultMode;
 use crate::faults::{FaultVector, BACKLASH_SPAN, FRICTION_SPAN, MAX_ECCENTRICITY, MAX_SHORTED_FRACTION};
 use crate::optimizer::TerminationReason;
 use crate::params::EmaParams;
@@ -29,55 +30,6 @@ use crate::params::EmaParams;
 pub const DEGRADED_AT: f32 = 0.10;
 /// Severity from which a fault mode is reported as failing.
 pub const FAILING_AT: f32 = 0.50;
-
-/// The five fault modes of the paper.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum FaultMode {
-    /// Dry friction growth (bearing and transmission wear).
-    Friction,
-    /// Backlash growth (gear, ballscrew wear).
-    Backlash,
-    /// Partial turn-to-turn short circuit of a stator phase.
-    ShortCircuit,
-    /// Rotor static eccentricity (support bearing degradation).
-    Eccentricity,
-    /// Drift of the position loop's proportional gain (control electronics).
-    GainDrift,
-}
-
-impl FaultMode {
-    /// All modes in report order.
-    pub const ALL: [FaultMode; 5] = [
-        FaultMode::Friction,
-        FaultMode::Backlash,
-        FaultMode::ShortCircuit,
-        FaultMode::Eccentricity,
-        FaultMode::GainDrift,
-    ];
-
-    /// The mode's index in [`FaultMode::ALL`] (and in every per-mode array).
-    pub const fn index(self) -> usize {
-        match self {
-            FaultMode::Friction => 0,
-            FaultMode::Backlash => 1,
-            FaultMode::ShortCircuit => 2,
-            FaultMode::Eccentricity => 3,
-            FaultMode::GainDrift => 4,
-        }
-    }
-
-    /// Short name.
-    pub const fn name(self) -> &'static str {
-        match self {
-            FaultMode::Friction => "friction",
-            FaultMode::Backlash => "backlash",
-            FaultMode::ShortCircuit => "short circuit",
-            FaultMode::Eccentricity => "eccentricity",
-            FaultMode::GainDrift => "gain drift",
-        }
-    }
-}
 
 /// Condition of one fault mode, ordered from the least to the most severe.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]

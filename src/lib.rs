@@ -66,7 +66,7 @@ pub mod unit;
 
 pub use command::{Command, SampledCommand};
 pub use effects::{EffectId, ModelEffects};
-pub use faults::{FaultVector, FAULT_COUNT};
+pub use faults::{FaultGroup, FaultMode, FaultParam, FaultVector, FAULT_COUNT};
 pub use flight::{Acquired, Flight, FlightHooks, HealthMonitor};
 pub use params::EmaParams;
 pub use profile::Profile;

@@ -46,7 +46,8 @@
 //! and one degree of freedom for the scatter), a slope that is not positive, or non-finite inputs
 //! give `None`.
 
-use crate::health::{FaultMode, FAILING_AT};
+use crate::faults::FaultMode;
+use crate::health::FAILING_AT;
 use crate::persist::{HealthRecord, HistoryEntry};
 
 /// Flights the persisted history holds per mode ([`crate::persist::HISTORY_LEN`]): the oldest is

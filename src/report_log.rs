@@ -5,8 +5,9 @@
 //! with the host's `ema identify --firmware-trace FILE --bits`. Built with the `defmt` feature.
 
 use crate::acquisition::{SensorCheck, ZeroSource};
+use crate::faults::FaultMode;
 use crate::flight::Flight;
-use crate::health::{Abstain, Condition, FaultMode, HealthReport};
+use crate::health::{Abstain, Condition, HealthReport};
 use crate::monitor::evidence::{mode_name, PooledFlight};
 use crate::monitor::{ColdReason, Start};
 use crate::persist::{Commissioning, CommissioningRefusal, StoreError};

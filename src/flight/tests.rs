@@ -298,7 +298,7 @@ fn a_unit_commissioned_over_its_first_flights_is_diagnosed_against_its_own_basel
             assert_eq!(f.report.status, Status::Inconclusive(Abstain::Commissioning), "unit {u} flight {flight}");
             let kept = Commissioning::Collecting { planned: 3, kept: flight as u8 };
             assert_eq!((f.commissioning, record.commissioning()), (Some(kept), kept));
-            assert!(record.history(crate::health::FaultMode::Friction).is_empty());
+            assert!(record.history(crate::faults::FaultMode::Friction).is_empty());
         }
         let third = fly_at(&monitor, unit, &healthy, 45.0, seed + 3, &mut record, &mut hooks);
         let Some(Commissioning::Commissioned(baseline)) = third.commissioning else {
@@ -559,7 +559,7 @@ fn fly_kept(
 #[cfg(feature = "commissioning")]
 #[test]
 fn a_failed_load_flies_cold_saves_nothing_and_the_next_load_keeps_the_history() {
-    use crate::health::FaultMode;
+    use crate::faults::FaultMode;
     use crate::persist::{FlashFault, KeptRecord, RecordOrigin, StoreError};
     let unit = units()[0];
     let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE)

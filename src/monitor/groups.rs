@@ -3,15 +3,30 @@
 //! selection tests, the probes of a warm start look for and the uncertainty reports on.
 
 use super::config::PHASE_INDEX;
-use crate::faults::{FaultVector, FAULT_COUNT};
+use crate::faults::{FaultGroup, FaultVector, FAULT_COUNT, GROUP_COUNT};
 
-/// The fault groups model selection tests, as `(first, last)` indices into the fault vector:
-/// friction, backlash, the three shorts, eccentricity (magnitude and phase: 2 parameters), gain.
-pub const FAULT_GROUPS: [(usize, usize); 7] = [(0, 0), (1, 1), (2, 2), (3, 3), (4, 4), (5, 6), (7, 7)];
+/// The fault groups model selection tests, as `(first, last)` indices into the fault vector, in
+/// the order of [`FaultGroup::ALL`] ([`FaultGroup::params`]).
+pub const FAULT_GROUPS: [(usize, usize); GROUP_COUNT] = {
+    let mut out = [(0, 0); GROUP_COUNT];
+    let mut g = 0;
+    while g < GROUP_COUNT {
+        out[g] = FaultGroup::ALL[g].params();
+        g += 1;
+    }
+    out
+};
 
-/// Names of the fault groups of [`FAULT_GROUPS`], in order (the probes' reports name them).
-pub const GROUP_NAMES: [&str; 7] =
-    ["friction", "backlash", "short circuit A", "short circuit B", "short circuit C", "eccentricity", "gain drift"];
+/// Names of the fault groups of [`FAULT_GROUPS`], in order ([`FaultGroup::name`]).
+pub const GROUP_NAMES: [&str; GROUP_COUNT] = {
+    let mut out = [""; GROUP_COUNT];
+    let mut g = 0;
+    while g < GROUP_COUNT {
+        out[g] = FaultGroup::ALL[g].name();
+        g += 1;
+    }
+    out
+};
 
 /// A group counts as present when one of its parameters is this far from healthy (the phase of
 /// eccentricity only counts through its magnitude).

@@ -98,10 +98,10 @@ fn a_failed_load_saves_nothing_and_the_next_load_gives_the_history() {
     assert_eq!(origin, RecordOrigin::Loaded);
     let next = store(flash).load().unwrap().unwrap();
     assert_eq!(next.flights(), k + 1);
-    let friction = next.history(crate::health::FaultMode::Friction);
+    let friction = next.history(crate::faults::FaultMode::Friction);
     let flights: Vec<u32> = friction.iter().map(|e| e.flight).collect();
     assert_eq!(flights, (1..=k + 1).collect::<Vec<_>>(), "the flights before the failed load, then the new one");
-    assert!(friction.iter().take(k as usize).eq(record_after(k).history(crate::health::FaultMode::Friction).iter()));
+    assert!(friction.iter().take(k as usize).eq(record_after(k).history(crate::faults::FaultMode::Friction).iter()));
 }
 
 /// A read that fails at every boot never lets a save through: thirty boots write and erase

@@ -45,8 +45,9 @@
 //! ([`RecordError`]): the monitor then starts cold.
 //! Integrity against bit errors is the store's (CRC-32 per stored item, `docs/persistence.md`).
 
+use crate::faults::FaultMode;
 use crate::faults::{FaultVector, FAULT_COUNT};
-use crate::health::{Abstain, FaultMode, HealthReport, Status};
+use crate::health::{Abstain, HealthReport, Status};
 use crate::unit::UNIT_PARAM_COUNT;
 
 /// Format version of the encoding; a change of layout takes the next number.

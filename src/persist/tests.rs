@@ -3,8 +3,9 @@
 
 use super::store::WINDOW_SLOTS;
 use super::*;
+use crate::faults::FaultMode;
 use crate::faults::FaultVector;
-use crate::health::{Abstain, FaultMode, HealthReport, Status};
+use crate::health::{Abstain, HealthReport, Status};
 use crate::params::EmaParams;
 
 /// The tests' flash: 4 pages of 2 KiB (two records per page, so saves cycle the pages quickly).

@@ -21,8 +21,9 @@
 
 use cortex_m::peripheral::DWT;
 use ema_monitor::acquisition::{SensorCheck, SensorFault};
+use ema_monitor::faults::FaultMode;
 use ema_monitor::flight::Flight;
-use ema_monitor::health::{Condition, FaultMode, HealthReport, ModeReport};
+use ema_monitor::health::{Condition, HealthReport, ModeReport};
 use ema_monitor::persist::{Commissioning, RecordOrigin};
 use stm32f4xx_hal::gpio::PA2;
 use stm32f4xx_hal::nb;
@@ -50,12 +51,6 @@ const FEED_EVERY: usize = 64;
 /// byte times (10 bits each) at [`BAUD`], 0.87 ms. The USART has no flow control, so only a
 /// stopped peripheral or clock makes it wait longer.
 const BYTE_TIMEOUT_CYCLES: u32 = 10 * 10 * (SYSCLK_HZ / BAUD);
-
-/// The fault modes' keys, in the order of `FaultMode::ALL` (short names, no spaces).
-const MODE_KEYS: [&str; 5] = ["friction", "backlash", "short", "eccentricity", "gain"];
-
-/// The 1σ keys, in the same order.
-const SIGMA_KEYS: [&str; 5] = ["friction_sd", "backlash_sd", "short_sd", "eccentricity_sd", "gain_sd"];
 
 /// Why a line was not sent whole.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
@@ -146,19 +141,19 @@ impl Line {
         }
         l.key("mode");
         match worst_mode(r).filter(|_| diagnosis) {
-            Some(m) => l.text(MODE_KEYS.get(m.index()).copied().unwrap_or("?")),
+            Some(m) => l.text(m.key()),
             None => l.text("-"),
         }
-        for (m, key) in r.modes.iter().zip(MODE_KEYS) {
-            l.key(key);
+        for m in &r.modes {
+            l.key(m.mode.key());
             if m.condition == Condition::NotAssessed {
                 l.text("na");
             } else {
                 l.real_or_dash(diagnosis.then_some(m.severity), 4);
             }
         }
-        for (m, key) in r.modes.iter().zip(SIGMA_KEYS) {
-            l.key(key);
+        for m in &r.modes {
+            l.key_suffixed(m.mode.key(), "_sd");
             l.real_or_dash(r.uncertainty.as_ref().filter(|_| diagnosis).map(|u| u.severity_sigma(m)), 4);
         }
         l.key("phase");
@@ -244,8 +239,14 @@ impl Line {
 
     /// Starts field `key`: ` key=`.
     fn key(&mut self, key: &str) {
+        self.key_suffixed(key, "");
+    }
+
+    /// Starts field `key` + `suffix`: ` keysuffix=` (the 1σ fields, `friction_sd`).
+    fn key_suffixed(&mut self, key: &str, suffix: &str) {
         self.push(b' ');
         self.text(key);
+        self.text(suffix);
         self.push(b'=');
     }
 
@@ -308,12 +309,12 @@ impl Line {
     fn declared(&mut self, flight: &Flight) {
         let declared = flight.pooled.as_ref().map(|p| p.declared).unwrap_or_default();
         let mut any = false;
-        for (&d, key) in declared.iter().zip(MODE_KEYS) {
+        for (&d, mode) in declared.iter().zip(FaultMode::ALL) {
             if d {
                 if any {
                     self.push(b',');
                 }
-                self.text(key);
+                self.text(mode.key());
                 any = true;
             }
         }

@@ -18,7 +18,7 @@ use ema_monitor::conditioning::{ConditionedWindow, MeasuredEnvelope, DECIMATION}
 use ema_monitor::fitness::EquivalentCurrentFit;
 use ema_monitor::model::{ModelState, MonitorModel};
 use ema_monitor::profile::ProfileCursor;
-use ema_monitor::{EmaParams, FaultVector, Profile};
+use ema_monitor::{EmaParams, FaultGroup, FaultParam, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig, Truth};
 use serde::Serialize;
 
@@ -65,14 +65,22 @@ pub const SEGMENTS: [(&str, f64, f64); 4] =
 /// The cases: a name and the true fault vector.
 pub fn cases() -> Vec<(String, FaultVector)> {
     let mut out = vec![("healthy".to_string(), FaultVector::HEALTHY)];
-    for (name, index) in [("friction", 0usize), ("backlash", 1), ("short A", 2), ("eccentricity", 5), ("gain", 7)] {
+    let groups = [
+        FaultGroup::Friction,
+        FaultGroup::Backlash,
+        FaultGroup::ShortA,
+        FaultGroup::Eccentricity,
+        FaultGroup::GainDrift,
+    ];
+    for group in groups {
         for (level, value) in [("low", 0.25f32), ("high", 0.8)] {
             let mut k = FaultVector::HEALTHY;
-            k.0[index] = if index == 7 { 0.5 - value * 0.5 } else { value };
-            if index == 5 {
-                k.0[6] = 0.3;
+            let index = group.severity_param().index();
+            k.0[index] = if group == FaultGroup::GainDrift { 0.5 - value * 0.5 } else { value };
+            if group == FaultGroup::Eccentricity {
+                k.0[FaultParam::EccentricityPhase.index()] = 0.3;
             }
-            out.push((format!("{name} {level}"), k));
+            out.push((format!("{} {level}", group.name()), k));
         }
     }
     out

@@ -18,8 +18,9 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use clap::Args;
+use ema_monitor::faults::FaultMode;
 use ema_monitor::fitness::{EquivalentCurrentFit, FAST_REGIME_WEIGHT};
-use ema_monitor::health::{FaultMode, HealthReport, Uncertainty};
+use ema_monitor::health::{HealthReport, Uncertainty};
 use ema_monitor::monitor::{covariance_noise_a2, window_noise_variance_a2, Fisher, IdentifyConfig};
 use ema_monitor::{EmaParams, FaultVector, Profile, FAULT_COUNT};
 use ema_reference::{simulate, SimConfig};

@@ -68,7 +68,7 @@ fn plans_follow_the_protocol_and_are_deterministic() {
         let sev: Vec<f32> = match run.mode.as_str() {
             "friction" => vec![run.truth.0[0]],
             "backlash" => vec![run.truth.0[1]],
-            "short-circuit" => run.truth.0[2..5].iter().copied().filter(|k| *k > 0.0).collect(),
+            "short" => run.truth.0[2..5].iter().copied().filter(|k| *k > 0.0).collect(),
             "eccentricity" => vec![run.truth.0[5]],
             _ => vec![2.0 * (run.truth.0[7] - 0.5).abs()],
         };

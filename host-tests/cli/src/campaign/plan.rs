@@ -1,6 +1,7 @@
 //! The planned runs of a campaign and their seeded draws: the fault of each run, the seed of its
 //! sensor noise and optimizer, and the noise seed of each of its flights.
 
+use ema_monitor::faults::{FaultMode, MODE_COUNT};
 use ema_monitor::optimizer::rng::splitmix64;
 use ema_monitor::FaultVector;
 
@@ -8,8 +9,16 @@ use super::args::{master_seed, CampaignArgs};
 use crate::error::CliError;
 use crate::identify::args::AlgorithmArg;
 
-/// The five fault modes, in the paper's order.
-pub const MODES: [&str; 5] = ["friction", "backlash", "short-circuit", "eccentricity", "gain"];
+/// The five fault modes' keys ([`FaultMode::key`]), in the paper's order.
+pub const MODES: [&str; MODE_COUNT] = {
+    let mut out = [""; MODE_COUNT];
+    let mut m = 0;
+    while m < MODE_COUNT {
+        out[m] = FaultMode::ALL[m].key();
+        m += 1;
+    }
+    out
+};
 
 /// One planned run.
 #[derive(Clone, Debug)]

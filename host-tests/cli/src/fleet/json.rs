@@ -2,7 +2,8 @@
 //! flights. `--json` prints it in the envelope ([`crate::schema::Document`]); the markdown
 //! tables ([`super::tables()`]) are rendered from it. `docs/output-schema.md` lists every key.
 
-use ema_monitor::health::{FaultMode, Status};
+use ema_monitor::faults::FaultMode;
+use ema_monitor::health::Status;
 use serde::Serialize;
 
 use super::unit::{FaultyFlight, UnitResult, COLD_C, COMMISSIONING_C, FAULTY_C, FOURTH_C, HOT_C, SEVERITY};

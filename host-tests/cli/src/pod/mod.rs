@@ -27,7 +27,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use ema_monitor::health::FaultMode;
+use ema_monitor::faults::FaultMode;
 use ema_monitor::monitor::evidence::mode_present;
 use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::unit::Tolerances;
