@@ -23,6 +23,7 @@
 //! | `fit_power` | the goodness-of-fit test's scores (whole recording, worst window, noise from the recording) on library faults and on effects outside the library | `docs/decisions/0017-windowed-fit-test.md` |
 //! | `eccentricity_bias` | the eccentricity a fit restricted to `k6`, `k7` reads on noiseless recordings of eccentricities alone, with the signature-only fit and the reference model's integration step as controls | the program's own documentation |
 //! | `temperature_cost` | the Cramér–Rao bounds of the fault parameters with the flight's temperature known and with it a parameter of the flight | `docs/results/temperature-cost.md` |
+//! | `position_noise_bias` | what the position transducer's noise changes in the sampled current of the pbit manoeuvre, against the monitor model's envelope | `docs/pbit.md` |
 //! | `pbit_design` | the Cramér–Rao bounds of the fault parameters and the healthy bias of the monitor model for the standard manoeuvre, the pbit manoeuvre and the design's candidates, with their peaks against the limits | `docs/pbit.md` |
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
