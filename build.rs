@@ -9,8 +9,8 @@
 //!      `ema-model-config`, the core's `ema_monitor::effects`); unset → `ModelEffects::NONE` (the
 //!      paper's model);
 //!    - `PARAMS`: the actuator's parameters, from the TOML parameter file named by `EMA_PARAMS`
-//!      (read by the host's `params_file.rs`, included below, with the `toml` crate, a build
-//!      dependency that never reaches the MCU binary, and checked by `EmaParams::check` of
+//!      (read by the build dependency `ema-params-file`, the `ema` command line's reader, with the
+//!      `toml` crate, which never reaches the MCU binary, and checked by `EmaParams::check` of
 //!      `ema-model-config`); unset → `EmaParams::NOMINAL`;
 //!    - `PROFILE`: the manoeuvre the monitor model is driven by, named by `EMA_PROFILE`:
 //!      `standard` (`Profile::STANDARD`, the default) or `pbit` (`Profile::PBIT`, the pre-flight
@@ -25,15 +25,7 @@
 use std::{env, fs, path::Path, path::PathBuf};
 
 use ema_model_config::effects::{parse_model_config, EffectId, ModelEffects};
-/// The core's parameter table, reached by `params_file` as `super::core_params`.
-use ema_model_config::params as core_params;
 use ema_model_config::params::FIELDS;
-
-/// The parameter-file reader of the `ema` command line, shared so that `EMA_PARAMS` and
-/// `--params` accept the same files with the same messages.
-#[path = "host-tests/cli/src/params_file.rs"]
-#[allow(dead_code)]
-mod params_file;
 
 /// Default built-in trace, relative to the repository root.
 const DEFAULT_TRACE: &str = "traces/standard.ematrace";
@@ -58,7 +50,6 @@ fn main() {
     let target = env::var("TARGET").unwrap_or_default();
     println!("cargo:rerun-if-changed=memory.x");
     println!("cargo:rerun-if-changed=build.rs");
-    println!("cargo:rerun-if-changed=host-tests/cli/src/params_file.rs");
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     if env::var_os("CARGO_FEATURE_FIRMWARE").is_some() {
         if let Err(message) = write_model_config(&out) {
@@ -104,7 +95,7 @@ fn params_constant() -> Result<(String, String), String> {
     let path = resolve(&value);
     println!("cargo:rerun-if-changed={}", path.display());
     let text = fs::read_to_string(&path).map_err(|e| format!("EMA_PARAMS: cannot read '{}': {e}", path.display()))?;
-    let params = params_file::parse_params(&text).map_err(|e| format!("EMA_PARAMS: {}: {e}", path.display()))?;
+    let params = ema_params_file::parse_params(&text).map_err(|e| format!("EMA_PARAMS: {}: {e}", path.display()))?;
     let fields: Vec<String> = FIELDS
         .iter()
         .map(|f| {

@@ -11,8 +11,8 @@
 //!   on ([`effects::parse_model_config`]).
 //!
 //! The core (`ema-monitor`) re-exports both as `ema_monitor::params` and `ema_monitor::effects`.
-//! The firmware's `build.rs` uses them at build time, with the command line's TOML reader, to
-//! check `EMA_PARAMS` and `EMA_MODEL_CONFIG`. The `defmt` feature derives `defmt::Format` on
+//! The firmware's `build.rs` uses them at build time, with the TOML reader of `ema-params-file`,
+//! to check `EMA_PARAMS` and `EMA_MODEL_CONFIG`. The `defmt` feature derives `defmt::Format` on
 //! the public types (the core's own `defmt` feature turns it on).
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]

@@ -10,8 +10,9 @@
 //! loop `ω_n = sqrt(Kp·Kt·N / J_s) ≈ 49 rad/s`, `ζ ≈ 0.87` with `J_s = J_eq·N²`.
 //!
 //! Another actuator is described by a parameter file: [`FIELDS`] lists every field with its
-//! meaning, unit and allowed range (the `ema params` template, the host's TOML reader and the
-//! firmware's `EMA_PARAMS` build step all read this one table), and [`EmaParams::check`] refuses
+//! meaning, unit and allowed range (the `ema params` template and the TOML reader of
+//! `ema-params-file`, which the command line and the firmware's `EMA_PARAMS` build step share,
+//! read this one table), and [`EmaParams::check`] refuses
 //! a set outside those ranges or one the monitor model cannot integrate at its control period.
 
 use core::fmt;
