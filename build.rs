@@ -5,12 +5,13 @@
 //!    `rustc-link-arg`, not `-arg-bins`, so the QEMU test binary links with them too.
 //! 2. With the `firmware` feature, writes `$OUT_DIR/model_config.rs` for `src/main.rs`:
 //!    - `MODEL_EFFECTS`: the monitor model's effect terms, from the model configuration file named
-//!      by `EMA_MODEL_CONFIG` (parsed by `ema_monitor::effects::parse_model_config`, the very code
-//!      of `src/effects.rs`, included below); unset → `ModelEffects::NONE` (the paper's model);
+//!      by `EMA_MODEL_CONFIG` (parsed by `parse_model_config` of the build dependency
+//!      `ema-model-config`, the core's `ema_monitor::effects`); unset → `ModelEffects::NONE` (the
+//!      paper's model);
 //!    - `PARAMS`: the actuator's parameters, from the TOML parameter file named by `EMA_PARAMS`
-//!      (read by the host's `params_file.rs` with the `toml` crate, a build dependency that never
-//!      reaches the MCU binary, and checked by `EmaParams::check` of `src/params.rs`, both
-//!      included below); unset → `EmaParams::NOMINAL`;
+//!      (read by the build dependency `ema-params-file`, the `ema` command line's reader, with the
+//!      `toml` crate, which never reaches the MCU binary, and checked by `EmaParams::check` of
+//!      `ema-model-config`); unset → `EmaParams::NOMINAL`;
 //!    - `PROFILE`: the manoeuvre the monitor model is driven by, named by `EMA_PROFILE`:
 //!      `standard` (`Profile::STANDARD`, the default) or `pbit` (`Profile::PBIT`, the pre-flight
 //!      built-in test); `PROFILE_NAME` is its name, for the log;
@@ -23,23 +24,8 @@
 //!    build with its path, line and field.
 use std::{env, fs, path::Path, path::PathBuf};
 
-/// The core's effect catalogue and model-configuration parser (`core` only, no `defmt` here).
-#[path = "src/effects.rs"]
-#[allow(dead_code)]
-mod effects;
-
-use effects::{parse_model_config, EffectId, ModelEffects};
-
-/// The core's parameter table and checks (`EmaParams`, `FIELDS`, `EmaParams::check`).
-#[path = "src/params.rs"]
-#[allow(dead_code)]
-mod core_params;
-
-/// The parameter-file reader of the `ema` command line, shared so that `EMA_PARAMS` and
-/// `--params` accept the same files with the same messages.
-#[path = "host-tests/cli/src/params_file.rs"]
-#[allow(dead_code)]
-mod params_file;
+use ema_model_config::effects::{parse_model_config, EffectId, ModelEffects};
+use ema_model_config::params::FIELDS;
 
 /// Default built-in trace, relative to the repository root.
 const DEFAULT_TRACE: &str = "traces/standard.ematrace";
@@ -64,9 +50,6 @@ fn main() {
     let target = env::var("TARGET").unwrap_or_default();
     println!("cargo:rerun-if-changed=memory.x");
     println!("cargo:rerun-if-changed=build.rs");
-    println!("cargo:rerun-if-changed=src/effects.rs");
-    println!("cargo:rerun-if-changed=src/params.rs");
-    println!("cargo:rerun-if-changed=host-tests/cli/src/params_file.rs");
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     if env::var_os("CARGO_FEATURE_FIRMWARE").is_some() {
         if let Err(message) = write_model_config(&out) {
@@ -112,8 +95,8 @@ fn params_constant() -> Result<(String, String), String> {
     let path = resolve(&value);
     println!("cargo:rerun-if-changed={}", path.display());
     let text = fs::read_to_string(&path).map_err(|e| format!("EMA_PARAMS: cannot read '{}': {e}", path.display()))?;
-    let params = params_file::parse_params(&text).map_err(|e| format!("EMA_PARAMS: {}: {e}", path.display()))?;
-    let fields: Vec<String> = core_params::FIELDS
+    let params = ema_params_file::parse_params(&text).map_err(|e| format!("EMA_PARAMS: {}: {e}", path.display()))?;
+    let fields: Vec<String> = FIELDS
         .iter()
         .map(|f| {
             format!("\n    {}: f32::from_bits({:#010x}), // {:?}", f.name, f.get(&params).to_bits(), f.get(&params))

@@ -22,7 +22,8 @@
 //! Stages, one module each: [`acquisition`], [`conditioning`], [`model`], [`fitness`],
 //! [`optimizer`], [`health`]; [`monitor`] wires them; [`effects`] holds the optional effect terms
 //! the discrepancy workflow adds to the model. Shared definitions: [`params`] (nominal
-//! actuator), [`faults`] (the fault vector and its physical mapping), [`profile`] (the test
+//! actuator; with [`effects`], the crate `ema-model-config`, which the build script and the host
+//! tools use too), [`faults`] (the fault vector and its physical mapping), [`profile`] (the test
 //! manoeuvre), [`command`] (what drives the model: a profile or a sampled command), [`trace`]
 //! (the ADC format). [`persist`] keeps the health state across power cycles.
 //!
@@ -41,7 +42,6 @@ pub mod acquisition;
 pub mod command;
 pub mod commissioning;
 pub mod conditioning;
-pub mod effects;
 pub mod faults;
 pub mod fitness;
 pub mod flight;
@@ -51,7 +51,6 @@ pub mod model;
 pub mod monitor;
 pub mod operating_temperature;
 pub mod optimizer;
-pub mod params;
 pub mod persist;
 pub mod profile;
 pub mod prognosis;
@@ -63,6 +62,11 @@ mod test_traces;
 pub mod trace;
 pub mod trig;
 pub mod unit;
+
+// The parameter table and the effect catalogue live in `crates/ema-model-config`, which the
+// build script and the host tools share; they are this crate's modules as well.
+#[doc(inline)]
+pub use ema_model_config::{effects, params};
 
 pub use command::{Command, SampledCommand};
 pub use effects::{EffectId, ModelEffects};

@@ -17,10 +17,6 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
-/// The core's parameter table, reached by [`params_file`] as `super::core_params` (as in the firmware's
-/// build script, which includes that file).
-use ema_monitor::params as core_params;
-
 pub mod campaign;
 pub mod commission;
 pub mod compare;
@@ -36,7 +32,6 @@ pub mod identify;
 pub mod input;
 pub mod output;
 pub mod params;
-pub mod params_file;
 pub mod parity_traces;
 pub mod plots;
 pub mod pod;
@@ -50,3 +45,7 @@ pub mod sensors_file;
 pub mod simulate;
 pub mod tolerances_file;
 pub mod unit_draw;
+
+/// Actuator parameter files (`--params`, `ema params`): the crate `ema-params-file`, which the
+/// firmware's build script uses too for `EMA_PARAMS`.
+pub use ema_params_file as params_file;

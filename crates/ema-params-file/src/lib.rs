@@ -1,24 +1,28 @@
-//! Actuator parameter files: the commented TOML template of a parameter set and its reader.
+//! # ema-params-file: actuator parameter files of ema-monitor
 //!
-//! A parameter file is a flat TOML table whose keys are the fields of
-//! [`ema_monitor::EmaParams`] (their names carry the unit: `phase_resistance_ohm`), each a number.
-//! A key left out keeps its nominal value; an unknown key (a misspelt one) is refused rather than
-//! ignored, so a typo never falls back to the nominal value silently. The values then go through
-//! [`ema_monitor::EmaParams::check`]: the ranges of [`ema_monitor::params::FIELDS`] and the
-//! relations between fields.
+//! The commented TOML template of a parameter set and its reader, shared by the `ema` command
+//! line (`--params`, `ema params`; re-exported there as `ema_cli::params_file`) and the firmware's
+//! build script (`EMA_PARAMS`), so that both accept the same files with the same messages.
 //!
-//! The firmware's build script includes this very file (`#[path]`) to read `EMA_PARAMS`, so it
-//! depends only on `std`, the `toml` crate and the core's `params` module, reached as
-//! `super::core_params` (the crate root declares or imports it under that name in both).
+//! A parameter file is a flat TOML table whose keys are the fields of [`EmaParams`] (their names
+//! carry the unit: `phase_resistance_ohm`), each a number. A key left out keeps its nominal value;
+//! an unknown key (a misspelt one) is refused rather than ignored, so a typo never falls back to
+//! the nominal value silently. The values then go through [`EmaParams::check`]: the ranges of
+//! [`FIELDS`] and the relations between fields.
+//!
+//! It depends only on `std`, the `toml` crate (a build dependency of the firmware, which never
+//! reaches the MCU binary) and the parameter table of `ema-model-config`.
+#![deny(missing_docs)]
+#![forbid(unsafe_code)]
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
-use super::core_params::{EmaParams, ParamField, FIELDS};
+use ema_model_config::params::{EmaParams, ParamField, FIELDS};
 
-/// Why a parameter file (or a tolerance table, `tolerances_file.rs`) was refused: the 1-based
-/// line (0 when the error has no place in the file, e.g. a relation involving only nominal values)
-/// and what to change.
+/// Why a parameter file (or a tolerance table, the command line's `tolerances_file.rs`) was
+/// refused: the 1-based line (0 when the error has no place in the file, e.g. a relation involving
+/// only nominal values) and what to change.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ParamsFileError {
     /// Line of the offending key or value (0: none).

@@ -1,6 +1,6 @@
 //! Nominal parameters of the actuator: a ~1 kW flight-control EMA on a 270 V bus.
 //!
-//! One table shared by the monitor model (this crate, `f32`) and the reference model
+//! One table shared by the monitor model (`ema-monitor`, `f32`) and the reference model
 //! (`host-tests/reference`, which converts to `f64`). The values are a physically consistent
 //! proposal (no published table exists; `docs/model.md`), except the nominal backlash, chosen so
 //! that the paper's "1 to 100 times nominal" range ends at 5 mrad.
@@ -10,15 +10,16 @@
 //! loop `ω_n = sqrt(Kp·Kt·N / J_s) ≈ 49 rad/s`, `ζ ≈ 0.87` with `J_s = J_eq·N²`.
 //!
 //! Another actuator is described by a parameter file: [`FIELDS`] lists every field with its
-//! meaning, unit and allowed range (the `ema params` template, the host's TOML reader and the
-//! firmware's `EMA_PARAMS` build step all read this one table), and [`EmaParams::check`] refuses
+//! meaning, unit and allowed range (the `ema params` template and the TOML reader of
+//! `ema-params-file`, which the command line and the firmware's `EMA_PARAMS` build step share,
+//! read this one table), and [`EmaParams::check`] refuses
 //! a set outside those ranges or one the monitor model cannot integrate at its control period.
 
 use core::fmt;
 
 /// Physical parameters of a healthy actuator, units in the field names.
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct EmaParams {
     /// DC-link voltage (HVDC aircraft bus).
     pub supply_voltage_v: f32,
@@ -73,7 +74,7 @@ pub struct EmaParams {
     pub current_loop_lag_s: f32,
     /// RMS white noise `σ` of each phase-current sensor (datasheet or bench calibration). The
     /// monitor uses it to predict the rectification bias of the measured `I_3eq`
-    /// ([`crate::conditioning::MeasuredEnvelope`]); the reference model uses it to add the noise.
+    /// (`ema_monitor::conditioning::MeasuredEnvelope`); the reference model uses it to add the noise.
     pub current_noise_a: f32,
     /// RMS white noise of the surface position transducer.
     pub position_noise_rad: f32,
@@ -146,7 +147,7 @@ impl EmaParams {
     /// A 32-bit identity of the parameter set: FNV-1a over the IEEE-754 bits of every field, in
     /// [`FIELDS`] order. Two sets with one field differing by one bit get different identities
     /// with probability `1 − 2⁻³²`; the health record keeps it to tell a record made under other
-    /// parameters ([`crate::persist::RecordIdentity`]). An identity, not an integrity check (the
+    /// parameters (`ema_monitor::persist::RecordIdentity`). An identity, not an integrity check (the
     /// store's CRC is that), so the eight-line hash is written here rather than a dependency added.
     pub fn identity(&self) -> u32 {
         const OFFSET_BASIS: u32 = 0x811c_9dc5;
@@ -274,7 +275,10 @@ macro_rules! field {
 /// (a few hundred W to a few tens of kW); they exist to catch a mistyped unit or digit (a
 /// resistance in mΩ, an inductance in mH), not to judge a design. Some zero values are allowed
 /// where the physics allows them (no friction, no hinge load, no sensor noise).
-pub const FIELDS: [ParamField; 33] = [
+///
+/// A `static`, not a `const`: one table in flash however many crates read it (a `const` would be
+/// copied into each, with its own copies of the accessors).
+pub static FIELDS: [ParamField; 33] = [
     field!(supply_voltage_v, "V", 10.0, 1000.0, false, "DC-link voltage V_dc"),
     field!(pole_pairs, "1", 1.0, 32.0, true, "Motor pole pairs p: electrical angle = p * mechanical angle"),
     field!(phase_resistance_ohm, "ohm", 1.0e-3, 100.0, false, "Per-phase winding resistance R_0 at 20 degC"),
@@ -424,7 +428,7 @@ pub const FIELDS: [ParamField; 33] = [
 
 /// Why a parameter set is refused ([`EmaParams::check`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ParamsError {
     /// The field is NaN or infinite.
     NotFinite {
@@ -500,7 +504,7 @@ impl fmt::Display for ParamsError {
 
 /// Smallest ratio of the electrical (`L_0/R_0`) and mechanical (`J_eq·R_0/(2·k_0²)`) time
 /// constants to the control period: the monitor model integrates both with explicit steps of one
-/// period ([`crate::model`]), whose error stays a few percent at ten steps per time constant (and
+/// period (`ema_monitor::model`), whose error stays a few percent at ten steps per time constant (and
 /// which diverge beyond two periods per time constant).
 pub const MIN_STEPS_PER_TIME_CONSTANT: f32 = 10.0;
 

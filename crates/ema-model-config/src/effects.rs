@@ -11,10 +11,9 @@
 //! term is guarded by its severity being non-zero.
 //!
 //! [`parse_model_config`] reads the model configuration file (`monitor-model.conf`, written by
-//! `ema discover`) that switches effects on; the firmware's `build.rs` includes this file with
-//! `#[path]` to parse the same file with the same code at build time, so this module uses nothing
-//! but `core` (the `defmt::Format` derives only apply on the MCU target, `target_os = "none"`:
-//! `defmt` is no build dependency).
+//! `ema discover`) that switches effects on; the firmware's `build.rs` calls it to parse the same
+//! file with the same code at build time (this crate is one of its build dependencies, without the
+//! `defmt` feature).
 
 /// Number of library effects the monitor model can add.
 pub const EFFECT_COUNT: usize = 10;
@@ -28,7 +27,7 @@ pub const MAX_SEVERITY: f32 = 1.25;
 
 /// One library effect, by the ID the reference model and the command line use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-#[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum EffectId {
     /// Cogging torque `A·sin(24·θ_m)`, `A = s·0.04 N·m`.
     Cogging,
@@ -132,7 +131,7 @@ impl EffectId {
 
 /// A severity outside `[0, MAX_SEVERITY]` (or not a number).
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SeverityOutOfRange {
     /// The effect.
     pub effect: EffectId,
@@ -150,7 +149,7 @@ impl core::error::Error for SeverityOutOfRange {}
 
 /// The effect terms switched on in a monitor model: one severity per library effect (0 = off).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-#[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ModelEffects {
     severity: [f32; EFFECT_COUNT],
 }
@@ -223,7 +222,7 @@ pub const MODEL_CONFIG_EFFECT_KEYWORD: &str = "effect";
 
 /// What is wrong on one line of a model configuration file (see [`parse_model_config`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ModelConfigErrorKind {
     /// The line does not start with `effect`.
     UnknownKeyword,
@@ -248,7 +247,7 @@ pub enum ModelConfigErrorKind {
 /// `found` borrows the offending text of the file (the field, or the whole line when a field is
 /// missing), so the error needs no allocation.
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(all(feature = "defmt", target_os = "none"), derive(defmt::Format))]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ModelConfigError<'a> {
     /// Line of the file, 1-based.
     pub line: usize,
