@@ -175,6 +175,7 @@ impl<'a, const W: usize> IdentificationState<'a, W> {
     }
 
     /// One evaluation on the fitness, spent from `account`: `run` does it (and nothing else).
+    /// Inlined, as the two steps below: no frame of its own between a stage and the model run.
     #[inline(always)]
     pub(super) fn evaluate<T>(
         &mut self,
