@@ -46,9 +46,8 @@ use crate::health::{Abstain, HealthReport, Status};
 use crate::monitor::evidence::{self, PooledFlight};
 use crate::monitor::{
     self, plan_start, with_uncertainty, AcquisitionSummary, Identification, IdentifyConfig, MonitorError, Start,
-    WarmReport, ONBOARD_POPULATION, ONBOARD_WINDOW,
+    StepDriver, WarmReport, ONBOARD_POPULATION, ONBOARD_WINDOW,
 };
-use crate::optimizer::SearchStatus;
 use crate::persist::{Commissioning, HealthRecord, KeptRecord, RecordIdentity};
 use crate::unit::Tolerances;
 use crate::{Command, EmaParams, ModelEffects};
@@ -447,7 +446,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     }
 
     /// The identification, cold without a prior and warm from it, one evaluation per step with
-    /// `hooks` around each. Not inlined: the identification's state lives in this frame alone,
+    /// `hooks` around each ([`Identification::run_with`]). Not inlined: the identification's state lives in this frame alone,
     /// not beside the uncertainty's and the record's.
     #[inline(never)]
     fn identify(
@@ -466,14 +465,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
             Ok(id) => id,
             Err(e) => return Err(*e),
         };
-        for _ in 0..u32::MAX {
-            hooks.before_step();
-            let status = id.step();
-            hooks.after_step();
-            if let SearchStatus::Done(_) = status {
-                break;
-            }
-        }
+        id.run_with(u32::MAX, &mut AroundSteps(hooks));
         Ok((id.report(), id.warm_report()))
     }
 
@@ -496,6 +488,19 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         cold: bool,
     ) -> Option<PooledFlight> {
         evidence::record_flight_on(record, trace, *params, self.command, &self.config, report, cold)
+    }
+}
+
+/// A flight's hooks around each step of the identification ([`StepDriver`]).
+struct AroundSteps<'h, H>(&'h mut H);
+
+impl<H: FlightHooks> StepDriver for AroundSteps<'_, H> {
+    fn before_step(&mut self) {
+        self.0.before_step();
+    }
+
+    fn after_step(&mut self) {
+        self.0.after_step();
     }
 }
 

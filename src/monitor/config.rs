@@ -87,8 +87,8 @@ pub struct IdentifyConfig {
     pub independent_frames_per_block: f32,
     /// The previous flight's fault vector: `Some` makes the identification a **warm start** from
     /// it (no global search; model selection, the polish, the new-fault probes and the targeted
-    /// refit, `warm.rs`); `None` (the default) a cold one. Whether a warm start is allowed is
-    /// [`super::plan_start`]'s decision.
+    /// refit, `warm.rs` and `probes.rs`); `None` (the default) a cold one. Whether a warm start
+    /// is allowed is [`super::plan_start`]'s decision.
     pub prior: Option<[f32; FAULT_COUNT]>,
     /// Flights after which a cold identification runs again instead of a warm one
     /// ([`super::plan_start`]; [`super::COLD_EVERY_FLIGHTS`] by default).

@@ -52,3 +52,13 @@ pub fn without_group(k: &[f32; FAULT_COUNT], (first, last): (usize, usize)) -> [
     }
     out
 }
+
+/// The parameters of the groups present in `k` free, the others fixed.
+pub(super) fn present_free(k: &[f32; FAULT_COUNT]) -> [bool; FAULT_COUNT] {
+    let mut free = [false; FAULT_COUNT];
+    for &(first, last) in FAULT_GROUPS.iter() {
+        let present = group_present(k, (first, last));
+        free.iter_mut().enumerate().filter(|(i, _)| (first..=last).contains(i)).for_each(|(_, f)| *f = present);
+    }
+    free
+}

@@ -1,202 +1,86 @@
-//! One identification: the global search, model selection, the polish, and the health report.
+//! One identification: the executor of its stages. [`Identification`] owns the shared state
+//! (`state.rs`), the global search's optimizer (`global.rs`) and the stage under way, each in
+//! place; [`Identification::step`] runs one step of that stage (one objective evaluation: one
+//! monitor-model run over the trace, possibly abandoned early), then builds the stage its answer
+//! ([`Next`]) names. The stages, one file each: the global search (`global.rs`), model selection
+//! (`selection.rs`), the polish and the rescore (`polish.rs`), the warm start's start and drift
+//! polish (`warm.rs`) and its new-fault probes and targeted refit (`probes.rs`).
 //!
-//! [`Identification::new`] checks everything once; [`Identification::step`] then spends one
-//! objective evaluation (one monitor-model run over the trace, possibly abandoned early) and
-//! cannot fail; [`Identification::run`] steps to the end or a budget; [`Identification::report`]
-//! gives the health report of the best vector so far at any point.
+//! [`Identification::new`] checks everything once; after that no step can fail.
+//! [`Identification::run_with`] is the one loop over the steps, with a [`StepDriver`] around each
+//! (the flight's hooks, or a host's global-search costs computed ahead); [`Identification::run`]
+//! is that loop with nothing around it; [`Identification::report`] gives the health report of
+//! the best vector so far at any point.
 
-use super::config::{configured_fit, fault_bounds, selection_polish_left, starting_guesses, Algorithm, IdentifyConfig};
-use super::groups::{group_present, without_group, FAULT_GROUPS};
-use super::stage::{Selection, Stage, WarmReport, WarmStage, WarmState};
+use super::config::{configured_fit, fault_bounds, IdentifyConfig};
+use super::global::{Solver, SolverPlan};
+use super::groups::FAULT_GROUPS;
+use super::polish;
+use super::probes::{self, Probing};
+use super::selection::Selection;
+use super::stage::Next;
+use super::state::{IdentificationState, WarmReport};
+use super::uncertainty::uncertainty_at;
+use super::warm::{self, warm_start_point, WarmStart};
 use super::MonitorError;
-use super::MODEL_MISMATCH_A;
 use crate::command::Command;
 use crate::conditioning::{ConditionedWindow, ConditioningError, DECIMATION};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::{EquivalentCurrentFit, PooledTrace};
-use crate::health::{window_score, Abstain, FitCheck, HealthReport, Status as HealthStatus};
-#[cfg(feature = "de")]
-use crate::optimizer::de::{DeConfig, DifferentialEvolution};
-#[cfg(feature = "ga")]
-use crate::optimizer::ga::{GaConfig, Genetic};
-use crate::optimizer::pattern::{PatternConfig, PatternSearch};
-use crate::optimizer::pso::{ParticleSwarm, PsoConfig};
-#[cfg(not(all(feature = "ga", feature = "de")))]
-use crate::optimizer::ConfigError;
-use crate::optimizer::{Bounds, Optimizer, SearchStatus, Stopping, TerminationReason};
+use crate::health::HealthReport;
+use crate::optimizer::pattern::PatternSearch;
+use crate::optimizer::{SearchStatus, TerminationReason};
 use crate::params::EmaParams;
 
-/// The global search's optimizer. Its state lives in place, in the identification (no heap on
-/// board), so the plan's variant is as large as the swarm's by design.
+/// The stage under way, with its own state, in place in the identification (each spends one
+/// evaluation per step, except the selection states that only pick the next group).
 #[derive(Clone, Debug)]
-#[allow(clippy::large_enum_variant)]
-enum Solver<const P: usize> {
-    /// Checked, not started: [`Solver::start`] builds it in place at the first step that needs
-    /// it (never, for a warm start that does not fall back to the global search).
-    Planned(SolverPlan),
-    Pso(ParticleSwarm<P, FAULT_COUNT>),
-    #[cfg(feature = "ga")]
-    Ga(Genetic<P, FAULT_COUNT>),
-    #[cfg(feature = "de")]
-    De(DifferentialEvolution<P, FAULT_COUNT>),
+#[allow(clippy::large_enum_variant, reason = "held once, inline in the identification: no allocator to box into")]
+enum Stage {
+    /// The global search (PSO, GA or DE); its optimizer is the identification's `global`.
+    Global,
+    /// Model selection ([`Selection`]).
+    Select(Selection),
+    /// The compass-search polish.
+    Polish(PatternSearch<FAULT_COUNT>),
+    /// No polish, but selection changed the vector: evaluate it once, then finish.
+    Rescore(TerminationReason),
+    /// A warm start's start and drift polish ([`WarmStart`]).
+    Warm(WarmStart),
+    /// A warm start's probes and targeted refits ([`Probing`]).
+    Probes(Probing),
+    /// Finished with this reason.
+    Done(TerminationReason),
 }
 
-/// The global search's settings as `config` chooses them, checked: what [`Solver::start`]
-/// builds from, so that building cannot fail.
-#[derive(Clone, Copy, Debug)]
-enum SolverPlan {
-    Pso(PsoConfig, Stopping),
-    #[cfg(feature = "ga")]
-    Ga(GaConfig, Stopping),
-    #[cfg(feature = "de")]
-    De(DeConfig, Stopping),
-}
-
-impl SolverPlan {
-    /// The optimizer `config` chooses, with its settings; refused as its `new` refuses them.
-    fn of<const P: usize>(bounds: &Bounds<FAULT_COUNT>, config: &IdentifyConfig) -> Result<Self, MonitorError> {
-        let (max_iterations, function_tolerance, stall_iterations) =
-            (config.max_iterations, config.function_tolerance, config.stall_iterations);
-        Ok(match config.algorithm {
-            Algorithm::Pso => {
-                let c = PsoConfig { max_iterations, function_tolerance, stall_iterations, ..PsoConfig::default() };
-                Self::Pso(c, ParticleSwarm::<P, FAULT_COUNT>::check(bounds, &c)?)
-            }
-            #[cfg(feature = "ga")]
-            Algorithm::Ga => {
-                let c = GaConfig { max_iterations, function_tolerance, stall_iterations, ..GaConfig::default() };
-                Self::Ga(c, Genetic::<P, FAULT_COUNT>::check(bounds, &c)?)
-            }
-            #[cfg(feature = "de")]
-            Algorithm::De => {
-                let c = DeConfig { max_iterations, function_tolerance, stall_iterations, ..DeConfig::default() };
-                Self::De(c, DifferentialEvolution::<P, FAULT_COUNT>::check(bounds, &c)?)
-            }
-            #[cfg(not(all(feature = "ga", feature = "de")))]
-            _ => return Err(MonitorError::Optimizer(ConfigError::NotBuilt)),
-        })
+/// What runs around each step of [`Identification::run_with`]. Every method does nothing by
+/// default; `()` is the driver of [`Identification::run`].
+pub trait StepDriver {
+    /// Before each step (a firmware feeds its watchdog here).
+    fn before_step(&mut self) {}
+    /// After each step.
+    fn after_step(&mut self) {}
+    /// The cost of the global search's next pending particle
+    /// ([`Identification::pending_global`]) when the driver computed it ahead (a host evaluating
+    /// a sweep in parallel); `None`, the default, lets the step evaluate it.
+    fn global_cost<const W: usize, const P: usize>(
+        &mut self,
+        identification: &Identification<'_, W, P>,
+    ) -> Option<f32> {
+        let _ = identification;
+        None
     }
 }
 
-impl<const P: usize> Solver<P> {
-    /// The optimizer of a [`Solver::Planned`] solver, its population scattered from `seed` with
-    /// [`starting_guesses`] first; a started one is left as it is. Built in place: each
-    /// optimizer's `unseeded`, inlined into its `start_*` (one per optimizer, not inlined), is
-    /// constants (the zero arrays, a fill), copies and inlined code with no call writing into
-    /// it, so the compiler writes it straight into the identification rather than building it
-    /// in a temporary of this frame and copying it; the identification itself is built without
-    /// it, straight where its caller keeps it. The stack holds one copy of the population.
-    fn start(&mut self, seed: u64) {
-        let Solver::Planned(plan) = *self else { return };
-        let bounds = fault_bounds();
-        match plan {
-            SolverPlan::Pso(c, stopping) => self.start_pso(bounds, c, stopping, seed),
-            #[cfg(feature = "ga")]
-            SolverPlan::Ga(c, stopping) => self.start_ga(bounds, c, stopping, seed),
-            #[cfg(feature = "de")]
-            SolverPlan::De(c, stopping) => self.start_de(bounds, c, stopping, seed),
-        }
-    }
-
-    /// [`Solver::start`] for the particle swarm.
-    #[inline(never)]
-    fn start_pso(&mut self, bounds: Bounds<FAULT_COUNT>, c: PsoConfig, stopping: Stopping, seed: u64) {
-        *self = Solver::Pso(ParticleSwarm::unseeded(bounds, c, stopping));
-        if let Solver::Pso(s) = self {
-            s.seed(seed, &starting_guesses());
-        }
-    }
-
-    /// [`Solver::start`] for the genetic algorithm.
-    #[cfg(feature = "ga")]
-    #[inline(never)]
-    fn start_ga(&mut self, bounds: Bounds<FAULT_COUNT>, c: GaConfig, stopping: Stopping, seed: u64) {
-        *self = Solver::Ga(Genetic::unseeded(bounds, c, stopping));
-        if let Solver::Ga(s) = self {
-            s.seed(seed, &starting_guesses());
-        }
-    }
-
-    /// [`Solver::start`] for differential evolution.
-    #[cfg(feature = "de")]
-    #[inline(never)]
-    fn start_de(&mut self, bounds: Bounds<FAULT_COUNT>, c: DeConfig, stopping: Stopping, seed: u64) {
-        *self = Solver::De(DifferentialEvolution::unseeded(bounds, c, stopping));
-        if let Solver::De(s) = self {
-            s.seed(seed, &starting_guesses());
-        }
-    }
-
-    fn best(&self) -> ([f32; FAULT_COUNT], f32) {
-        match self {
-            // what a started optimizer reports before its first evaluation
-            Solver::Planned(_) => (fault_bounds().centre(), f32::INFINITY),
-            Solver::Pso(s) => (*s.best().0, s.best().1),
-            #[cfg(feature = "ga")]
-            Solver::Ga(s) => (*s.best().0, s.best().1),
-            #[cfg(feature = "de")]
-            Solver::De(s) => (*s.best().0, s.best().1),
-        }
-    }
-
-    fn evaluations(&self) -> u32 {
-        match self {
-            Solver::Planned(_) => 0,
-            Solver::Pso(s) => s.evaluations(),
-            #[cfg(feature = "ga")]
-            Solver::Ga(s) => s.evaluations(),
-            #[cfg(feature = "de")]
-            Solver::De(s) => s.evaluations(),
-        }
-    }
-
-    fn iterations(&self) -> u32 {
-        match self {
-            Solver::Planned(_) => 0,
-            Solver::Pso(s) => s.iterations(),
-            #[cfg(feature = "ga")]
-            Solver::Ga(s) => s.iterations(),
-            #[cfg(feature = "de")]
-            Solver::De(s) => s.iterations(),
-        }
-    }
-}
-
-/// The start point of a warm start from `prior`: the prior in the search box, its absent groups
-/// exactly healthy; refused when it is not a fault vector.
-fn warm_start_point(prior: &[f32; FAULT_COUNT]) -> Result<[f32; FAULT_COUNT], MonitorError> {
-    if !FaultVector(*prior).is_valid() {
-        return Err(MonitorError::Prior);
-    }
-    let mut start = *prior;
-    fault_bounds().enforce_point(&mut start);
-    for &group in FAULT_GROUPS.iter() {
-        if !group_present(&start, group) {
-            start = without_group(&start, group);
-        }
-    }
-    Ok(start)
-}
+impl StepDriver for () {}
 
 /// One fault identification in progress: `W` window samples, `P` individuals.
 #[derive(Clone, Debug)]
 pub struct Identification<'a, const W: usize, const P: usize> {
-    pub(super) fit: EquivalentCurrentFit<'a, W>,
-    solver: Solver<P>,
-    pub(super) params: EmaParams,
-    pub(super) config: IdentifyConfig,
-    pub(super) stage: Stage,
-    /// Best vector and cost of the stages after the global search.
-    pub(super) best: [f32; FAULT_COUNT],
-    pub(super) best_cost: f32,
-    /// Groups kept by model selection (all of them when it is off).
-    pub(super) kept: [bool; FAULT_GROUPS.len()],
-    /// Evaluations spent after the global search (model selection and the polish).
-    pub(super) selection_polish_evaluations: u32,
-    /// Present groups model selection had no budget left to test.
-    pub(super) untested_groups: u8,
-    /// The warm start's state (`None`: a cold identification).
-    pub(super) warm: Option<WarmState>,
+    state: IdentificationState<'a, W>,
+    /// The global search's optimizer: its counters and best stay in the report after its stage.
+    global: Solver<P>,
+    stage: Stage,
 }
 
 impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
@@ -237,27 +121,20 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         };
         let fit = configured_fit(trace, params, command, config)?;
         Ok(Self {
-            fit,
-            solver: Solver::Planned(plan),
-            params,
-            config: *config,
-            stage: if start.is_some() { Stage::Warm(WarmStage::Start) } else { Stage::Global },
-            best: start.unwrap_or(healthy),
-            best_cost: f32::INFINITY,
-            kept: [true; FAULT_GROUPS.len()],
-            selection_polish_evaluations: 0,
-            untested_groups: 0,
-            warm: start.map(|_| WarmState::default()),
+            state: IdentificationState::new(fit, params, config, start),
+            global: Solver::Planned(plan),
+            stage: if start.is_some() { Stage::Warm(WarmStart::Start) } else { Stage::Global },
         })
     }
 
     /// Prepares a **warm** identification of `trace` from `prior`, the previous flight's fault
     /// vector: no global search; model selection and the polish start from the prior (its
     /// absent groups exactly healthy), then the new-fault probes and, when one fires, the
-    /// targeted refit (`warm.rs`). Refuses what [`Identification::new`] refuses, and a prior
-    /// that is not a fault vector ([`MonitorError::Prior`]). Whether a warm start is allowed at
-    /// all is [`super::plan_start`]'s decision (a cold one is required on the first flight, after
-    /// maintenance, periodically, and after a warm result that failed its fit check).
+    /// targeted refit (`warm.rs`, `probes.rs`). Refuses what [`Identification::new`] refuses, and
+    /// a prior that is not a fault vector ([`MonitorError::Prior`]). Whether a warm start is
+    /// allowed at all is [`super::plan_start`]'s decision (a cold one is required on the first
+    /// flight, after maintenance, periodically, and after a warm result that failed its fit
+    /// check).
     pub fn warm(
         trace: &'a ConditionedWindow<W>,
         params: EmaParams,
@@ -270,106 +147,106 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
 
     /// What the warm stages did (`None` for a cold identification).
     pub fn warm_report(&self) -> Option<WarmReport> {
-        self.warm.map(|w| w.report)
+        self.state.warm_report()
     }
 
     /// The same identification with `more` recordings of the same actuator pooled after the
-    /// first: one fault vector fitted to all of them ([`EquivalentCurrentFit::pooled_with`]). Call it before
-    /// the first [`Identification::step`].
+    /// first: one fault vector fitted to all of them ([`EquivalentCurrentFit::pooled_with`]). Call
+    /// it before the first [`Identification::step`].
     pub fn pooled_with(mut self, more: &'a [PooledTrace<'a, W>]) -> Result<Self, MonitorError> {
-        self.fit = self.fit.pooled_with(more).map_err(MonitorError::Pool)?;
+        self.state = self.state.pooled_with(more).map_err(MonitorError::Pool)?;
         Ok(self)
     }
 
-    /// One objective evaluation (one monitor-model run over the trace, possibly abandoned early).
+    /// One objective evaluation (one monitor-model run over the trace, possibly abandoned early):
+    /// one step of the stage under way, then the stage it hands over to.
     pub fn step(&mut self) -> SearchStatus {
-        match &mut self.stage {
+        let state = &mut self.state;
+        let next = match &mut self.stage {
             Stage::Done(reason) => return SearchStatus::Done(*reason),
-            Stage::Global => {
-                self.solver.start(self.config.seed);
-                let status = match &mut self.solver {
-                    // not reached: started above
-                    Solver::Planned(_) => SearchStatus::Done(TerminationReason::MaxIterations),
-                    Solver::Pso(s) => s.step(&mut self.fit),
-                    #[cfg(feature = "ga")]
-                    Solver::Ga(s) => s.step(&mut self.fit),
-                    #[cfg(feature = "de")]
-                    Solver::De(s) => s.step(&mut self.fit),
-                };
-                self.after_global_step(status);
-            }
-            Stage::Select(_) => self.selection_step(),
-            Stage::Warm(_) => self.warm_step(),
-            Stage::Polish(search) => {
-                let before = search.evaluations();
-                let status = search.step(&mut self.fit);
-                self.selection_polish_evaluations += search.evaluations() - before;
-                let (x, c) = search.best();
-                (self.best, self.best_cost) = (*x, c);
-                if let SearchStatus::Done(_) = status {
-                    self.finish(self.global_reason());
-                }
-            }
-            Stage::Rescore(reason) => {
-                let reason = *reason;
-                self.best_cost = self.fit.error(&FaultVector(self.best));
-                self.selection_polish_evaluations += 1;
-                self.finish(reason);
-            }
-        }
+            Stage::Global => self.global.step(state),
+            Stage::Select(selection) => selection.step(state),
+            Stage::Polish(search) => polish::step(search, state),
+            Stage::Rescore(reason) => polish::rescore(*reason, state),
+            Stage::Warm(warm) => warm.step(state),
+            Stage::Probes(probing) => probing.step(state),
+        };
+        self.enter(next);
         self.status()
     }
 
+    /// Builds, in place, the stage `next` names, following the moves that spend no evaluation
+    /// (a polish with nothing to do finishes, the end of the warm stages falls back cold or
+    /// ends) until a stage waits for the next step. Not inlined: the temporaries of a stage's
+    /// construction stay out of the frame the evaluations run under.
+    #[inline(never)]
+    fn enter(&mut self, mut next: Next) {
+        loop {
+            next = match next {
+                Next::Stay => return,
+                Next::Select => {
+                    self.stage = Stage::Select(Selection::EffectiveSamples);
+                    return;
+                }
+                Next::SelectGroups { effective_samples } => {
+                    self.stage = Stage::Select(Selection::NextGroup { group: 0, effective_samples });
+                    return;
+                }
+                Next::Polish(reason) => match polish::start(&mut self.state, reason) {
+                    Ok(search) => {
+                        self.stage = Stage::Polish(search);
+                        return;
+                    }
+                    Err(next) => next,
+                },
+                Next::Rescore(reason) => {
+                    self.stage = Stage::Rescore(reason);
+                    return;
+                }
+                Next::Finish(reason) => warm::finish(&self.state, reason),
+                Next::Probes => {
+                    self.stage = Stage::Probes(probes::begin(&mut self.state));
+                    return;
+                }
+                Next::EndWarm(reason) => warm::end(&mut self.state, reason),
+                Next::Global => {
+                    self.stage = Stage::Global;
+                    return;
+                }
+                Next::Done(reason) => {
+                    self.stage = Stage::Done(reason);
+                    return;
+                }
+            }
+        }
+    }
+
     /// The particles of the PSO global search still to be evaluated in its current sweep, each with
-    /// the cost it must beat ([`ParticleSwarm::pending`]); empty outside the PSO global search and
-    /// before its first step, which builds the swarm.
+    /// the cost it must beat ([`crate::optimizer::pso::ParticleSwarm::pending`]); empty outside the
+    /// PSO global search and before its first step, which builds the swarm.
     /// A host may evaluate them in parallel on clones of [`Identification::fitness`] and hand the
-    /// costs back in order through [`Identification::step_with_global_cost`]: the identification
-    /// is the same, bit for bit, as with [`Identification::step`].
+    /// costs back in order through [`Identification::step_with_global_cost`] (or a
+    /// [`StepDriver::global_cost`]): the identification is the same, bit for bit, as with
+    /// [`Identification::step`].
     pub fn pending_global(&self) -> impl Iterator<Item = (&[f32; FAULT_COUNT], f32)> {
-        let swarm = match (&self.stage, &self.solver) {
-            (Stage::Global, Solver::Pso(s)) => Some(s.pending()),
+        let global = match self.stage {
+            Stage::Global => Some(self.global.pending()),
             _ => None,
         };
-        swarm.into_iter().flatten()
+        global.into_iter().flatten()
     }
 
     /// [`Identification::step`] with the cost of the next [`Identification::pending_global`]
     /// particle computed elsewhere; outside the PSO global search an ordinary step.
     pub fn step_with_global_cost(&mut self, cost: f32) -> SearchStatus {
-        let Solver::Pso(swarm) = &mut self.solver else {
-            return self.step();
-        };
         if !matches!(self.stage, Stage::Global) {
             return self.step();
         }
-        let status = swarm.step_with_cost(cost);
-        self.after_global_step(status);
+        let Some(next) = self.global.step_with_cost(cost, &mut self.state) else {
+            return self.step();
+        };
+        self.enter(next);
         self.status()
-    }
-
-    /// After one step of the global search: once it is done, its best moves on to the later stages.
-    fn after_global_step(&mut self, status: SearchStatus) {
-        if let SearchStatus::Done(reason) = status {
-            (self.best, self.best_cost) = self.solver.best();
-            self.after_global_search(reason);
-        }
-    }
-
-    /// Moves on from the global search's best (`self.best`, `self.best_cost`): model selection,
-    /// the polish, or the end, as the configuration asks.
-    fn after_global_search(&mut self, reason: TerminationReason) {
-        let budget_left = selection_polish_left(&self.config, self.selection_polish_evaluations);
-        if self.config.model_selection && budget_left > 0 {
-            self.stage = Stage::Select(Selection::EffectiveSamples);
-        } else if self.config.model_selection {
-            self.untested_groups = self.present_groups_from(0);
-            self.start_polish(reason);
-        } else if self.config.polish.is_some() {
-            self.start_polish(reason);
-        } else {
-            self.stage = Stage::Done(reason); // the paper: the global search's best as is
-        }
     }
 
     /// Ends the global search at `k`, found by another optimizer, before it has stepped: one
@@ -378,92 +255,35 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     /// be compared with ours through the same later stages. Does nothing once the global search
     /// has stepped.
     pub fn skip_global_search(&mut self, k: &FaultVector) {
-        if !matches!(self.stage, Stage::Global) || self.solver.evaluations() > 0 {
+        if !matches!(self.stage, Stage::Global) {
             return;
         }
-        let mut start = k.0;
-        fault_bounds().enforce_point(&mut start);
-        self.best = start;
-        self.best_cost = self.fit.error(&FaultVector(start));
-        self.selection_polish_evaluations += 1;
-        self.after_global_search(TerminationReason::MaxIterations);
-    }
-
-    /// Starts the polish over the present and kept groups' parameters (or finishes with `reason`).
-    pub(super) fn start_polish(&mut self, reason: TerminationReason) {
-        // Only the groups the global search found and selection kept move: an absent group has no
-        // gradient to follow from healthy (the eccentricity phase means nothing without magnitude),
-        // so it is set exactly healthy.
-        let mut free = [false; FAULT_COUNT];
-        for (g, &group) in FAULT_GROUPS.iter().enumerate() {
-            let present = group_present(&self.best, group);
-            // The group's indices by iteration, not by slicing: no range to check, no panic path.
-            let in_group = |i: usize| (group.0..=group.1).contains(&i);
-            let healthy = FaultVector::HEALTHY.0;
-            if !present && self.best.iter().zip(healthy).enumerate().any(|(i, (&x, h))| in_group(i) && x != h) {
-                self.best = without_group(&self.best, group);
-                self.best_cost = f32::NAN; // re-evaluated by the polish's first step
-            }
-            let keep = self.kept.get(g).is_some_and(|&kept| kept) && present;
-            free.iter_mut().enumerate().filter(|&(i, _)| in_group(i)).for_each(|(_, f)| *f = keep);
-        }
-        let unscored = self.best_cost.is_nan();
-        let Some(polish) = self.config.polish else {
-            self.end_unpolished(unscored, reason);
-            return;
-        };
-        let start_cost = if self.best_cost.is_nan() { None } else { Some(self.best_cost) };
-        let polish = PatternConfig {
-            max_evaluations: polish
-                .max_evaluations
-                .min(selection_polish_left(&self.config, self.selection_polish_evaluations)),
-            ..polish
-        };
-        // The configuration was validated in `new`; with no budget left (or should it fail
-        // anyway), keep the result as is.
-        match PatternSearch::new(fault_bounds(), polish, self.best, start_cost, free) {
-            Ok(search) => self.stage = Stage::Polish(search),
-            Err(_) => self.end_unpolished(unscored, reason),
+        if let Some(next) = self.global.skip(k, &mut self.state) {
+            self.enter(next);
         }
     }
 
-    /// Ends without a polish: a rescore first when the cost of the vector is unknown.
-    fn end_unpolished(&mut self, unscored: bool, reason: TerminationReason) {
-        if unscored {
-            self.stage = Stage::Rescore(reason);
-        } else {
-            self.finish(reason);
-        }
-    }
-
-    /// Why the global search stopped (the report's termination reason; a warm start, which has
-    /// none, converged).
-    pub(super) fn global_reason(&self) -> TerminationReason {
-        if self.warm.is_some_and(|w| !w.report.cold_fallback) {
-            return TerminationReason::FunctionTolerance;
-        }
-        let status = match &self.solver {
-            Solver::Planned(_) => SearchStatus::Running,
-            Solver::Pso(s) => s.status(),
-            #[cfg(feature = "ga")]
-            Solver::Ga(s) => s.status(),
-            #[cfg(feature = "de")]
-            Solver::De(s) => s.status(),
-        };
-        match status {
-            SearchStatus::Done(reason) => reason,
-            SearchStatus::Running => TerminationReason::MaxIterations,
-        }
-    }
-
-    /// Steps until the identification finishes or `max_evaluations` more evaluations are spent.
-    pub fn run(&mut self, max_evaluations: u32) -> SearchStatus {
-        for _ in 0..max_evaluations {
-            if let SearchStatus::Done(_) = self.step() {
+    /// Steps until the identification finishes or `max_steps` steps are spent (a step spends
+    /// one evaluation at most), with `driver` around each: the one loop every caller runs the
+    /// identification by.
+    pub fn run_with(&mut self, max_steps: u32, driver: &mut impl StepDriver) -> SearchStatus {
+        for _ in 0..max_steps {
+            driver.before_step();
+            let status = match driver.global_cost(self) {
+                Some(cost) => self.step_with_global_cost(cost),
+                None => self.step(),
+            };
+            driver.after_step();
+            if let SearchStatus::Done(_) = status {
                 break;
             }
         }
         self.status()
+    }
+
+    /// Steps until the identification finishes or `max_evaluations` more evaluations are spent.
+    pub fn run(&mut self, max_evaluations: u32) -> SearchStatus {
+        self.run_with(max_evaluations, &mut ())
     }
 
     /// SearchStatus after the last step.
@@ -476,60 +296,30 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
 
     /// The fitness being minimised (to evaluate other vectors against the same trace).
     pub fn fitness(&self) -> &EquivalentCurrentFit<'a, W> {
-        &self.fit
+        self.state.fitness()
     }
 
     /// Which fault groups ([`FAULT_GROUPS`]) model selection kept (all when it is off).
     pub fn kept_groups(&self) -> [bool; FAULT_GROUPS.len()] {
-        self.kept
+        self.state.kept_groups()
     }
 
     /// The health report of the best vector so far.
     pub fn report(&self) -> HealthReport {
         let (best, cost) = match self.stage {
-            Stage::Global => self.solver.best(),
-            _ => (self.best, self.best_cost),
+            Stage::Global => self.global.best(),
+            _ => (*self.state.best(), self.state.best_cost()),
         };
-        let warm = self.warm.map_or(0, |w| w.report.evaluations);
-        let evaluations = self.solver.evaluations() + self.selection_polish_evaluations + warm;
-        let report = HealthReport::new(
-            FaultVector(best),
-            &self.params,
-            cost,
-            evaluations,
-            self.solver.iterations(),
-            self.termination(),
-        );
-        let report = HealthReport { untested_groups: self.untested_groups, ..report };
-        self.judge(report, &FaultVector(best))
+        self.state.report(best, cost, self.global.evaluations(), self.global.iterations(), self.termination())
     }
 
-    /// The report's status from the data: [`Abstain::PartialCoverage`] when the trace is shorter
-    /// than the profile, [`Abstain::PoorFit`] when the goodness-of-fit test ([`FitCheck`]) of `best`
-    /// rejects it, on the whole recording or in its worst window (one model run for the effective
-    /// sample count and the window sums).
-    fn judge(&self, report: HealthReport, best: &FaultVector) -> HealthReport {
-        let noise = super::window_noise_variance_a2(&self.params, self.config.independent_frames_per_block)
-            + MODEL_MISMATCH_A * MODEL_MISMATCH_A;
-        let expected = self.fit.mean_sample_weight() * noise;
-        let (mut worst, mut at) = (f32::NEG_INFINITY, 0u16);
-        let (n_eff, windows) = self.fit.residual_windows(best, |j, w| {
-            let z = window_score(w.samples, w.weighted_sq, w.weight, w.lag, noise);
-            // a NaN score (non-finite residual) replaces any other, is kept, and fails the test
-            if !worst.is_nan() && (z.is_nan() || z > worst) {
-                worst = z;
-                at = j as u16;
-            }
-        });
-        let check = FitCheck::new(report.fitness, n_eff, expected).with_windows(worst, at, windows);
-        let report = HealthReport { fit_check: Some(check), ..report };
-        let report =
-            if check.passes() { report } else { report.abstaining(HealthStatus::Inconclusive(Abstain::PoorFit)) };
-        if self.fit.covers_commands() {
-            report
-        } else {
-            report.abstaining(HealthStatus::Inconclusive(Abstain::PartialCoverage))
-        }
+    /// `report` (of this identification) with its [`crate::health::Uncertainty`] at the reported vector:
+    /// one lockstep run of 9 models on the identification's fitness (`uncertainty.rs`), not
+    /// counted in the report's evaluations.
+    pub fn with_uncertainty(&self, report: HealthReport) -> HealthReport {
+        let independent_frames = self.state.config().independent_frames_per_block;
+        let u = uncertainty_at(self.state.fitness(), self.state.params(), &report.faults, independent_frames);
+        report.with_uncertainty(u)
     }
 
     /// The termination reason once finished.
@@ -545,9 +335,13 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
 pub(super) mod tests {
     use super::*;
     use crate::fitness::simulate_window;
+    use crate::health::{Abstain, Status as HealthStatus};
+    use crate::monitor::groups::group_present;
+    use crate::monitor::Algorithm;
     use crate::monitor::{
         ONBOARD_MAX_ITERATIONS, ONBOARD_POPULATION, ONBOARD_WINDOW, SELECTION_POLISH_MAX_EVALUATIONS, SELECTION_REFIT,
     };
+    use crate::optimizer::pattern::PatternConfig;
     use crate::profile::Profile;
 
     /// A noise-free "measurement" of the monitor model with faults `k`, through conditioning.
@@ -690,7 +484,7 @@ pub(super) mod tests {
                 Identification::new(&t, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap();
             let fitness = id.fitness().error(&truth);
             let report = HealthReport::new(truth, &EmaParams::NOMINAL, fitness, 1, 1, None);
-            id.judge(report, &truth)
+            id.state.judge(report, &truth)
         };
         let clean = judged(0.0);
         let c = clean.fit_check.unwrap();

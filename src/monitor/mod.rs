@@ -3,24 +3,35 @@
 //! [`acquire`] reads and conditions the phase currents; [`Identification`] owns the optimizer's
 //! fixed-size state and borrows the trace; it advances one objective evaluation per
 //! [`Identification::step`], so firmware can spread the work over control cycles, or call
-//! [`Identification::run`] to finish at once. Configuration ([`IdentifyConfig`]) is checked once in
+//! [`Identification::run`] to finish at once ([`Identification::run_with`]: the same loop with a
+//! [`StepDriver`] around each step). Configuration ([`IdentifyConfig`]) is checked once in
 //! [`Identification::new`]; after that nothing in the loop can fail or panic.
 //!
-//! The stages: the global search (PSO, GA or DE from [`starting_guesses`] and random points), model
-//! selection (`selection.rs`: each fault group must pay for its parameters), and the polish of the
-//! groups kept by a compass search (`identification.rs`). A warm start from the previous flight's
-//! diagnosis replaces the global search by the prior and adds new-fault probes (`warm.rs`,
-//! [`Identification::warm`]). Over flights, [`evidence`] sums each fault mode's log-likelihood
-//! ratio in a sequential test. After the report, the uncertainty of the reported vector
-//! (`uncertainty.rs`: the 1σ of each parameter and the severity below which a group reported
-//! healthy could hide) is one more lockstep run of the model.
+//! The identification is stages over one state, driven by one executor, as the optimizers are
+//! (`docs/decisions/0036-identification-stages-executor.md`): [`Identification`]
+//! (`identification.rs`) holds the state (`state.rs`: the fitness, the best vector, the groups
+//! kept, the evaluations spent, changed only through its methods) and the stage under way, steps
+//! it, and builds in place the stage each step names (`stage.rs`). The stages, one file each:
+//! the global search (`global.rs`: PSO, GA or DE from [`starting_guesses`] and random points),
+//! model selection (`selection.rs`: each fault group must pay for its parameters), the polish of
+//! the groups kept by a compass search (`polish.rs`). A warm start from the previous flight's
+//! diagnosis replaces the global search by the prior and its drift polish (`warm.rs`,
+//! [`Identification::warm`]) and adds new-fault probes (`probes.rs`). Over flights, [`evidence`]
+//! sums each fault mode's log-likelihood ratio in a sequential test. After the report, the
+//! uncertainty of the reported vector (`uncertainty.rs`: the 1σ of each parameter and the
+//! severity below which a group reported healthy could hide) is one more lockstep run of the
+//! model.
 
 mod config;
 pub mod evidence;
+mod global;
 mod groups;
 mod identification;
+mod polish;
+mod probes;
 mod selection;
 mod stage;
+mod state;
 mod uncertainty;
 mod verdict;
 mod warm;
@@ -30,11 +41,12 @@ pub use config::{
     ONBOARD_POPULATION, ONBOARD_WINDOW, SELECTION_POLISH_MAX_EVALUATIONS,
 };
 pub use groups::{group_present, without_group, FAULT_GROUPS, GROUP_NAMES};
-pub use identification::Identification;
+pub use identification::{Identification, StepDriver};
+pub use probes::{MAX_NEW_FAULTS, PROBE_SCOUT, PROBE_SEVERITY, TARGETED_REFIT};
 pub use selection::{
     group_pays, helps_without_its_best_window, refit_replaces, REPLACED_ABOVE, SELECTION_REFIT, WINDOW_GAIN_SHARE,
 };
-pub use stage::WarmReport;
+pub use state::WarmReport;
 pub use uncertainty::{
     covariance_noise_a2, uncertainty_at, with_uncertainty, Fisher, FISHER_STEP, MISMATCH_CORRELATION_SAMPLES,
 };
@@ -42,9 +54,7 @@ pub use verdict::{
     covers, rate_matches, window_noise_variance_a2, AcquisitionSummary, MAX_REFUSED_RUN, MAX_REFUSED_SHARE,
     MODEL_MISMATCH_A,
 };
-pub use warm::{
-    plan_start, ColdReason, Start, COLD_EVERY_FLIGHTS, MAX_NEW_FAULTS, PROBE_SCOUT, PROBE_SEVERITY, TARGETED_REFIT,
-};
+pub use warm::{plan_start, ColdReason, Start, COLD_EVERY_FLIGHTS};
 
 use crate::acquisition::{AcquisitionError, GainCheck, PhaseCurrents, MAX_GAIN_MISMATCH};
 use crate::conditioning::{ConditionedWindow, ConditioningError};

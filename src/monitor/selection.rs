@@ -18,10 +18,10 @@
 //! [`IdentifyConfig::selection_polish_max_evaluations`](super::IdentifyConfig); the groups it has
 //! no budget left to test stay and are counted in the report.
 
-use super::config::{fault_bounds, selection_polish_left, PHASE_INDEX};
+use super::config::{fault_bounds, PHASE_INDEX};
 use super::groups::{group_present, without_group, FAULT_GROUPS, PRESENT_ABOVE};
-use super::identification::Identification;
-use super::stage::{Selection, Stage, WindowCheck};
+use super::stage::Next;
+use super::state::{Account, IdentificationState};
 use crate::faults::{FaultVector, FAULT_COUNT};
 use crate::fitness::WindowErrors;
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
@@ -114,70 +114,145 @@ pub fn phase_moved(k: &[f32; FAULT_COUNT], (from, to): (usize, usize)) -> Option
     Some(out)
 }
 
-impl<const W: usize, const P: usize> Identification<'_, W, P> {
-    /// One step of model selection (see [`Selection`] for what each state spends).
-    pub(super) fn selection_step(&mut self) {
-        let Stage::Select(selection) = &mut self.stage else { return };
-        match selection {
+/// Where model selection is. `group` indexes [`FAULT_GROUPS`]; `effective_samples` is the `n` of
+/// the information criterion, evaluated once on the global search's best vector.
+#[derive(Clone, Debug)]
+#[allow(clippy::large_enum_variant, reason = "held once, inline in the identification: no allocator to box into")]
+pub(super) enum Selection {
+    /// Evaluates the effective sample count of the best vector (one evaluation).
+    EffectiveSamples,
+    /// Evaluates the best vector with `group` set back to healthy, before any refit (one
+    /// evaluation): a group that does not pay even against this unrefitted cost is dropped
+    /// without its refit (`Selection::pre_check`).
+    PreCheck {
+        /// Group under test.
+        group: usize,
+        /// `n` of the information criterion.
+        effective_samples: f32,
+    },
+    /// Starts the test of the first present group from `group` on (no evaluation).
+    NextGroup {
+        /// First group to consider.
+        group: usize,
+        /// `n` of the information criterion.
+        effective_samples: f32,
+    },
+    /// Refits the other groups with `group` set back to healthy (one evaluation per step).
+    Refit {
+        /// Group under test.
+        group: usize,
+        /// `n` of the information criterion.
+        effective_samples: f32,
+        /// The compass search of the refit.
+        search: PatternSearch<FAULT_COUNT>,
+    },
+    /// Checks window by window a group that paid the information criterion.
+    WindowCheck {
+        /// Group under test.
+        group: usize,
+        /// `n` of the information criterion.
+        effective_samples: f32,
+        /// Which of the check's two evaluations is next.
+        check: WindowCheck,
+    },
+    /// After the groups are judged: scores the vector when selection changed it (one
+    /// evaluation), then tries the next possible move of `PHASE_MOVES` from `next` on (one
+    /// evaluation each, abandoned above the best cost) and keeps it when it lowers `E`.
+    PhaseMove {
+        /// First move of `PHASE_MOVES` not tried yet.
+        next: usize,
+        /// The vector the moves of `next`'s phase start from: the best one before the first of
+        /// them, so the second competes with the first instead of moving its result.
+        origin: [f32; FAULT_COUNT],
+    },
+}
+
+/// The window-by-window check of a group that paid the information criterion
+/// (`helps_without_its_best_window`): two evaluations, one state each.
+#[derive(Clone, Debug)]
+#[allow(clippy::large_enum_variant, reason = "held once, inline in the identification: no allocator to box into")]
+pub(super) enum WindowCheck {
+    /// Evaluates `E` per window of the best vector, with the group.
+    With {
+        /// The refit without the group.
+        without: [f32; FAULT_COUNT],
+    },
+    /// Evaluates `E` per window of the refit without the group, then decides.
+    Without {
+        /// The refit without the group.
+        without: [f32; FAULT_COUNT],
+        /// `E` per window with the group.
+        with: WindowErrors,
+    },
+}
+
+type State<'s, 'a, const W: usize> = &'s mut IdentificationState<'a, W>;
+
+impl Selection {
+    /// One step of model selection (see [`Selection`] for what each state spends); every
+    /// evaluation is spent from the budget of selection and the polish.
+    pub(super) fn step<const W: usize>(&mut self, state: State<'_, '_, W>) -> Next {
+        match self {
             Selection::EffectiveSamples => {
-                let effective_samples = self.fit.effective_samples(&FaultVector(self.best));
-                self.selection_polish_evaluations += 1;
-                *selection = Selection::NextGroup { group: 0, effective_samples };
+                let best = *state.best();
+                let effective_samples = state.evaluate(Account::Later, |fit| fit.effective_samples(&FaultVector(best)));
+                *self = Selection::NextGroup { group: 0, effective_samples };
+                Next::Stay
             }
             Selection::PreCheck { group, effective_samples } => {
                 let (group, effective_samples) = (*group, *effective_samples);
-                self.pre_check(group, effective_samples);
+                self.pre_check(state, group, effective_samples)
             }
             Selection::NextGroup { group, effective_samples } => {
                 let (group, effective_samples) = (*group, *effective_samples);
-                self.next_selection_test(group, effective_samples);
+                self.next_test(state, group, effective_samples)
             }
             Selection::Refit { group, effective_samples, search } => {
-                let before = search.evaluations();
-                let status = search.step(&mut self.fit);
-                self.selection_polish_evaluations += search.evaluations() - before;
+                let status = state.step_search(search, Account::Later);
                 if let SearchStatus::Done(_) = status {
                     let (group, effective_samples) = (*group, *effective_samples);
-                    self.refit_done(group, effective_samples);
+                    return self.refit_done(state, group, effective_samples);
                 }
+                Next::Stay
             }
             Selection::PhaseMove { next, origin } => {
                 let (next, origin) = (*next, *origin);
-                self.phase_move_step(next, origin);
+                self.phase_move_step(state, next, origin)
             }
-            Selection::WindowCheck { group, effective_samples, check } => {
-                self.selection_polish_evaluations += 1;
-                match check {
-                    WindowCheck::With { without } => {
-                        let without = *without;
-                        let with = self.fit.window_errors(&FaultVector(self.best));
-                        *check = WindowCheck::Without { without, with };
-                    }
-                    WindowCheck::Without { without, with } => {
-                        let (group, effective_samples) = (*group, *effective_samples);
-                        let without_errors = self.fit.window_errors(&FaultVector(*without));
-                        let replaced =
-                            FAULT_GROUPS.get(group).is_some_and(|&tested| refit_replaces(&self.best, without, tested));
-                        let share = if replaced { 0.0 } else { WINDOW_GAIN_SHARE };
-                        let pays = helps_without_its_best_window(with, &without_errors, share);
-                        if let Some(kept) = self.kept.get_mut(group) {
-                            *kept = pays;
-                        }
-                        self.next_selection_test(group + 1, effective_samples);
-                    }
+            Selection::WindowCheck { group, effective_samples, check } => match check {
+                WindowCheck::With { without } => {
+                    let without = *without;
+                    let best = *state.best();
+                    let with = state.evaluate(Account::Later, |fit| fit.window_errors(&FaultVector(best)));
+                    *check = WindowCheck::Without { without, with };
+                    Next::Stay
                 }
-            }
+                WindowCheck::Without { without, with } => {
+                    let (group, effective_samples) = (*group, *effective_samples);
+                    let without_errors =
+                        state.evaluate(Account::Later, |fit| fit.window_errors(&FaultVector(*without)));
+                    let replaced =
+                        FAULT_GROUPS.get(group).is_some_and(|&tested| refit_replaces(state.best(), without, tested));
+                    let share = if replaced { 0.0 } else { WINDOW_GAIN_SHARE };
+                    let pays = helps_without_its_best_window(with, &without_errors, share);
+                    state.keep(group, pays);
+                    self.next_test(state, group + 1, effective_samples)
+                }
+            },
         }
     }
 
     /// Judges the finished refit of `group` and moves on to its window check or the next group.
-    fn refit_done(&mut self, group: usize, effective_samples: f32) {
-        let Stage::Select(Selection::Refit { search, .. }) = &self.stage else { return };
+    fn refit_done<const W: usize>(&mut self, state: State<'_, '_, W>, group: usize, effective_samples: f32) -> Next {
+        let Selection::Refit { search, .. } = self else { return Next::Stay };
         let (x, without) = search.best();
         let x = *x;
-        match self.judge_refit(group, effective_samples, x, without) {
-            Some(check) => self.stage = Stage::Select(Selection::WindowCheck { group, effective_samples, check }),
-            None => self.next_selection_test(group + 1, effective_samples),
+        match judge_refit(state, group, effective_samples, x, without) {
+            Some(check) => {
+                *self = Selection::WindowCheck { group, effective_samples, check };
+                Next::Stay
+            }
+            None => self.next_test(state, group + 1, effective_samples),
         }
     }
 
@@ -189,33 +264,28 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
     /// pays gets its refit, which starts from this point with its cost known, so the refit's
     /// trials and the evaluations spent are those of a refit without the pre-check
     /// (`docs/decisions/0018-warm-start.md`).
-    fn pre_check(&mut self, group: usize, effective_samples: f32) {
+    fn pre_check<const W: usize>(&mut self, state: State<'_, '_, W>, group: usize, effective_samples: f32) -> Next {
         let Some(&tested) = FAULT_GROUPS.get(group) else {
-            self.next_selection_test(group, effective_samples);
-            return;
+            return self.next_test(state, group, effective_samples);
         };
-        let start = without_group(&self.best, tested);
-        let cost = self.fit.error(&FaultVector(start));
-        self.selection_polish_evaluations += 1;
+        let start = without_group(state.best(), tested);
+        let cost = state.evaluate(Account::Later, |fit| fit.error(&FaultVector(start)));
         let parameters = tested.1 - tested.0 + 1;
-        let pays = cost >= self.best_cost && group_pays(self.best_cost, cost, parameters, effective_samples);
+        let best_cost = state.best_cost();
+        let pays = cost >= best_cost && group_pays(best_cost, cost, parameters, effective_samples);
         if !pays {
-            if cost < self.best_cost {
-                (self.best, self.best_cost) = (start, cost);
+            if cost < best_cost {
+                state.set_best(start, cost);
             }
-            if let Some(kept) = self.kept.get_mut(group) {
-                *kept = false;
-            }
-            self.next_selection_test(group + 1, effective_samples);
-            return;
+            state.keep(group, false);
+            return self.next_test(state, group + 1, effective_samples);
         }
-        // The refit's budget as `next_selection_test` gave it before this evaluation, less the
-        // evaluation of its start point done here (at least 1: that budget was at least 2).
-        let left = selection_polish_left(&self.config, self.selection_polish_evaluations);
-        let refit_budget = SELECTION_REFIT.max_evaluations.min(left).saturating_sub(1).max(1);
+        // The refit's budget as `next_test` gave it before this evaluation, less the evaluation
+        // of its start point done here (at least 1: that budget was at least 2).
+        let refit_budget = SELECTION_REFIT.max_evaluations.min(state.budget_left()).saturating_sub(1).max(1);
         let mut free = [false; FAULT_COUNT];
-        for ((h, &(first, last)), &kept) in FAULT_GROUPS.iter().enumerate().zip(&self.kept) {
-            let movable = h != group && kept && group_present(&self.best, (first, last));
+        for (h, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
+            let movable = h != group && state.kept(h) && group_present(state.best(), (first, last));
             // The group's indices by iteration, not by slicing: no range to check, no panic path.
             let in_group = |i: usize| (first..=last).contains(&i);
             free.iter_mut().enumerate().filter(|&(i, _)| in_group(i)).for_each(|(_, f)| *f = movable);
@@ -224,63 +294,39 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
         match PatternSearch::new(fault_bounds(), config, start, Some(cost), free) {
             Ok(search) => {
                 let done = matches!(search.status(), SearchStatus::Done(_));
-                self.stage = Stage::Select(Selection::Refit { group, effective_samples, search });
+                *self = Selection::Refit { group, effective_samples, search };
                 if done {
-                    self.refit_done(group, effective_samples); // nothing free: judged on the pre-check
+                    return self.refit_done(state, group, effective_samples); // nothing free: judged on the pre-check
                 }
+                Next::Stay
             }
-            Err(_) => self.next_selection_test(group + 1, effective_samples),
+            Err(_) => self.next_test(state, group + 1, effective_samples),
         }
-    }
-
-    /// Decides on `group` once its refit `x` (cost `without`) is done: a smaller model that fits
-    /// better becomes the one to beat; otherwise the information criterion decides, and a group
-    /// that pays gets its window check when two evaluations are left for it (without them, the
-    /// plain test stands). Returns the window check to run, if any.
-    fn judge_refit(
-        &mut self,
-        group: usize,
-        effective_samples: f32,
-        x: [f32; FAULT_COUNT],
-        without: f32,
-    ) -> Option<WindowCheck> {
-        let (Some(&(first, last)), Some(kept)) = (FAULT_GROUPS.get(group), self.kept.get_mut(group)) else {
-            return None;
-        };
-        if without < self.best_cost {
-            (self.best, self.best_cost) = (x, without);
-            *kept = false;
-            return None;
-        }
-        *kept = group_pays(self.best_cost, without, last - first + 1, effective_samples);
-        let budget_left = selection_polish_left(&self.config, self.selection_polish_evaluations);
-        (*kept && budget_left >= 2).then_some(WindowCheck::With { without: x })
     }
 
     /// Starts the refit for the first present group from `group` on, or ends model selection and
     /// starts the polish. Spends no evaluation (the refit's first step evaluates its start point).
     /// A refit gets at most what is left of the budget but one, kept for the cost of a vector
     /// selection changed; with fewer than two to give, the groups not yet tested stay.
-    fn next_selection_test(&mut self, mut group: usize, effective_samples: f32) {
-        let refit_budget = SELECTION_REFIT
-            .max_evaluations
-            .min(selection_polish_left(&self.config, self.selection_polish_evaluations).saturating_sub(1));
+    fn next_test<const W: usize>(&mut self, state: State<'_, '_, W>, mut group: usize, effective_samples: f32) -> Next {
+        let refit_budget = SELECTION_REFIT.max_evaluations.min(state.budget_left().saturating_sub(1));
         while let Some(&tested) = FAULT_GROUPS.get(group) {
             if refit_budget < 2 {
-                self.untested_groups = self.present_groups_from(group);
+                state.leave_untested_from(group);
                 break;
             }
-            if group_present(&self.best, tested) {
-                self.stage = Stage::Select(Selection::PreCheck { group, effective_samples });
-                return;
+            if group_present(state.best(), tested) {
+                *self = Selection::PreCheck { group, effective_samples };
+                return Next::Stay;
             }
             group += 1;
         }
-        self.drop_unpaid_groups();
-        if PHASE_MOVES.iter().any(|&mv| phase_moved(&self.best, mv).is_some()) {
-            self.stage = Stage::Select(Selection::PhaseMove { next: 0, origin: self.best });
+        drop_unpaid_groups(state);
+        if PHASE_MOVES.iter().any(|&mv| phase_moved(state.best(), mv).is_some()) {
+            *self = Selection::PhaseMove { next: 0, origin: *state.best() };
+            Next::Stay
         } else {
-            self.start_polish(self.global_reason());
+            Next::Polish(state.global_reason())
         }
     }
 
@@ -289,55 +335,67 @@ impl<const W: usize, const P: usize> Identification<'_, W, P> {
     /// selection and the polish. A move is kept only when `E` falls: no threshold, and the
     /// number of parameters does not change (a merge of two shorts removes one). The group a
     /// short moves to is kept, so the polish refines it.
-    fn phase_move_step(&mut self, next: usize, mut origin: [f32; FAULT_COUNT]) {
-        if selection_polish_left(&self.config, self.selection_polish_evaluations) == 0 {
-            self.start_polish(self.global_reason());
-            return;
+    fn phase_move_step<const W: usize>(
+        &mut self,
+        state: State<'_, '_, W>,
+        next: usize,
+        mut origin: [f32; FAULT_COUNT],
+    ) -> Next {
+        if state.budget_left() == 0 {
+            return Next::Polish(state.global_reason());
         }
-        if self.best_cost.is_nan() {
-            self.best_cost = self.fit.error(&FaultVector(self.best));
-            self.selection_polish_evaluations += 1;
-            return;
+        if state.best_cost().is_nan() {
+            state.rescore(Account::Later);
+            return Next::Stay;
         }
         let mut index = next;
         while let Some(&mv) = PHASE_MOVES.get(index) {
             if index.is_multiple_of(2) {
-                origin = self.best; // the first move of a phase
+                origin = *state.best(); // the first move of a phase
             }
             index += 1;
             let Some(x) = phase_moved(&origin, mv) else { continue };
-            let cost = self.fit.error_abandoning(&FaultVector(x), self.best_cost);
-            self.selection_polish_evaluations += 1;
-            if cost < self.best_cost {
-                (self.best, self.best_cost) = (x, cost);
-                if let Some(kept) = self.kept.get_mut(mv.1) {
-                    *kept = true; // the groups of the shorts are indexed as their parameters
-                }
+            let best_cost = state.best_cost();
+            let cost = state.evaluate(Account::Later, |fit| fit.error_abandoning(&FaultVector(x), best_cost));
+            if cost < best_cost {
+                state.set_best(x, cost);
+                state.keep(mv.1, true); // the groups of the shorts are indexed as their parameters
             }
-            self.stage = Stage::Select(Selection::PhaseMove { next: index, origin });
-            return;
+            *self = Selection::PhaseMove { next: index, origin };
+            return Next::Stay;
         }
-        self.start_polish(self.global_reason());
+        Next::Polish(state.global_reason())
     }
+}
 
-    /// How many groups of [`FAULT_GROUPS`] from index `first` on are present in the best vector.
-    pub(super) fn present_groups_from(&self, first: usize) -> u8 {
-        let present = FAULT_GROUPS.iter().skip(first).filter(|&&g| group_present(&self.best, g)).count();
-        present as u8 // at most FAULT_GROUPS.len() = 7
+/// Decides on `group` once its refit `x` (cost `without`) is done: a smaller model that fits
+/// better becomes the one to beat; otherwise the information criterion decides, and a group
+/// that pays gets its window check when two evaluations are left for it (without them, the
+/// plain test stands). Returns the window check to run, if any.
+fn judge_refit<const W: usize>(
+    state: State<'_, '_, W>,
+    group: usize,
+    effective_samples: f32,
+    x: [f32; FAULT_COUNT],
+    without: f32,
+) -> Option<WindowCheck> {
+    let &(first, last) = FAULT_GROUPS.get(group)?;
+    if without < state.best_cost() {
+        state.set_best(x, without);
+        state.keep(group, false);
+        return None;
     }
+    let kept = group_pays(state.best_cost(), without, last - first + 1, effective_samples);
+    state.keep(group, kept);
+    (kept && state.budget_left() >= 2).then_some(WindowCheck::With { without: x })
+}
 
-    /// Sets every group model selection refused back to healthy; the cost is re-evaluated by the
-    /// polish (or by a rescore when there is none).
-    fn drop_unpaid_groups(&mut self) {
-        let mut changed = false;
-        for (g, group) in FAULT_GROUPS.iter().enumerate() {
-            if !self.kept[g] && group_present(&self.best, *group) {
-                self.best = without_group(&self.best, *group);
-                changed = true;
-            }
-        }
-        if changed {
-            self.best_cost = f32::NAN; // unknown until evaluated
+/// Sets every group model selection refused back to healthy; the cost is re-evaluated by the
+/// polish (or by a rescore when there is none).
+fn drop_unpaid_groups<const W: usize>(state: State<'_, '_, W>) {
+    for (g, group) in FAULT_GROUPS.iter().enumerate() {
+        if !state.kept(g) && group_present(state.best(), *group) {
+            state.drop_group(*group);
         }
     }
 }

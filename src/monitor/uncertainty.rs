@@ -54,7 +54,6 @@
 
 use super::config::{configured_fit, IdentifyConfig, PHASE_INDEX};
 use super::groups::{group_present, FAULT_GROUPS};
-use super::identification::Identification;
 use super::verdict::{window_noise_variance_a2, MODEL_MISMATCH_A};
 use crate::command::Command;
 use crate::conditioning::ConditionedWindow;
@@ -359,7 +358,7 @@ pub fn uncertainty_at<const W: usize>(
 
 /// `report` (an identification of `trace` under `command` with `config`, on the actuator
 /// `params`) with its [`Uncertainty`] at the reported vector, for a caller that no longer holds
-/// the [`Identification`] (the firmware, which keeps this run out of the identification's
+/// the [`super::Identification`] (the firmware, which keeps this run out of the identification's
 /// instruction count): the fitness is built again (one healthy-model run for its fast-regime
 /// intervals) and the 9 models run in lockstep. A fitness the configuration refuses leaves the
 /// report as it is (the identification refused it first).
@@ -377,16 +376,6 @@ pub fn with_uncertainty<'a, const W: usize>(
             report.with_uncertainty(u)
         }
         None => report,
-    }
-}
-
-impl<const W: usize, const P: usize> Identification<'_, W, P> {
-    /// `report` (of this identification) with its [`Uncertainty`] at the reported vector: one
-    /// lockstep run of 9 models on the identification's fitness (module doc), not counted in
-    /// the report's evaluations.
-    pub fn with_uncertainty(&self, report: HealthReport) -> HealthReport {
-        let u = uncertainty_at(&self.fit, &self.params, &report.faults, self.config.independent_frames_per_block);
-        report.with_uncertainty(u)
     }
 }
 
@@ -508,7 +497,7 @@ mod tests {
     use super::*;
     use crate::conditioning::DECIMATION;
     use crate::fitness::simulate_window;
-    use crate::monitor::{IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
+    use crate::monitor::{Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
     use crate::profile::Profile;
 
     /// The model's own trace of `truth` with Gaussian noise of `sigma` A on the pair current of

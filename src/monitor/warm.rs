@@ -1,25 +1,22 @@
 //! Warm start: an identification from the previous flight's diagnosis, without the global search.
 //!
 //! A monitor that runs every flight sees faults that change slowly. From a prior fault vector
-//! (the last diagnosis) the warm identification ([`Identification::warm`]) runs, in order:
+//! (the last diagnosis) the warm identification ([`super::Identification::warm`]) runs, in order:
 //! 1. **start**: the prior with its absent groups exactly healthy, its cost and the effective
 //!    sample count `n` of the information criterion (two evaluations);
 //! 2. **drift polish** ([`DRIFT_POLISH`]): a coarse compass search over the prior's present
 //!    groups, each parameter within [`MAX_DRIFT`] of the prior, so that the cost the probes and
 //!    model selection compare with is that of the prior's groups followed by their drift;
-//! 3. **new-fault probes**: for each group absent from the prior, one evaluation with the group
-//!    at [`PROBE_SEVERITY`] (the eccentricity at [`ECCENTRICITY_PROBES`] phases, the gain drift
-//!    on both sides of nominal). A probe **fires** when
-//!    the same Bayesian information criterion as model selection says the group pays for its
-//!    parameters at the probe point: [`group_pays`]`(E_probe, E_best, m, n)`. The probe's model
-//!    run is abandoned as soon as its cost exceeds the criterion's threshold, so a quiet probe
-//!    costs a fraction of an evaluation. The probes run before the present groups move freely:
-//!    a new fault that a present group can imitate (a new short on phase B by a known short on C
-//!    grown threefold) is then still seen as the probe's gain;
-//! 4. **targeted refit** when one fires: each fired probe is scouted by a short compass search
-//!    over its group alone ([`PROBE_SCOUT`]), and a compass search ([`TARGETED_REFIT`]) from the
-//!    best scouted point moves that group and the present ones; then the probes of the groups
-//!    still absent run again (at most [`MAX_NEW_FAULTS`] refits per flight);
+//! 3. **new-fault probes** (`probes.rs`): for each group absent from the prior, one evaluation
+//!    with the group at [`super::PROBE_SEVERITY`]; a probe **fires** when the same Bayesian
+//!    information criterion as model selection says the group pays for its parameters at the
+//!    probe point. The probes run before the present groups move freely: a new fault that a
+//!    present group can imitate (a new short on phase B by a known short on C grown threefold)
+//!    is then still seen as the probe's gain;
+//! 4. **targeted refit** when one fires (`probes.rs`): the fired probes are scouted, and a
+//!    compass search ([`super::TARGETED_REFIT`]) from the best scouted point moves that group and
+//!    the present ones; then the probes of the groups still absent run again (at most
+//!    [`super::MAX_NEW_FAULTS`] refits per flight);
 //! 5. **model selection and the polish**, as after a cold global search (only the present groups
 //!    move): a group the new flight no longer supports is dropped, the others are polished.
 //!
@@ -35,23 +32,13 @@
 //! flights, and after a warm flight whose result fails its fit check ([`super::WarmReport::needs_cold`]).
 
 use super::config::{fault_bounds, IdentifyConfig, PHASE_INDEX};
-use super::groups::{group_present, FAULT_GROUPS};
-use super::identification::Identification;
-use super::selection::group_pays;
-use super::stage::{Selection, Stage, WarmStage};
+use super::groups::{group_present, present_free, without_group, FAULT_GROUPS};
+use super::stage::Next;
+use super::state::{Account, IdentificationState, WarmPhase};
+use super::MonitorError;
 use crate::faults::{FaultVector, FAULT_COUNT};
-use crate::fitness::EquivalentCurrentFit;
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
-use crate::optimizer::{Bounds, Objective, Optimizer, SearchStatus, TerminationReason};
-
-/// Severity of a new-fault probe (normalized, the scale of the fault vector): 0.1. A probe
-/// fires for a new fault above about half of it (0.05, the campaign's smallest "low" fault);
-/// smaller probes sit closer to the noise, larger ones miss the faults between.
-pub const PROBE_SEVERITY: f32 = 0.1;
-
-/// The targeted refit after a probe fires: steps from 0.05 (a new fault may lie far from the
-/// probe) down to the polish's 2e-4, at most 250 evaluations.
-pub const TARGETED_REFIT: PatternConfig = PatternConfig { initial_step: 0.05, min_step: 2.0e-4, max_evaluations: 250 };
+use crate::optimizer::{Bounds, Optimizer, SearchStatus, TerminationReason};
 
 /// The drift polish of a warm start, before the probes and model selection: a compass search over the prior's
 /// present groups, steps from 0.02 (a flight's drift is a few hundredths) down to 2e-3, at most
@@ -70,50 +57,9 @@ pub const DRIFT_POLISH: PatternConfig = PatternConfig { initial_step: 0.02, min_
 /// (normalized): 0.05, above the few hundredths a fault grows by in one flight.
 pub const MAX_DRIFT: f32 = 0.05;
 
-/// Targeted refits one warm identification runs at most (new faults found in one flight).
-pub const MAX_NEW_FAULTS: u8 = 2;
-
 /// Default of [`IdentifyConfig::cold_every_flights`]: a cold identification every 20 flights
 /// bounds how long a wrong prior (a basin the probes cannot leave) can persist.
 pub const COLD_EVERY_FLIGHTS: u32 = 20;
-
-/// Phases of the eccentricity probes: eight, at `(2j + 1)/16` of a turn. The gain of an
-/// eccentricity is narrow in phase (at a severity near the probe's, a probe a quarter of a turn
-/// from the fault's phase barely lowers the cost), so a probe grid of a quarter of a turn leaves
-/// faults between its points unseen (an eccentricity of 0.18 halfway between two of them);
-/// an eighth of a turn halves the largest phase gap.
-const ECCENTRICITY_PROBES: usize = 8;
-
-/// Probe points: friction, backlash, the three shorts (one each), eccentricity at
-/// [`ECCENTRICITY_PROBES`] phases, gain drift up and down.
-const PROBES: usize = 7 + ECCENTRICITY_PROBES;
-
-/// The probe `index` (`0..PROBES`): its group (index into [`FAULT_GROUPS`]) and the parameters it
-/// sets, applied to `k`.
-fn probe_point(k: &[f32; FAULT_COUNT], index: usize) -> Option<(usize, [f32; FAULT_COUNT])> {
-    let mut x = *k;
-    let group = match index {
-        0..=4 => {
-            *x.get_mut(index)? = PROBE_SEVERITY;
-            index
-        }
-        5..=12 => {
-            x[5] = PROBE_SEVERITY;
-            x[PHASE_INDEX] = (2 * (index - 5) + 1) as f32 / (2 * ECCENTRICITY_PROBES) as f32;
-            5
-        }
-        13 => {
-            x[7] = 0.5 + 0.5 * PROBE_SEVERITY;
-            6
-        }
-        14 => {
-            x[7] = 0.5 - 0.5 * PROBE_SEVERITY;
-            6
-        }
-        _ => return None,
-    };
-    Some((group, x))
-}
 
 /// Why an identification starts cold.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -133,9 +79,9 @@ pub enum ColdReason {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Start {
-    /// The global search, then model selection and the polish ([`Identification::new`]).
+    /// The global search, then model selection and the polish ([`super::Identification::new`]).
     Cold(ColdReason),
-    /// From the prior ([`Identification::warm`]).
+    /// From the prior ([`super::Identification::warm`]).
     Warm,
 }
 
@@ -157,21 +103,6 @@ pub fn plan_start(
     }
 }
 
-/// The scout of a fired probe: a short compass search over the probe's group alone, from the
-/// probe point (steps 0.05 → 0.0125, at most 16 evaluations). Groups whose effects look alike
-/// in the slow regime (the three shorts differ mainly in the fast reversal) can all fire; the
-/// probe at a fixed severity does not rank them, their best single-group fits do.
-pub const PROBE_SCOUT: PatternConfig = PatternConfig { initial_step: 0.05, min_step: 0.0125, max_evaluations: 16 };
-
-/// The parameters of `FAULT_GROUPS[group]` free, the others fixed.
-fn group_free(group: usize) -> [bool; FAULT_COUNT] {
-    let mut free = [false; FAULT_COUNT];
-    if let Some(&(first, last)) = FAULT_GROUPS.get(group) {
-        free.iter_mut().enumerate().filter(|(i, _)| (first..=last).contains(i)).for_each(|(_, f)| *f = true);
-    }
-    free
-}
-
 /// The box of the drift polish around `prior`: each parameter within [`MAX_DRIFT`] of the
 /// prior's value (and within the fault bounds), the eccentricity phase free on its circle.
 fn drift_bounds(prior: &[f32; FAULT_COUNT]) -> Bounds<FAULT_COUNT> {
@@ -185,217 +116,109 @@ fn drift_bounds(prior: &[f32; FAULT_COUNT]) -> Bounds<FAULT_COUNT> {
     bounds
 }
 
-/// The parameters of the groups present in `k` free, the others fixed.
-fn present_free(k: &[f32; FAULT_COUNT]) -> [bool; FAULT_COUNT] {
-    let mut free = [false; FAULT_COUNT];
-    for &(first, last) in FAULT_GROUPS.iter() {
-        let present = group_present(k, (first, last));
-        free.iter_mut().enumerate().filter(|(i, _)| (first..=last).contains(i)).for_each(|(_, f)| *f = present);
+/// The start point of a warm start from `prior`: the prior in the search box, its absent groups
+/// exactly healthy; refused when it is not a fault vector.
+pub(super) fn warm_start_point(prior: &[f32; FAULT_COUNT]) -> Result<[f32; FAULT_COUNT], MonitorError> {
+    if !FaultVector(*prior).is_valid() {
+        return Err(MonitorError::Prior);
     }
-    free
-}
-
-/// One step of a warm stage's compass search, its evaluations added to `evaluations`; the
-/// search's best point and cost once it is done.
-fn step_counted<const W: usize>(
-    search: &mut PatternSearch<FAULT_COUNT>,
-    fit: &mut EquivalentCurrentFit<'_, W>,
-    evaluations: &mut u32,
-) -> Option<([f32; FAULT_COUNT], f32)> {
-    let before = search.evaluations();
-    let status = search.step(fit);
-    *evaluations += search.evaluations() - before;
-    match status {
-        SearchStatus::Done(_) => {
-            let (x, c) = search.best();
-            Some((*x, c))
+    let mut start = *prior;
+    fault_bounds().enforce_point(&mut start);
+    for &group in FAULT_GROUPS.iter() {
+        if !group_present(&start, group) {
+            start = without_group(&start, group);
         }
-        _ => None,
     }
+    Ok(start)
 }
 
-impl<const W: usize, const P: usize> Identification<'_, W, P> {
-    /// One step of the warm stages (see [`WarmStage`] for what each spends). Not inlined: the
-    /// cold path's `step` stays as compact as without the warm stages.
+/// Where the warm stages before the probes are.
+#[derive(Clone, Debug)]
+pub(super) enum WarmStart {
+    /// Evaluates the prior's cost (one evaluation).
+    Start,
+    /// Evaluates `n` of the information criterion at the prior (one evaluation), then hands over
+    /// to the drift polish (or, with model selection off, to the polish).
+    Samples,
+    /// Follows the drift of the prior's groups before the probes ([`DRIFT_POLISH`]; one
+    /// evaluation per step).
+    Drift(PatternSearch<FAULT_COUNT>),
+}
+
+impl WarmStart {
+    /// One step of the warm stages before the probes (see [`WarmStart`] for what each spends);
+    /// every evaluation is the warm stages'. Not inlined: the cold path's step stays as compact
+    /// as without them.
     #[inline(never)]
-    pub(super) fn warm_step(&mut self) {
-        let Some(warm) = self.warm.as_mut() else { return };
-        let Stage::Warm(stage) = &mut self.stage else { return };
-        match stage {
-            WarmStage::Start => {
-                self.best_cost = self.fit.error(&FaultVector(self.best));
-                warm.report.evaluations += 1;
-                *stage = WarmStage::Samples;
+    pub(super) fn step<const W: usize>(&mut self, state: &mut IdentificationState<'_, W>) -> Next {
+        match self {
+            WarmStart::Start => {
+                state.rescore(Account::Warm);
+                *self = WarmStart::Samples;
+                Next::Stay
             }
-            WarmStage::Samples => {
-                let effective_samples = self.fit.effective_samples(&FaultVector(self.best));
-                warm.effective_samples = effective_samples;
-                warm.report.evaluations += 1;
-                if !self.config.model_selection {
-                    self.start_polish(TerminationReason::FunctionTolerance);
-                    return;
+            WarmStart::Samples => {
+                let best = *state.best();
+                let effective_samples = state.evaluate(Account::Warm, |fit| fit.effective_samples(&FaultVector(best)));
+                state.set_prior_samples(effective_samples);
+                if !state.config().model_selection {
+                    return Next::Polish(TerminationReason::FunctionTolerance);
                 }
-                let free = present_free(&self.best);
-                let bounds = drift_bounds(&self.best);
-                match PatternSearch::new(bounds, DRIFT_POLISH, self.best, Some(self.best_cost), free) {
-                    Ok(search) if free.iter().any(|&f| f) => *stage = WarmStage::Drift(search),
-                    _ => {
-                        warm.probing = true;
-                        *stage = WarmStage::Probe { next: 0, fired: 0 };
+                let free = present_free(&best);
+                let bounds = drift_bounds(&best);
+                match PatternSearch::new(bounds, DRIFT_POLISH, best, Some(state.best_cost()), free) {
+                    Ok(search) if free.iter().any(|&f| f) => {
+                        *self = WarmStart::Drift(search);
+                        Next::Stay
                     }
+                    _ => Next::Probes,
                 }
             }
-            WarmStage::Drift(search) => {
-                if let Some((x, c)) = step_counted(search, &mut self.fit, &mut warm.report.evaluations) {
-                    if c <= self.best_cost {
-                        (self.best, self.best_cost) = (x, c);
-                    }
-                    warm.probing = true;
-                    *stage = WarmStage::Probe { next: 0, fired: 0 };
+            WarmStart::Drift(search) => {
+                let status = state.step_search(search, Account::Warm);
+                let SearchStatus::Done(_) = status else { return Next::Stay };
+                let (x, c) = search.best();
+                if c <= state.best_cost() {
+                    state.set_best(*x, c);
                 }
-            }
-            WarmStage::Probe { next, fired } => {
-                let n = warm.effective_samples;
-                let mut index = usize::from(*next);
-                while index < PROBES {
-                    match probe_point(&self.best, index) {
-                        Some((g, x)) if FAULT_GROUPS.get(g).is_some_and(|&group| !group_present(&self.best, group)) => {
-                            let parameters = FAULT_GROUPS.get(g).map_or(1, |&(first, last)| last - first + 1);
-                            // above this cost the group cannot pay: the model run stops there
-                            let threshold =
-                                self.best_cost * libm::expf(-(parameters as f32) * libm::logf(n.max(2.0)) / n.max(2.0));
-                            let cost = self.fit.cost(&x, threshold);
-                            warm.report.evaluations += 1;
-                            warm.report.probes = warm.report.probes.saturating_add(1);
-                            if group_pays(cost, self.best_cost, parameters, n) {
-                                warm.report.fired |= 1 << g;
-                                *fired |= 1 << index;
-                            }
-                            *next = (index + 1) as u8;
-                            return;
-                        }
-                        _ => index += 1,
-                    }
-                }
-                let fired = *fired;
-                self.next_scout(fired, None);
-            }
-            WarmStage::Scout { left, search, best } => {
-                if let Some((x, c)) = step_counted(search, &mut self.fit, &mut warm.report.evaluations) {
-                    let best = match *best {
-                        Some((_, b)) if b <= c => *best,
-                        _ => Some((x, c)),
-                    };
-                    let left = *left;
-                    self.next_scout(left, best);
-                }
-            }
-            WarmStage::Refit(search) => {
-                if let Some((x, c)) = step_counted(search, &mut self.fit, &mut warm.report.evaluations) {
-                    if c <= self.best_cost {
-                        (self.best, self.best_cost) = (x, c);
-                    }
-                    warm.report.refits += 1;
-                    *stage = WarmStage::Probe { next: 0, fired: 0 };
-                }
+                Next::Probes
             }
         }
     }
+}
 
-    /// Scouts the next fired probe of `left` (no evaluation: the probe's cost is re-evaluated by
-    /// the scout's first step), or, when none is left, starts the targeted refit from `best`.
-    fn next_scout(&mut self, mut left: u16, best: Option<([f32; FAULT_COUNT], f32)>) {
-        while left != 0 {
-            let index = left.trailing_zeros() as usize;
-            left &= left - 1;
-            let Some((g, x)) = probe_point(&self.best, index) else { continue };
-            if let Ok(search) = PatternSearch::new(fault_bounds(), PROBE_SCOUT, x, None, group_free(g)) {
-                self.stage = Stage::Warm(WarmStage::Scout { left, search, best });
-                return;
-            }
-        }
-        self.start_refit(best);
+/// Where an identification goes once the polish is over ([`Next::Finish`]): a warm one to the
+/// probes when they have not run yet (model selection off) and the vector's cost is known, or
+/// to the end of its warm stages; a cold one, or a warm one gone on cold, to the end.
+pub(super) fn finish<const W: usize>(state: &IdentificationState<'_, W>, reason: TerminationReason) -> Next {
+    match state.warm_phase() {
+        WarmPhase::Cold | WarmPhase::FellBack => Next::Done(reason),
+        WarmPhase::BeforeProbes if !state.best_cost().is_nan() => Next::Probes,
+        WarmPhase::BeforeProbes | WarmPhase::Probing => Next::EndWarm(reason),
     }
+}
 
-    /// The targeted refit from the best scouted point, moving its new group and the present
-    /// ones; or the end when no probe fired or [`MAX_NEW_FAULTS`] refits ran.
-    fn start_refit(&mut self, best: Option<([f32; FAULT_COUNT], f32)>) {
-        let refits = self.warm.map_or(MAX_NEW_FAULTS, |w| w.report.refits);
-        let Some((x, cost)) = best else {
-            self.probes_done(TerminationReason::FunctionTolerance);
-            return;
-        };
-        if refits >= MAX_NEW_FAULTS {
-            self.probes_done(TerminationReason::MaxIterations);
-            return;
-        }
-        match PatternSearch::new(fault_bounds(), TARGETED_REFIT, x, Some(cost), present_free(&x)) {
-            Ok(search) => self.stage = Stage::Warm(WarmStage::Refit(search)),
-            Err(_) => self.probes_done(TerminationReason::FunctionTolerance),
-        }
-    }
-
-    /// Where a warm identification goes once the probes (and their refits) are over: model
-    /// selection and the polish when they have not run yet (the probes ran after the drift
-    /// polish), the end otherwise.
-    fn probes_done(&mut self, reason: TerminationReason) {
-        match self.warm.as_mut() {
-            Some(warm) if self.config.model_selection && !warm.selected => {
-                warm.selected = true;
-                let effective_samples = warm.effective_samples;
-                self.stage = Stage::Select(Selection::NextGroup { group: 0, effective_samples });
-            }
-            _ => self.end_warm(reason),
-        }
-    }
-
-    /// The end of the warm stages: the fit check of the result (one model run); when it fails,
-    /// the identification starts over cold in the same call (the global search from its own
-    /// start; model selection and the polish with their whole budget), since a warm start that
-    /// does not fit left the prior's basin for a wrong one or never found a new fault's.
-    fn end_warm(&mut self, reason: TerminationReason) {
-        let fails = self.report().fit_check.is_some_and(|c| !c.passes());
-        let Some(warm) = self.warm.as_mut() else {
-            self.stage = Stage::Done(reason);
-            return;
-        };
-        warm.report.evaluations += 1;
-        if !fails || warm.report.cold_fallback {
-            self.stage = Stage::Done(reason);
-            return;
-        }
-        warm.report.cold_fallback = true;
-        warm.report.evaluations += self.selection_polish_evaluations;
-        self.selection_polish_evaluations = 0;
-        self.kept = [true; FAULT_GROUPS.len()];
-        self.untested_groups = 0;
-        (self.best, self.best_cost) = (FaultVector::HEALTHY.0, f32::INFINITY);
-        self.stage = Stage::Global;
-    }
-
-    /// Where a warm identification goes once the polish is over: the probes when they have not
-    /// run yet (model selection off), or the end.
-    pub(super) fn finish(&mut self, reason: TerminationReason) {
-        match self.warm.as_mut() {
-            Some(warm) if warm.report.cold_fallback => self.stage = Stage::Done(reason),
-            Some(warm) if !warm.probing && !self.best_cost.is_nan() => {
-                warm.probing = true;
-                self.stage = Stage::Warm(WarmStage::Probe { next: 0, fired: 0 });
-            }
-            Some(_) => self.end_warm(reason),
-            None => self.stage = Stage::Done(reason),
-        }
+/// The end of the warm stages ([`Next::EndWarm`]): the fit check of the result (one model run);
+/// when it fails, the identification starts over cold in the same call (the global search from
+/// its own start; model selection and the polish with their whole budget), since a warm start
+/// that does not fit left the prior's basin for a wrong one or never found a new fault's.
+pub(super) fn end<const W: usize>(state: &mut IdentificationState<'_, W>, reason: TerminationReason) -> Next {
+    if state.fails_fit_check(Account::Warm) && state.fall_back_cold() {
+        Next::Global
+    } else {
+        Next::Done(reason)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::super::identification::tests::noisy_self_trace;
-    use super::super::stage::WarmReport;
+    use super::super::identification::Identification;
+    use super::super::state::WarmReport;
     use super::*;
     use crate::conditioning::ConditionedWindow;
     use crate::health::HealthReport;
-    use crate::monitor::{MonitorError, ONBOARD_POPULATION, ONBOARD_WINDOW};
+    use crate::monitor::{ONBOARD_POPULATION, ONBOARD_WINDOW};
     use crate::params::EmaParams;
     use crate::profile::Profile;
 

@@ -4,6 +4,7 @@
 //! the firmware's sequential run.
 
 use ema_monitor::acquisition::SensorCheck;
+use std::collections::VecDeque;
 use std::path::Path;
 use std::time::Instant;
 
@@ -12,10 +13,11 @@ use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::fitness::{PoolError, PooledTrace, MAX_POOLED_RECORDINGS};
 use ema_monitor::health::HealthReport;
 use ema_monitor::monitor::{
-    configured_fit, Identification, IdentifyConfig, MonitorError, WarmReport, GROUP_NAMES, ONBOARD_POPULATION,
+    configured_fit, Identification, IdentifyConfig, MonitorError, StepDriver, WarmReport, GROUP_NAMES,
+    ONBOARD_POPULATION,
 };
 use ema_monitor::operating_temperature::estimate_temperature_c;
-use ema_monitor::optimizer::{Objective, SearchStatus};
+use ema_monitor::optimizer::Objective;
 use ema_monitor::unit::Tolerances;
 use ema_monitor::FAULT_COUNT;
 use ema_monitor::{Command, EmaParams, Profile};
@@ -168,26 +170,38 @@ pub fn run_identification<const W: usize>(
 
 /// Runs `id` to its end as [`Identification::run`] does, with each sweep of the PSO global search
 /// evaluated in parallel on the current rayon pool (on clones of the fitness) and the costs handed
-/// back in order ([`Identification::pending_global`]): a particle's cost depends on nothing its
-/// sweep changes, so the identification is bit for bit the firmware's sequential one. The
-/// particles after the one whose cost ends the global search are evaluated and not recorded.
+/// back in order ([`ParallelSweeps`], the driver of the core's one loop,
+/// [`Identification::run_with`]): a particle's cost depends on nothing its sweep changes, so the
+/// identification is bit for bit the firmware's sequential one.
 pub fn run_to_end<const W: usize, const P: usize>(id: &mut Identification<'_, W, P>) {
-    loop {
-        let batch: Vec<([f32; FAULT_COUNT], f32)> = id.pending_global().map(|(x, above)| (*x, above)).collect();
-        if batch.len() > 1 {
-            let costs: Vec<f32> =
-                batch.par_iter().map_with(id.fitness().clone(), |fit, (x, above)| fit.cost(x, *above)).collect();
-            for cost in costs {
-                if let SearchStatus::Done(_) = id.step_with_global_cost(cost) {
-                    return;
-                }
-                if id.pending_global().next().is_none() {
-                    break; // the global search ended inside the sweep
-                }
-            }
-        } else if let SearchStatus::Done(_) = id.step() {
-            return;
+    id.run_with(u32::MAX, &mut ParallelSweeps::default());
+}
+
+/// The costs of the PSO global search's current sweep, evaluated in parallel when the sweep has
+/// more than one particle left ([`Identification::pending_global`]), handed back one per step. A
+/// global search that ends inside the sweep leaves no particle pending, and the costs left are
+/// dropped unrecorded.
+#[derive(Debug, Default)]
+pub struct ParallelSweeps {
+    /// The costs of the sweep's pending particles not handed back yet, in order.
+    costs: VecDeque<f32>,
+}
+
+impl StepDriver for ParallelSweeps {
+    fn global_cost<const W: usize, const P: usize>(&mut self, id: &Identification<'_, W, P>) -> Option<f32> {
+        if id.pending_global().next().is_none() {
+            self.costs.clear();
+            return None;
         }
+        if self.costs.is_empty() {
+            let batch: Vec<([f32; FAULT_COUNT], f32)> = id.pending_global().map(|(x, above)| (*x, above)).collect();
+            if batch.len() <= 1 {
+                return None;
+            }
+            self.costs =
+                batch.par_iter().map_with(id.fitness().clone(), |fit, (x, above)| fit.cost(x, *above)).collect();
+        }
+        self.costs.pop_front()
     }
 }
 
