@@ -12,7 +12,8 @@
 //!      diagnosis, or cold on the first flight, after maintenance, periodically, or after a warm
 //!      result that failed its fit check;
 //!    - **identify** (one objective evaluation per step, [`FlightHooks`] around each: the board
-//!      feeds its watchdog there, QEMU marks the instruction-counted region around the whole);
+//!      feeds its watchdog there, QEMU marks the instruction-counted region around the whole, the
+//!      host evaluates a sweep of the global search in parallel in [`FlightHooks::step`]);
 //!    - **report** with its uncertainty (1σ and detectable-below severities), the acquisition's
 //!      refused frames and the sample-rate check;
 //!    - **record** the flight in the [`HealthRecord`] through the evidence pooled over flights
@@ -66,9 +67,18 @@ pub trait FlightHooks {
     fn identification_start(&mut self, flight: u32, start: Start) {
         let _ = (flight, start);
     }
-    /// Before each objective evaluation (the board feeds its watchdog here).
+    /// Before each step of the identification ([`FlightHooks::step`]; the board feeds its
+    /// watchdog here).
     fn before_step(&mut self) {}
-    /// After each objective evaluation.
+    /// Runs one step of the identification `id`: by default [`Identification::step`], one
+    /// objective evaluation. A host may run more at once, for example a sweep of the global
+    /// search's evaluations in parallel handed back in order
+    /// ([`Identification::pending_global`], [`Identification::step_with_global_cost`]), as long
+    /// as the identification ends where the one-evaluation steps end it.
+    fn step<const W: usize, const P: usize>(&mut self, id: &mut Identification<'_, W, P>) -> SearchStatus {
+        id.step()
+    }
+    /// After each step of the identification.
     fn after_step(&mut self) {}
     /// After the identification's report, before its uncertainty and the record.
     fn identification_end(&mut self) {}
@@ -468,7 +478,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         };
         for _ in 0..u32::MAX {
             hooks.before_step();
-            let status = id.step();
+            let status = hooks.step(id);
             hooks.after_step();
             if let SearchStatus::Done(_) = status {
                 break;
