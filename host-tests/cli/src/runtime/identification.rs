@@ -1,7 +1,7 @@
 //! The core's identification run to its end on the host: on one conditioned trace, on a
 //! recording (conditioned through the frame checks first), or pooled over several traces.
-//! [`run_to_end`] evaluates each sweep of the PSO global search in parallel and is bit for bit
-//! the firmware's sequential run.
+//! [`run_to_end`] evaluates each sweep of the PSO global search in parallel ([`sweep`]) and is bit
+//! for bit the firmware's sequential run.
 
 use ema_monitor::acquisition::SensorCheck;
 use std::path::Path;
@@ -166,29 +166,33 @@ pub fn run_identification<const W: usize>(
     })
 }
 
-/// Runs `id` to its end as [`Identification::run`] does, with each sweep of the PSO global search
-/// evaluated in parallel on the current rayon pool (on clones of the fitness) and the costs handed
-/// back in order ([`Identification::pending_global`]): a particle's cost depends on nothing its
-/// sweep changes, so the identification is bit for bit the firmware's sequential one. The
-/// particles after the one whose cost ends the global search are evaluated and not recorded.
+/// Runs `id` to its end as [`Identification::run`] does, one [`sweep`] at a time: bit for bit the
+/// firmware's sequential identification.
 pub fn run_to_end<const W: usize, const P: usize>(id: &mut Identification<'_, W, P>) {
-    loop {
-        let batch: Vec<([f32; FAULT_COUNT], f32)> = id.pending_global().map(|(x, above)| (*x, above)).collect();
-        if batch.len() > 1 {
-            let costs: Vec<f32> =
-                batch.par_iter().map_with(id.fitness().clone(), |fit, (x, above)| fit.cost(x, *above)).collect();
-            for cost in costs {
-                if let SearchStatus::Done(_) = id.step_with_global_cost(cost) {
-                    return;
-                }
-                if id.pending_global().next().is_none() {
-                    break; // the global search ended inside the sweep
-                }
-            }
-        } else if let SearchStatus::Done(_) = id.step() {
-            return;
+    while !matches!(sweep(id), SearchStatus::Done(_)) {}
+}
+
+/// One step of `id` on the host: the rest of the current sweep of the PSO global search evaluated
+/// in parallel on the current rayon pool (on clones of the fitness) and the costs handed back in
+/// order ([`Identification::pending_global`]), or one [`Identification::step`] outside it. A
+/// particle's cost depends on nothing its sweep changes, so the identification ends where the
+/// firmware's one-evaluation steps end it, bit for bit. The particles after the one whose cost
+/// ends the global search are evaluated and not recorded.
+pub fn sweep<const W: usize, const P: usize>(id: &mut Identification<'_, W, P>) -> SearchStatus {
+    let batch: Vec<([f32; FAULT_COUNT], f32)> = id.pending_global().map(|(x, above)| (*x, above)).collect();
+    if batch.len() <= 1 {
+        return id.step();
+    }
+    let costs: Vec<f32> =
+        batch.par_iter().map_with(id.fitness().clone(), |fit, (x, above)| fit.cost(x, *above)).collect();
+    let mut status = SearchStatus::Running;
+    for cost in costs {
+        status = id.step_with_global_cost(cost);
+        if matches!(status, SearchStatus::Done(_)) || id.pending_global().next().is_none() {
+            break; // the identification, or the global search inside the sweep, ended
         }
     }
+    status
 }
 
 /// Identifies one fault vector from several conditioned traces of the actuator `params`, trace
