@@ -12,7 +12,8 @@
 //!      diagnosis, or cold on the first flight, after maintenance, periodically, or after a warm
 //!      result that failed its fit check;
 //!    - **identify** (one objective evaluation per step, [`FlightHooks`] around each: the board
-//!      feeds its watchdog there, QEMU marks the instruction-counted region around the whole);
+//!      feeds its watchdog there, QEMU marks the instruction-counted region around the whole, the
+//!      host evaluates a sweep of the global search in parallel in [`FlightHooks::step`]);
 //!    - **report** with its uncertainty (1σ and detectable-below severities), the acquisition's
 //!      refused frames and the sample-rate check;
 //!    - **record** the flight in the [`HealthRecord`] through the evidence pooled over flights
@@ -65,9 +66,16 @@ pub trait FlightHooks {
     fn identification_start(&mut self, flight: u32, start: Start) {
         let _ = (flight, start);
     }
-    /// Before each objective evaluation (the board feeds its watchdog here).
+    /// Before each step of the identification (the board feeds its watchdog here).
     fn before_step(&mut self) {}
-    /// After each objective evaluation.
+    /// The cost of the global search's next pending particle when the hooks computed it ahead
+    /// ([`StepDriver::global_cost`]: a host evaluating a sweep in parallel); `None`, the default,
+    /// lets the step evaluate it.
+    fn global_cost<const W: usize, const P: usize>(&mut self, id: &Identification<'_, W, P>) -> Option<f32> {
+        let _ = id;
+        None
+    }
+    /// After each step of the identification.
     fn after_step(&mut self) {}
     /// After the identification's report, before its uncertainty and the record.
     fn identification_end(&mut self) {}
@@ -501,6 +509,10 @@ impl<H: FlightHooks> StepDriver for AroundSteps<'_, H> {
 
     fn after_step(&mut self) {
         self.0.after_step();
+    }
+
+    fn global_cost<const W: usize, const P: usize>(&mut self, id: &Identification<'_, W, P>) -> Option<f32> {
+        self.0.global_cost(id)
     }
 }
 

@@ -119,3 +119,52 @@ fn too_short_and_malformed_traces_are_refused_with_the_firmware_summary() {
     assert!(stderr.starts_with("error: ") && stderr.contains("bad-checksum.ematrace"), "{stderr}");
     assert!(stderr.contains("checksum does not match"), "{stderr}");
 }
+
+/// The firmware's two flights on the built-in trace: `--bits` prints a summary line per flight,
+/// the lines the firmware printed in QEMU (the run block of the root README.md, which
+/// `scripts/check-docs` holds to the firmware's output): flight 1 cold, flight 2 warm from the
+/// record flight 1 left. The flights' identifications step through the host's parallel sweeps;
+/// the core's HealthMonitor with the firmware's one-evaluation steps gives the same reports.
+#[test]
+fn both_flights_are_the_firmwares() {
+    use ema_cli::identify::{firmware_trace_flights_for, FIRMWARE_FLIGHTS};
+    use ema_monitor::flight::{HealthMonitor, NoHooks};
+    use ema_monitor::persist::HealthRecord;
+    use ema_monitor::Profile;
+
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let readme = std::fs::read_to_string(root.join("README.md")).expect("README.md");
+    let firmware: Vec<&str> = readme.lines().filter(|l| l.starts_with("summary: ")).collect();
+    assert_eq!(firmware.len(), FIRMWARE_FLIGHTS, "the README's run block: {firmware:?}");
+    let trace = root.join("traces/standard.ematrace");
+    let out = ema(&["identify", "--firmware-trace", s(&trace), "--bits", "--quiet"]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let host: Vec<&str> = stdout.lines().filter(|l| l.starts_with("summary: ")).collect();
+    assert_eq!(host, firmware);
+
+    // the host's flights against the core's, stepped one evaluation at a time, on one record
+    let bytes = std::fs::read(&trace).expect("the built-in trace");
+    let params = ema_monitor::EmaParams::NOMINAL;
+    let flights = firmware_trace_flights_for(&bytes, &params, &Profile::STANDARD, &onboard(None), FIRMWARE_FLIGHTS)
+        .expect("flown");
+    let monitor = HealthMonitor::onboard(params, Profile::STANDARD, ema_monitor::ModelEffects::NONE).expect("valid");
+    let packed = ema_monitor::trace::PackedTrace::parse(&bytes).expect("parses");
+    let mut reader = ema_monitor::acquisition::PhaseCurrentReader::new(
+        ema_monitor::acquisition::ReplayAdc::new(packed),
+        (ema_monitor::acquisition::PhaseA, ema_monitor::acquisition::PhaseB, ema_monitor::acquisition::PhaseC),
+        ema_monitor::acquisition::Calibration::NOMINAL,
+        ema_monitor::acquisition::replay_config(&packed),
+    )
+    .expect("the replay reader");
+    let mut window = Box::new(ema_monitor::conditioning::ConditionedWindow::new());
+    let acquired = monitor.acquire(&mut reader, &mut window, packed.sample_rate_hz() as f32).expect("acquired");
+    let mut record = HealthRecord::new();
+    let expected: Vec<String> = (0..FIRMWARE_FLIGHTS)
+        .map(|_| summary_line(&monitor.diagnose(&window, &acquired, &mut record, &mut NoHooks).expect("flown").report))
+        .collect();
+    let got: Vec<String> =
+        std::iter::once(&flights.first).chain(&flights.later).map(|o| summary_line(&o.report)).collect();
+    assert_eq!(got, expected);
+    assert!(flights.first.warm.is_none() && flights.later[0].warm.is_some(), "cold, then warm");
+}

@@ -1,20 +1,23 @@
-//! One flight through the on-board sequence: warm or cold as the core plans it, acquired
-//! through the frame checks and identified by the host runtime.
+//! One flight through the core's flight API ([`HealthMonitor`]), as the firmware flies it: the
+//! recording acquired through the frame checks, then planned (warm or cold) from the health
+//! record, identified, reported with its uncertainty and added to the record with the evidence
+//! pooled over flights, by the core's own code; the host only evaluates the global search's
+//! sweeps in parallel ([`HostHooks`]).
 
 use std::path::Path;
 
-use ema_monitor::conditioning::ConditionedWindow;
-use ema_monitor::health::HealthReport;
-use ema_monitor::monitor::{self as core_monitor, IdentifyConfig, WarmReport};
+use ema_monitor::flight::{Flight, HealthMonitor};
+use ema_monitor::monitor::{IdentifyConfig, ONBOARD_POPULATION};
+use ema_monitor::persist::HealthRecord;
 use ema_monitor::EmaParams;
 use serde::Serialize;
 
 use crate::error::CliError;
 use crate::recording::Recording;
 use crate::runtime::command::ModelCommand;
-use crate::runtime::identification::identify_trace;
-use crate::runtime::recording::condition_recording_checked_for;
+use crate::runtime::flight::{acquire_flight, HostHooks};
 use crate::runtime::source::HOST_WINDOW;
+use crate::runtime::temperature::ModelParams;
 
 /// How a flight's identification started.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -26,45 +29,36 @@ pub enum Start {
     Warm,
 }
 
-/// One flight's identification.
-#[derive(Clone, Debug)]
+/// One flight.
+#[derive(Clone, Copy, Debug)]
 pub struct FlightResult {
-    /// The health report.
-    pub report: HealthReport,
-    /// How it started.
+    /// The flight as the core diagnosed and recorded it.
+    pub flight: Flight,
+    /// How it started: cold when planned cold, or when a warm attempt failed its fit check and
+    /// went on cold in the same call ([`Flight::cold`]).
     pub start: Start,
     /// Wall time of the identification (s).
     pub seconds: f64,
-    /// What the warm stages did (`None`: a cold flight).
-    pub warm: Option<WarmReport>,
-    /// The conditioned recording (the evidence of the flight is measured on it).
-    pub trace: Box<ConditionedWindow<HOST_WINDOW>>,
 }
 
-/// Identifies one flight's `recording` (named `label` in errors) driven by `command`, as the
-/// firmware does: warm from the previous diagnosis `prior` when the core's
-/// [`core_monitor::plan_start`] allows it (a prior, fewer than
-/// [`IdentifyConfig::cold_every_flights`] flights since the last cold one, and a last warm flight
-/// that passed its fit check: `flights_since_cold` and `last_warm_needs_cold`), cold otherwise.
+/// Flies one flight's `recording` (named `label` in errors) of the actuator `params` (at 20 °C;
+/// `model`: at the recording's temperature) driven by `command`, identified with `config`, and
+/// adds it to `record`, as the firmware does ([`HealthMonitor::diagnose`]): warm from the record's
+/// diagnosis when the core's plan allows it ([`HealthMonitor::plan`]), cold otherwise.
 pub fn identify_flight(
     recording: &Recording,
     label: &Path,
-    prior: Option<[f32; 8]>,
-    (flights_since_cold, last_warm_needs_cold): (u32, bool),
-    params: &EmaParams,
+    (params, model): (&EmaParams, &ModelParams),
     command: &ModelCommand,
     config: &IdentifyConfig,
+    record: &mut HealthRecord,
 ) -> Result<FlightResult, CliError> {
-    let warm = matches!(
-        core_monitor::plan_start(prior.as_ref(), flights_since_cold, last_warm_needs_cold, config),
-        core_monitor::Start::Warm
-    );
-    let config = IdentifyConfig { prior: if warm { prior } else { None }, ..*config };
-    let (trace, acquired) = condition_recording_checked_for(recording, label, params, command)?;
-    let outcome = identify_trace(&trace, params, command.command(), &config, label)?;
-    let warm = outcome.warm.map(|w| w.report);
-    // a warm attempt that failed its fit check went on cold in the same call
-    let start = if warm.is_some_and(|w| !w.cold_fallback) { Start::Warm } else { Start::Cold };
-    let report = outcome.report.with_acquisition(&acquired);
-    Ok(FlightResult { report, start, seconds: outcome.seconds, warm, trace })
+    let refused = |e: ema_monitor::monitor::MonitorError| CliError::input(label, e.to_string());
+    let monitor =
+        HealthMonitor::<HOST_WINDOW, ONBOARD_POPULATION>::new(*params, command.command(), *config).map_err(refused)?;
+    let (trace, acquired) = acquire_flight(&monitor, recording, label, model, command)?;
+    let mut hooks = HostHooks::default();
+    let flight = monitor.diagnose(&trace, &acquired, record, &mut hooks).map_err(refused)?;
+    let start = if flight.cold { Start::Cold } else { Start::Warm };
+    Ok(FlightResult { flight, start, seconds: hooks.seconds() })
 }

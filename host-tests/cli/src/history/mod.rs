@@ -8,15 +8,17 @@
 //!
 //! Each recording is one flight, in the order given. Every recording is read and checked before
 //! the first flight is identified, and before `--out DIR` is created ([`check_flights`]); one
-//! given twice (the same file, or the same bytes) is refused. Every flight runs the on-board sequence
-//! through [`identify_flight`]: the core identifies the recording (the first flight cold, a later
-//! flight warm from the previous diagnosis, with new-fault probes, unless the core's plan asks
-//! for a cold one) with the on-board settings
+//! given twice (the same file, or the same bytes) is refused. Every flight is one flight of the
+//! firmware's flight API, the core's [`HealthMonitor`](ema_monitor::flight::HealthMonitor), through
+//! [`identify_flight`]: the recording acquired through the on-board frame checks, then the core's
+//! flight policy on the core's [`HealthRecord`](ema_monitor::persist::HealthRecord) (the record the
+//! firmware persists, a ring of the last 16 flights per mode): planned from the record (the first
+//! flight cold, a later flight warm from the previous diagnosis, with new-fault probes, unless the
+//! plan asks for a cold one), identified with the on-board settings
 //! ([`IdentifyConfig::onboard`](ema_monitor::monitor::IdentifyConfig::onboard): the firmware's
-//! iteration budget) and, when its status is a diagnosis, its five mode severities join the
-//! history of the core's [`HealthRecord`](ema_monitor::persist::HealthRecord) (a ring of the last
-//! 16 flights per mode, the record the firmware persists). The flight joins the record through
-//! the evidence pooled over flights, by the core function the firmware calls
+//! iteration budget; the host evaluates the global search's sweeps in parallel, bit for bit the
+//! same), reported with its uncertainty, and recorded: when its status is a diagnosis, its five
+//! mode severities join the record's history through the evidence pooled over flights
 //! ([`evidence::record_flight_on`](ema_monitor::monitor::evidence::record_flight_on)): the
 //! flight's log-likelihood ratio per mode joins the record's sequential sums, and a mode the sums
 //! call present while the flight's own model selection dropped it is *declared by pooled evidence*
@@ -50,7 +52,7 @@
 //! ringed, the trend lines, the failing threshold and the RUL band).
 //!
 //! One concept per file: [`args`] (the flags), [`law`] (degradation laws), [`flight`] (one
-//! flight's identification), [`series`] (the flights, the record and the prognosis), [`json`]
+//! flight through the core's flight API), [`series`] (the flights, the record and the prognosis), [`json`]
 //! (the document's types), [`mod@document`] (the modes' scores), [`mod@text`] (the tables) and [`mod@plot`]
 //! (the chart).
 

@@ -14,7 +14,7 @@ use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 
 use super::args::HistoryArgs;
-use super::flight::{identify_flight, Start};
+use super::flight::identify_flight;
 use super::json::FlightJson;
 use super::law::{truth_at, Law};
 use crate::error::CliError;
@@ -112,15 +112,15 @@ pub fn check_flights(args: &HistoryArgs, params: &EmaParams) -> Result<(), CliEr
     Ok(())
 }
 
-/// Runs the series: every flight through [`identify_flight`], the history and prognosis after
-/// each.
+/// Runs the series: every flight through [`identify_flight`] (the core's
+/// [`HealthMonitor`](ema_monitor::flight::HealthMonitor) on the health record), the history and
+/// prognosis after each.
 pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Result<Series, CliError> {
     let profile = resolve_profile(&args.profile)?;
     let command = ModelCommand::Profile { profile, name: args.profile.clone() };
     let count = if laws.is_empty() { args.files.len() } else { args.flights as usize };
     let bar = progress::bar(count as u64, "flights", args.progress.visible());
     let mut record = HealthRecord::new();
-    let mut last_warm_needs_cold = false;
     let (mut probe_false_alarms, mut probe_misses) = (0u32, 0u32);
     let (mut flights, mut reports) = (Vec::new(), Vec::new());
     let mut prognosis = [None; 5];
@@ -130,26 +130,22 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
         let f = flight_source(args, laws, params, &profile, n)?;
         // the actuator at the flight's temperature, when its recording has one
         let model = model_params(&f.recording, &f.label, params)?;
-        let params = &model.params;
         let config = IdentifyConfig { seed: f.seed, ..IdentifyConfig::onboard() };
         let prior = record.has_prior().then(|| record.faults().0);
-        let since_cold = (record.flights_since_cold(), last_warm_needs_cold);
-        let result = identify_flight(&f.recording, &f.label, prior, since_cold, params, &command, &config)?;
-        last_warm_needs_cold = result.warm.is_some_and(|w| w.needs_cold(&result.report));
-        if let (Some(w), Some(truth), Some(prior)) = (result.warm, f.truth, prior) {
+        let result = identify_flight(&f.recording, &f.label, (params, &model), &command, &config, &mut record)?;
+        let flight = &result.flight;
+        let r = &flight.report;
+        if let (Some(w), Some(truth), Some(prior)) = (flight.warm, f.truth, prior) {
             // per warm flight: a new fault is a group present in the truth and absent from the prior
             let new = |g: &(usize, usize)| group_present(&truth.0, *g) && !group_present(&prior, *g);
             let any_new = FAULT_GROUPS.iter().any(new);
-            let unreported = FAULT_GROUPS.iter().any(|g| new(g) && !group_present(&result.report.faults.0, *g));
+            let unreported = FAULT_GROUPS.iter().any(|g| new(g) && !group_present(&r.faults.0, *g));
             probe_false_alarms += u32::from(!any_new && w.fired != 0);
             probe_misses += u32::from(any_new && w.fired == 0 && unreported);
         }
         bar.inc(1);
-        let number = n as u32 + 1;
-        let r = &result.report;
-        let cold = result.start == Start::Cold;
-        let pooled: Option<PooledFlight> =
-            evidence::record_flight_on(&mut record, &*result.trace, *params, command.command(), &config, r, cold);
+        let number = flight.number;
+        let pooled: Option<PooledFlight> = flight.pooled;
         let names = pooled.map_or_else(Vec::new, |p| {
             (0..EVIDENCE_MODES).filter(|&m| p.declared[m]).map(evidence::mode_name).collect::<Vec<_>>()
         });
@@ -160,7 +156,7 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
                 }
             }
         }
-        let kept = pooled.map_or(*r, |p| p.report);
+        let kept = *flight.recorded_report();
         current = Some(kept.status);
         for mode in FaultMode::ALL {
             prognosis[mode.index()] = Prognosis::of_record(&record, mode);
@@ -171,7 +167,7 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
             temperature_c: model.temperature_c,
             start: result.start,
             evaluations: r.evaluations,
-            probes_fired: result.warm.map(|w| {
+            probes_fired: flight.warm.map(|w| {
                 core_monitor::GROUP_NAMES
                     .iter()
                     .enumerate()
@@ -192,7 +188,7 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
             k_true: f.truth.map(|t| t.0),
             err_percent: f.truth.map(|t| r.faults.paper_error_percent(&t)),
         });
-        reports.push(result.report);
+        reports.push(*r);
     }
     bar.finish_and_clear();
     Ok(Series { flights, record, prognosis, reports, probe_false_alarms, probe_misses, declared, current })

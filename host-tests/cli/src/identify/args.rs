@@ -116,8 +116,10 @@ pub struct IdentifyArgs {
     #[arg(long, value_enum, value_name = "LEVEL")]
     pub fail_on: Option<FailOn>,
     /// Also print the fault vector's f32 bit patterns and the one-line summary the firmware logs
-    /// (for the host/target parity check, `scripts/parity`); a refused --firmware-trace prints its
-    /// summary (`summary: REFUSED <stage> <error>`) before the error.
+    /// (for the host/target parity check, `scripts/parity`); with --firmware-trace (and no
+    /// --prior), for each of the firmware's two flights: cold, then from the health record the
+    /// first left. A refused --firmware-trace prints its summary (`summary: REFUSED <stage>
+    /// <error>`) before the error.
     #[arg(long)]
     pub bits: bool,
     /// `--quiet`.

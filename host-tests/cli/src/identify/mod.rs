@@ -15,10 +15,14 @@
 //!   [`HOST_COMMAND_SAMPLES`] rows, every value inside the end stops);
 //! - `--firmware-trace FILE`: the firmware's packed 12-bit trace, read through the same replay ADC,
 //!   `OneShot` reader and fixed-point calibration as on the MCU, with the on-board window, swarm
-//!   and settings — its report is bit-identical to the firmware's. `--bits` prints the fault
-//!   vector's bits and the firmware's summary line ([`summary_line`]: status, fitness bits,
-//!   evaluations, fault bits; or [`Refusal::summary_line`] for a refused trace), which
-//!   `scripts/parity` compares line for line with the firmware's in QEMU.
+//!   and settings, and the firmware's first flight through the core's
+//!   [`HealthMonitor`](ema_monitor::flight::HealthMonitor) on a new health record — its report is
+//!   bit-identical to the firmware's. `--bits` flies the firmware's second flight too, planned
+//!   from the record the first left, saved and read back as the firmware does
+//!   ([`firmware_trace_flights_for`]), and prints each flight's fault vector bits and summary
+//!   line ([`summary_line`]: status, fitness bits, evaluations, fault bits; or one
+//!   [`Refusal::summary_line`] for a refused trace), which `scripts/parity` compares line for
+//!   line with the firmware's in QEMU. With `--prior` the trace is identified once, warm from it.
 //!
 //! A recording with a temperature column is identified with the actuator's parameters at its
 //! mean temperature ([`crate::runtime::temperature`]); the report says so
@@ -60,8 +64,8 @@ pub use crate::runtime::command::{
     HOST_COMMAND_SAMPLES,
 };
 pub use crate::runtime::firmware::{
-    bits_line, checksum_warning, firmware_trace_outcome, firmware_trace_outcome_for, summary_line, Refusal,
-    MAX_FIRMWARE_TRACE_BYTES,
+    bits_line, checksum_warning, firmware_trace_flights_for, firmware_trace_outcome, firmware_trace_outcome_for,
+    summary_line, FirmwareFlights, Refusal, FIRMWARE_FLIGHTS, MAX_FIRMWARE_TRACE_BYTES,
 };
 pub use crate::runtime::identification::{
     identify_recording, identify_recording_with, identify_trace, identify_unit_recording, run_to_end, Outcome,
@@ -96,6 +100,7 @@ pub fn run(args: &IdentifyArgs) -> Result<Done, CliError> {
     let config = method_flags(config, args.paper_only, args.fast_regime_weight);
     let mut loaded = None;
     let mut temperature = None;
+    let mut later = Vec::new();
     let params = args.params.load()?;
     if args.files.len() > 1 && args.firmware_trace.is_none() {
         let pooled = pooled::run(args, &config, &params)?;
@@ -108,9 +113,18 @@ pub fn run(args: &IdentifyArgs) -> Result<Done, CliError> {
             if let Some(warning) = checksum_warning(path, &bytes) {
                 eprintln!("{warning}");
             }
-            match firmware_trace_outcome(&bytes, &params, &config) {
-                Ok(outcome) => {
-                    (outcome, ModelCommand::Profile { profile: Profile::STANDARD, name: "standard".to_owned() })
+            // under --bits, the firmware's flights, each with its summary; with --prior, the one
+            // identification warm from it
+            let flights = if args.bits && config.prior.is_none() {
+                firmware_trace_flights_for(&bytes, &params, &Profile::STANDARD, &config, FIRMWARE_FLIGHTS)
+            } else {
+                firmware_trace_outcome(&bytes, &params, &config).map(|first| FirmwareFlights { first, later: vec![] })
+            };
+            match flights {
+                Ok(flights) => {
+                    later = flights.later;
+                    let command = ModelCommand::Profile { profile: Profile::STANDARD, name: "standard".to_owned() };
+                    (flights.first, command)
                 }
                 Err(refusal) => {
                     if args.bits {
@@ -151,6 +165,10 @@ pub fn run(args: &IdentifyArgs) -> Result<Done, CliError> {
         }
         (None, None) => return Err(CliError::usage("give a recording CSV or --firmware-trace PACKED_TRACE")),
     };
-    let text = render(&outcome, &config.effects, &command, loaded.as_ref(), temperature, args);
+    let mut text = render(&outcome, &config.effects, &command, loaded.as_ref(), temperature, args);
+    for flight in &later {
+        // the firmware's later flights on the same trace: their bits and summary lines (--bits)
+        text.push_str(&format!("\n{}\n{}", bits_line(&flight.report), summary_line(&flight.report)));
+    }
     Ok(Done::report(text, outcome.report.status, args.fail_on))
 }

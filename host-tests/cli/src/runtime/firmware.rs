@@ -1,6 +1,7 @@
 //! The firmware's path on a packed trace (`ema identify --firmware-trace`), step for step as
-//! `src/main.rs` runs it, and the one-line summary the firmware logs, which `scripts/parity`
-//! compares with the firmware's in QEMU.
+//! `src/main.rs` runs it: its two flights through the core's [`HealthMonitor`] on the health
+//! record it keeps in flash, and the one-line summary the firmware logs for each, which
+//! `scripts/parity` compares with the firmware's in QEMU.
 
 use std::fmt::{Debug, Display};
 use std::fs::File;
@@ -10,12 +11,15 @@ use ema_monitor::acquisition::{
     replay_config, AcquisitionError, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, PhaseCurrents, ReplayAdc,
 };
 use ema_monitor::conditioning::{ConditionedWindow, DECIMATION};
+use ema_monitor::flight::HealthMonitor;
 use ema_monitor::health::{Abstain, HealthReport, Status};
-use ema_monitor::monitor::{self, IdentifyConfig, ONBOARD_WINDOW};
+use ema_monitor::monitor::{self, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
+use ema_monitor::persist::{HealthStore, KeptRecord, RamFlash, StoreError};
 use ema_monitor::trace::{PackedTrace, TraceHeader};
 use ema_monitor::{Command, EmaParams, Profile};
 
-use super::identification::{run_identification, Outcome};
+use super::flight::HostHooks;
+use super::identification::{run_identification, Outcome, WarmStart};
 use crate::error::{CliError, Place};
 use crate::input;
 
@@ -76,14 +80,23 @@ pub fn read_firmware_trace(path: &Path) -> Result<Vec<u8>, CliError> {
     input::read_bounded(file, MAX_FIRMWARE_TRACE_BYTES).map_err(|e| e.at(path))
 }
 
+/// Flights the firmware flies on its trace (`src/main.rs`): a cold one, then one planned from the
+/// health record the first left (warm from its diagnosis).
+pub const FIRMWARE_FLIGHTS: usize = 2;
+
+/// The health record's flash of the QEMU firmware (`src/record_flash.rs`, `RecordFlash`).
+type RecordFlash = RamFlash<8, 4096>;
+
 /// The firmware's path on the bytes of a packed trace, step for step as `src/main.rs`: parse,
 /// replay ADC and `OneShot` reader (nominal calibration, default checks), the frames before the
 /// trace's trigger frame read and dropped (as the firmware's sampler drops them while it waits
-/// for the trigger), [`monitor::acquire`] into the on-board window, the identification under `config` (the firmware's is
-/// `IdentifyConfig::onboard()` with its model effects) of the actuator `params` (the firmware's
-/// are `EMA_PARAMS`'), the acquisition's verdict, then
-/// `INCONCLUSIVE (rate mismatch)` when the header's rate is not 10 kHz. A step that refuses the
-/// trace gives the [`Refusal`] the firmware logs.
+/// for the trigger), the acquisition into the on-board window, then its first flight
+/// ([`firmware_trace_flights_for`]) under `config` (the firmware's is `IdentifyConfig::onboard()`
+/// with its model effects) of the actuator `params` (the firmware's are `EMA_PARAMS`'): the
+/// acquisition's verdict, and `INCONCLUSIVE (rate mismatch)` when the header's rate is not
+/// 10 kHz. With a prior in `config` (`--prior`, which the firmware never has), one identification
+/// warm from it on the same window instead, with no health record. A step that refuses the trace
+/// gives the [`Refusal`] the firmware logs.
 pub fn firmware_trace_outcome(bytes: &[u8], params: &EmaParams, config: &IdentifyConfig) -> Result<Outcome, Refusal> {
     firmware_trace_outcome_for(bytes, params, &Profile::STANDARD, config)
 }
@@ -96,8 +109,97 @@ pub fn firmware_trace_outcome_for(
     profile: &Profile,
     config: &IdentifyConfig,
 ) -> Result<Outcome, Refusal> {
-    let packed = PackedTrace::parse(bytes).map_err(|e| Refusal::new("trace", e))?;
+    if config.prior.is_none() {
+        return Ok(firmware_trace_flights_for(bytes, params, profile, config, 1)?.first);
+    }
+    let (packed, mut reader) = replay(bytes)?;
     let rate_ok = monitor::rate_matches(packed.sample_rate_hz() as f32, params);
+    let mut trace = Box::new(ConditionedWindow::<ONBOARD_WINDOW>::new());
+    let acquired = monitor::acquire(&mut reader, &mut trace).map_err(|e| Refusal::new("acquisition", e))?;
+    let outcome = run_identification(&trace, params, Command::Profile(*profile), config)
+        .map_err(|e| Refusal::new("identification", e))?;
+    let report = outcome.report.with_acquisition(&acquired);
+    let report = if rate_ok { report } else { report.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
+    Ok(Outcome { report, sensors: acquired.sensors, ..outcome })
+}
+
+/// The firmware's flights on one packed trace ([`firmware_trace_flights_for`]).
+#[derive(Clone, Debug)]
+pub struct FirmwareFlights {
+    /// The first flight: cold, on a new health record.
+    pub first: Outcome,
+    /// The flights after it, each planned from the record the one before left.
+    pub later: Vec<Outcome>,
+}
+
+/// The firmware's `flights` flights (at least one) on the bytes of a packed trace, step for step as
+/// `src/main.rs` flies them: the monitor ([`HealthMonitor`] of `params`, driven by `profile`,
+/// identified under `config`), the trace acquired once as [`firmware_trace_outcome`] reads it, then
+/// each flight on that window through [`HealthMonitor::diagnose_kept`] on the record loaded from
+/// the QEMU firmware's flash (a new one before the first flight), the record saved to that flash
+/// and read back after it, as the next power-up reads it. The identifications' sweeps run in
+/// parallel ([`HostHooks`]), bit for bit the firmware's. One [`Outcome`] per flight; a step that
+/// refuses the trace gives the [`Refusal`] the firmware logs (a flash that refuses the record,
+/// which the firmware logs without a summary, is refused at stage `record`).
+pub fn firmware_trace_flights_for(
+    bytes: &[u8],
+    params: &EmaParams,
+    profile: &Profile,
+    config: &IdentifyConfig,
+    flights: usize,
+) -> Result<FirmwareFlights, Refusal> {
+    let monitor = HealthMonitor::<ONBOARD_WINDOW, ONBOARD_POPULATION>::new(*params, *profile, *config)
+        .map_err(|e| Refusal::new("identification", e))?;
+    let (packed, mut reader) = replay(bytes)?;
+    let mut trace = Box::new(ConditionedWindow::<ONBOARD_WINDOW>::new());
+    let acquired = monitor
+        .acquire(&mut reader, &mut trace, packed.sample_rate_hz() as f32)
+        .map_err(|e| Refusal::new("acquisition", e))?;
+    let mut flash = Box::new(RecordFlash::new());
+    let store_refused = |e: StoreError| Refusal {
+        stage: "record",
+        error: format!("{e:?}"),
+        message: format!("the health record's store refused: {e:?}"),
+    };
+    let mut fly = || {
+        let mut store = HealthStore::new(&mut *flash, 0..RecordFlash::CAPACITY as u32).map_err(store_refused)?;
+        let mut kept = KeptRecord::from_load(store.load());
+        if let Some(old) = monitor.adopt(kept.record_mut()) {
+            store.archive(&old).map_err(store_refused)?;
+        }
+        let prior = kept.record().faults().0;
+        let mut hooks = HostHooks::default();
+        let flight = monitor
+            .diagnose_kept(&trace, &acquired, &mut kept, &mut hooks)
+            .map_err(|e| Refusal::new("identification", e))?;
+        let Some(record) = kept.savable() else {
+            let message = format!("the health record is not saved ({:?})", kept.origin());
+            return Err(Refusal { stage: "record", error: "NotSaved".to_owned(), message });
+        };
+        store.save(record).map_err(store_refused)?;
+        Ok(Outcome {
+            report: flight.report,
+            seconds: hooks.seconds(),
+            warm: flight.warm.map(|report| WarmStart { prior, report }),
+            unit_check: None,
+            sensors: flight.sensors,
+            position: None,
+        })
+    };
+    let first = fly()?;
+    let later = (1..flights).map(|_| fly()).collect::<Result<Vec<_>, _>>()?;
+    Ok(FirmwareFlights { first, later })
+}
+
+/// The firmware's replay reader on a packed trace.
+type Replay<'t> = PhaseCurrentReader<ReplayAdc<'t>, PhaseA, PhaseB, PhaseC>;
+
+/// The packed trace in `bytes` (refused at stage `trace`) and its replay as the firmware's
+/// sampler reads it: replay ADC and `OneShot` reader (nominal calibration, default checks;
+/// refused at stage `reader`), the frames before the trigger frame read as the zero points' rest,
+/// and the reader started on the recording.
+fn replay(bytes: &[u8]) -> Result<(PackedTrace<'_>, Replay<'_>), Refusal> {
+    let packed = PackedTrace::parse(bytes).map_err(|e| Refusal::new("trace", e))?;
     let adc = ReplayAdc::new(packed);
     let mut reader =
         PhaseCurrentReader::new(adc, (PhaseA, PhaseB, PhaseC), Calibration::NOMINAL, replay_config(&packed))
@@ -109,13 +211,7 @@ pub fn firmware_trace_outcome_for(
         }
     }
     reader.start_recording();
-    let mut trace = Box::new(ConditionedWindow::<ONBOARD_WINDOW>::new());
-    let acquired = monitor::acquire(&mut reader, &mut trace).map_err(|e| Refusal::new("acquisition", e))?;
-    let outcome = run_identification(&trace, params, Command::Profile(*profile), config)
-        .map_err(|e| Refusal::new("identification", e))?;
-    let report = outcome.report.with_acquisition(&acquired);
-    let report = if rate_ok { report } else { report.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
-    Ok(Outcome { report, sensors: acquired.sensors, ..outcome })
+    Ok((packed, reader))
 }
 
 /// The fault vector's `f32` bit patterns: 8 lower-case hex words.

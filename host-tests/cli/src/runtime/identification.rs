@@ -1,7 +1,7 @@
 //! The core's identification run to its end on the host: on one conditioned trace, on a
 //! recording (conditioned through the frame checks first), or pooled over several traces.
-//! [`run_to_end`] evaluates each sweep of the PSO global search in parallel and is bit for bit
-//! the firmware's sequential run.
+//! [`run_to_end`] evaluates each sweep of the PSO global search in parallel ([`ParallelSweeps`])
+//! and is bit for bit the firmware's sequential run.
 
 use ema_monitor::acquisition::SensorCheck;
 use std::collections::VecDeque;

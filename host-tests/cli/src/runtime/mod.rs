@@ -10,8 +10,10 @@
 //! - [`command`]: what drives the monitor model (a profile or the recording's command column);
 //! - [`identification`]: the core's identification run to its end (the PSO sweeps in parallel,
 //!   bit for bit the firmware's), on one trace or pooled over several;
-//! - [`firmware`]: the firmware's path on a packed trace and its one-line summary, which
-//!   `scripts/parity` compares with the firmware's in QEMU;
+//! - [`flight`]: the core's flight API ([`HealthMonitor`](ema_monitor::flight::HealthMonitor)) on
+//!   the host: a recording acquired as a flight, the identification's sweeps in parallel;
+//! - [`firmware`]: the firmware's path on a packed trace, its flights and their one-line
+//!   summaries, which `scripts/parity` compares with the firmware's in QEMU;
 //! - [`model_config`]: model configuration files (`--model-config`), read by the core's parser;
 //! - [`temperature`]: the parameters the monitor model takes for a recording at its temperature
 //!   (every command applies them once, right after reading its recordings);
@@ -22,6 +24,7 @@
 
 pub mod command;
 pub mod firmware;
+pub mod flight;
 pub mod identification;
 pub mod model_config;
 pub mod position_check;

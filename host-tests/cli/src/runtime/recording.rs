@@ -59,7 +59,12 @@ pub fn check_rate(r: &Recording, path: &Path, params: &EmaParams) -> Result<(), 
 
 /// The check a recording passes before it drives `command`: the profile's ([`check_recording`]:
 /// rate and command), or for its own command the rate only.
-fn check_for(recording: &Recording, path: &Path, params: &EmaParams, command: &ModelCommand) -> Result<(), CliError> {
+pub fn check_for(
+    recording: &Recording,
+    path: &Path,
+    params: &EmaParams,
+    command: &ModelCommand,
+) -> Result<(), CliError> {
     match command {
         ModelCommand::Profile { profile, .. } => check_recording(recording, path, profile, params),
         ModelCommand::Recorded(_) => check_rate(recording, path, params),

@@ -8,8 +8,9 @@
 //! counts it; a recording's rows before its manoeuvre ([`Recording::rest_currents_a`]) are its
 //! rest frames, on which its sensors' zero points are measured first, as a board measures them on
 //! the frames before its trigger, when there are enough of them
-//! (`AcquisitionConfig::for_recorded_rest`). With [`FrameChecks::None`] every frame is taken as it is. [`acquire_recording`]
-//! runs the acquisition and names the row of a refused window in its error.
+//! (`AcquisitionConfig::for_recorded_rest`). With [`FrameChecks::None`] every frame is taken as it
+//! is. [`acquire_recording`] runs the acquisition ([`acquire_recording_by`]: the flight API's) and
+//! names the row of a refused window in its error.
 
 use std::path::Path;
 
@@ -105,10 +106,23 @@ pub fn acquire_recording<const W: usize>(
     path: &Path,
     checks: FrameChecks,
 ) -> Result<(Box<ConditionedWindow<W>>, AcquisitionSummary), CliError> {
+    acquire_recording_by(recording, path, checks, |source, trace| monitor::acquire(source, trace))
+}
+
+/// [`acquire_recording`] by `acquire`, which reads every frame of the source into the window as
+/// [`monitor::acquire`] does (the flight API's
+/// [`HealthMonitor::acquire`](ema_monitor::flight::HealthMonitor::acquire)), and gives what it
+/// returns beside the window.
+pub fn acquire_recording_by<const W: usize, T>(
+    recording: &Recording,
+    path: &Path,
+    checks: FrameChecks,
+    acquire: impl FnOnce(&mut RecordingSource<'_>, &mut ConditionedWindow<W>) -> Result<T, MonitorError>,
+) -> Result<(Box<ConditionedWindow<W>>, T), CliError> {
     let mut source = RecordingSource::new(recording, checks).map_err(|e| CliError::input(path, e.to_string()))?;
     let mut trace = Box::new(ConditionedWindow::<W>::new());
-    match monitor::acquire(&mut source, &mut trace) {
-        Ok(summary) => Ok((trace, summary)),
+    match acquire(&mut source, &mut trace) {
+        Ok(acquired) => Ok((trace, acquired)),
         // before the end of the data the window refused the last frame read; after it, it
         // refused to close
         Err(MonitorError::Conditioning(e)) if !source.has_ended() => Err(CliError::input_line(
