@@ -298,7 +298,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         self.state.fitness()
     }
 
-    /// Which fault groups model selection kept (all when it is off), by [`FaultGroup::index`].
+    /// Which fault groups model selection kept (all when it is off), by [`FaultGroup::index`](crate::faults::FaultGroup::index).
     pub fn kept_groups(&self) -> [bool; GROUP_COUNT] {
         self.state.kept_groups()
     }
