@@ -116,8 +116,8 @@ pub fn phase_moved(k: &[f32; FAULT_COUNT], (from, to): (usize, usize)) -> Option
     Some(out)
 }
 
-/// Where model selection is. `group` is the group under test, or the index in [`FaultGroup::ALL`]
-/// of the next group to consider; `effective_samples` is the `n` of
+/// Where model selection is. `group` is an index in [`FaultGroup::ALL`] (a cursor over the
+/// groups: the enum's layout stays that of a plain index); `effective_samples` is the `n` of
 /// the information criterion, evaluated once on the global search's best vector.
 #[derive(Clone, Debug)]
 #[allow(clippy::large_enum_variant, reason = "held once, inline in the identification: no allocator to box into")]
@@ -128,8 +128,8 @@ pub(super) enum Selection {
     /// evaluation): a group that does not pay even against this unrefitted cost is dropped
     /// without its refit (`Selection::pre_check`).
     PreCheck {
-        /// Group under test.
-        group: FaultGroup,
+        /// Index in [`FaultGroup::ALL`] of the group under test.
+        group: usize,
         /// `n` of the information criterion.
         effective_samples: f32,
     },
@@ -142,8 +142,8 @@ pub(super) enum Selection {
     },
     /// Refits the other groups with `group` set back to healthy (one evaluation per step).
     Refit {
-        /// Group under test.
-        group: FaultGroup,
+        /// Index in [`FaultGroup::ALL`] of the group under test.
+        group: usize,
         /// `n` of the information criterion.
         effective_samples: f32,
         /// The compass search of the refit.
@@ -151,8 +151,8 @@ pub(super) enum Selection {
     },
     /// Checks window by window a group that paid the information criterion.
     WindowCheck {
-        /// Group under test.
-        group: FaultGroup,
+        /// Index in [`FaultGroup::ALL`] of the group under test.
+        group: usize,
         /// `n` of the information criterion.
         effective_samples: f32,
         /// Which of the check's two evaluations is next.
@@ -204,7 +204,10 @@ impl Selection {
             }
             Selection::PreCheck { group, effective_samples } => {
                 let (group, effective_samples) = (*group, *effective_samples);
-                self.pre_check(state, group, effective_samples)
+                match FaultGroup::from_index(group) {
+                    Some(tested) => self.pre_check(state, tested, effective_samples),
+                    None => self.next_test(state, group, effective_samples),
+                }
             }
             Selection::NextGroup { group, effective_samples } => {
                 let (group, effective_samples) = (*group, *effective_samples);
@@ -214,7 +217,10 @@ impl Selection {
                 let status = state.step_search(search, Account::Later);
                 if let SearchStatus::Done(_) = status {
                     let (group, effective_samples) = (*group, *effective_samples);
-                    return self.refit_done(state, group, effective_samples);
+                    return match FaultGroup::from_index(group) {
+                        Some(tested) => self.refit_done(state, tested, effective_samples),
+                        None => self.next_test(state, group + 1, effective_samples),
+                    };
                 }
                 Next::Stay
             }
@@ -234,11 +240,14 @@ impl Selection {
                     let (group, effective_samples) = (*group, *effective_samples);
                     let without_errors =
                         state.evaluate(Account::Later, |fit| fit.window_errors(&FaultVector(*without)));
-                    let replaced = refit_replaces(state.best(), without, group);
+                    let tested = FaultGroup::from_index(group);
+                    let replaced = tested.is_some_and(|tested| refit_replaces(state.best(), without, tested));
                     let share = if replaced { 0.0 } else { WINDOW_GAIN_SHARE };
                     let pays = helps_without_its_best_window(with, &without_errors, share);
-                    state.keep(group, pays);
-                    self.next_test(state, group.index() + 1, effective_samples)
+                    if let Some(tested) = tested {
+                        state.keep(tested, pays);
+                    }
+                    self.next_test(state, group + 1, effective_samples)
                 }
             },
         }
@@ -256,7 +265,7 @@ impl Selection {
         let x = *x;
         match judge_refit(state, group, effective_samples, x, without) {
             Some(check) => {
-                *self = Selection::WindowCheck { group, effective_samples, check };
+                *self = Selection::WindowCheck { group: group.index(), effective_samples, check };
                 Next::Stay
             }
             None => self.next_test(state, group.index() + 1, effective_samples),
@@ -304,7 +313,7 @@ impl Selection {
         match PatternSearch::new(fault_bounds(), config, start, Some(cost), free) {
             Ok(search) => {
                 let done = matches!(search.status(), SearchStatus::Done(_));
-                *self = Selection::Refit { group, effective_samples, search };
+                *self = Selection::Refit { group: group.index(), effective_samples, search };
                 if done {
                     return self.refit_done(state, group, effective_samples); // nothing free: judged on the pre-check
                 }
@@ -326,7 +335,7 @@ impl Selection {
                 break;
             }
             if group_present(state.best(), tested) {
-                *self = Selection::PreCheck { group: tested, effective_samples };
+                *self = Selection::PreCheck { group, effective_samples };
                 return Next::Stay;
             }
             group += 1;
