@@ -135,7 +135,7 @@ fn persist(report: Option<ema_monitor::health::HealthReport>) {
         record.new_flight(&r, black_box(true));
     }
     record.set_evidence(black_box([0.0; 5]), black_box(1));
-    black_box(record.history(black_box(ema_monitor::health::FaultMode::Backlash)).iter().count());
+    black_box(record.history(black_box(ema_monitor::faults::FaultMode::Backlash)).iter().count());
     let mut flash = RamFlash::<4, 2048>::new();
     flash.cut_power_after(black_box(1234));
     let (offset, len) = black_box((0u32, HealthRecord::ENCODED_LEN));

@@ -21,8 +21,7 @@
 //! and when the monitor abstains").
 
 use crate::acquisition::AcquisitionSummary;
-pub use crate::faults::FaultMode;
-use crate::faults::{FaultVector, BACKLASH_SPAN, FRICTION_SPAN, MAX_ECCENTRICITY, MAX_SHORTED_FRACTION};
+use crate::faults::{FaultMode, FaultVector, BACKLASH_SPAN, FRICTION_SPAN, MAX_ECCENTRICITY, MAX_SHORTED_FRACTION};
 use crate::optimizer::TerminationReason;
 use crate::params::EmaParams;
 

@@ -8,7 +8,7 @@ use crate::acquisition::{SensorCheck, ZeroSource};
 use crate::faults::FaultMode;
 use crate::flight::Flight;
 use crate::health::{Abstain, Condition, HealthReport};
-use crate::monitor::evidence::{mode_name, PooledFlight};
+use crate::monitor::evidence::PooledFlight;
 use crate::monitor::{ColdReason, Start};
 use crate::persist::{Commissioning, CommissioningRefusal, StoreError};
 use crate::unit::unit_name;
@@ -140,13 +140,14 @@ fn log_commissioning(state: Commissioning) {
 /// Logs each mode declared by the evidence pooled over flights (present by the summed evidence,
 /// dropped by the flight's own model selection) with its refitted severity.
 fn log_declared(pooled: &PooledFlight) {
-    for (m, (&declared, mode)) in pooled.declared.iter().zip(pooled.report.modes.iter()).enumerate() {
+    for (m, (&declared, mode)) in FaultMode::ALL.into_iter().zip(pooled.declared.iter().zip(pooled.report.modes.iter()))
+    {
         if declared {
             defmt::info!(
                 "pooled evidence: {=str} declared after {=u32} flights (sum {=f32} nats), refitted severity {=f32}",
-                mode_name(m),
+                m.name(),
                 pooled.evidence.flights,
-                pooled.evidence.llr.get(m).copied().unwrap_or(0.0),
+                pooled.evidence.llr.get(m.index()).copied().unwrap_or(0.0),
                 mode.severity
             );
         }

@@ -13,7 +13,7 @@
 //!      result that failed its fit check;
 //!    - **identify** (one objective evaluation per step, [`FlightHooks`] around each: the board
 //!      feeds its watchdog there, QEMU marks the instruction-counted region around the whole, the
-//!      host evaluates a sweep of the global search in parallel in [`FlightHooks::step`]);
+//!      host evaluates a sweep of the global search in parallel in [`FlightHooks::global_cost`]);
 //!    - **report** with its uncertainty (1σ and detectable-below severities), the acquisition's
 //!      refused frames and the sample-rate check;
 //!    - **record** the flight in the [`HealthRecord`] through the evidence pooled over flights

@@ -48,7 +48,7 @@ pub enum Algorithm {
 ///
 /// Stages: the global search (PSO, GA or DE), then, when enabled, **model selection** (a fault
 /// group whose removal costs less than the Bayesian information criterion's price of its
-/// parameters is set back to healthy, [`FAULT_GROUPS`](super::FAULT_GROUPS)) and a **polish** of
+/// parameters is set back to healthy, [`FaultGroup`](crate::faults::FaultGroup)) and a **polish** of
 /// the parameters left free by a compass search
 /// ([`PatternSearch`](crate::optimizer::pattern::PatternSearch)).
 #[derive(Clone, Copy, Debug, PartialEq)]

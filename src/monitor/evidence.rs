@@ -46,36 +46,30 @@
 //! (`docs/decisions/0024-declaration-by-pooled-evidence.md`).
 
 use super::config::{configured_fit, IdentifyConfig};
-use super::groups::{group_present, without_group, FAULT_GROUPS};
+use super::groups::{group_present, without_group};
 use super::identification::Identification;
 use crate::conditioning::ConditionedWindow;
-use crate::faults::{FaultVector, FAULT_COUNT};
+use crate::faults::FaultMode;
+use crate::faults::{FaultGroup, FaultVector, FAULT_COUNT, MODE_COUNT};
 use crate::fitness::EquivalentCurrentFit;
-use crate::health::{FaultMode, HealthReport};
+use crate::health::HealthReport;
 use crate::persist::HealthRecord;
 use crate::{Command, EmaParams};
 
-/// Fault modes with an accumulator: friction, backlash, short circuit, eccentricity, gain drift
-/// (the order of [`FaultMode::ALL`]).
-pub const EVIDENCE_MODES: usize = 5;
-
 /// Free parameters of each mode's alternative (`p_m`): one for each but eccentricity (magnitude and
 /// phase). A short is one parameter: the best of the three phases.
-pub const MODE_PARAMETERS: [usize; EVIDENCE_MODES] = [1, 1, 1, 2, 1];
-
-/// The groups of [`FAULT_GROUPS`] that make up each mode, as a range of group indices.
-const MODE_GROUPS: [(usize, usize); EVIDENCE_MODES] = [(0, 0), (1, 1), (2, 4), (5, 5), (6, 6)];
+pub const MODE_PARAMETERS: [usize; MODE_COUNT] = [1, 1, 1, 2, 1];
 
 /// Probe step of each mode (normalized severity): friction 0.05 (×1.1 of nominal), backlash 0.02
 /// (×3 of nominal), short 0.03 (1.5 % of the turns), eccentricity 0.08 (`ζ` = 0.04), gain 0.03.
-pub const PROBE_STEP: [f32; EVIDENCE_MODES] = [0.05, 0.02, 0.03, 0.08, 0.03];
+pub const PROBE_STEP: [f32; MODE_COUNT] = [0.05, 0.02, 0.03, 0.08, 0.03];
 
 /// Evidence a flight must bring for each mode to raise its sum (nats), `c_m`: one nat per
 /// parameter, twice the mean `1/2` that fitting noise brings per free parameter; gain drift 8,
 /// above the largest gain probe's `λ` on healthy flights with sensor noise (7.2 in 100; the
 /// controller's noise is partly fitted by the loop gain), while a 3 % drift brings about 230
 /// (`docs/decisions/0020-evidence-over-flights.md`).
-pub const ALLOWANCE: [f32; EVIDENCE_MODES] = [1.0, 1.0, 1.0, 2.0, 8.0];
+pub const ALLOWANCE: [f32; MODE_COUNT] = [1.0, 1.0, 1.0, 2.0, 8.0];
 
 /// Most evaluations [`flight_evidence`] spends: the effective samples, then friction 2,
 /// backlash 2, shorts 6, eccentricity 5, gain 2 probes when every mode is absent.
@@ -86,7 +80,7 @@ pub const MAX_FLIGHT_EVALUATIONS: u32 = 18;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FlightEvidence {
     /// `λ_m` per mode, ≥ 0 (nats).
-    pub llr: [f32; EVIDENCE_MODES],
+    pub llr: [f32; MODE_COUNT],
     /// The effective samples `n` of the diagnosis' residual.
     pub effective_samples: f32,
     /// Objective evaluations spent (at most [`MAX_FLIGHT_EVALUATIONS`]).
@@ -121,7 +115,7 @@ impl Decision {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Evidence {
     /// `S_F` per mode (nats), in the order of [`FaultMode::ALL`].
-    pub llr: [f32; EVIDENCE_MODES],
+    pub llr: [f32; MODE_COUNT],
     /// Flights pooled since the last reset.
     pub flights: u32,
 }
@@ -134,8 +128,8 @@ impl Default for Evidence {
 
 /// The per-mode price `P_m = (p_m/2)·ln n` of model selection for `n` effective samples (0 when
 /// `n ≤ 1`).
-pub fn price(mode: usize, effective_samples: f32) -> f32 {
-    let p = MODE_PARAMETERS.get(mode).copied().unwrap_or(1) as f32;
+pub fn price(mode: FaultMode, effective_samples: f32) -> f32 {
+    let p = MODE_PARAMETERS.get(mode.index()).copied().unwrap_or(1) as f32;
     if effective_samples > 1.0 {
         0.5 * p * libm::logf(effective_samples)
     } else {
@@ -144,14 +138,14 @@ pub fn price(mode: usize, effective_samples: f32) -> f32 {
 }
 
 /// The per-flight allowance `c_m` ([`ALLOWANCE`]).
-pub fn allowance(mode: usize) -> f32 {
-    ALLOWANCE.get(mode).copied().unwrap_or(1.0)
+pub fn allowance(mode: FaultMode) -> f32 {
+    ALLOWANCE.get(mode.index()).copied().unwrap_or(1.0)
 }
 
 /// The threshold `h_m = max(P_m − c_m, P_m/2)` of the sum (module doc): `P_m − c_m` makes one
 /// flight decide as the information criterion; the floor `P_m/2` keeps a mode whose allowance
 /// nears or exceeds its price (gain drift) from being declared on one flight's small excess.
-pub fn threshold(mode: usize, effective_samples: f32) -> f32 {
+pub fn threshold(mode: FaultMode, effective_samples: f32) -> f32 {
     let p = price(mode, effective_samples);
     let h = p - allowance(mode);
     if h > 0.5 * p {
@@ -163,12 +157,12 @@ pub fn threshold(mode: usize, effective_samples: f32) -> f32 {
 
 impl Evidence {
     /// No flight yet (after maintenance).
-    pub const NONE: Self = Self { llr: [0.0; EVIDENCE_MODES], flights: 0 };
+    pub const NONE: Self = Self { llr: [0.0; MODE_COUNT], flights: 0 };
 
     /// Adds one flight: `S = max(S + λ − c, −h)` per mode, `h` from the flight's effective samples.
     /// A non-finite `λ` counts as 0.
     pub fn update(&mut self, flight: &FlightEvidence) {
-        for (m, (s, &l)) in self.llr.iter_mut().zip(&flight.llr).enumerate() {
+        for (m, (s, &l)) in FaultMode::ALL.into_iter().zip(self.llr.iter_mut().zip(&flight.llr)) {
             let l = if l.is_finite() { l } else { 0.0 };
             let floor = -threshold(m, flight.effective_samples);
             let next = *s + l - allowance(m);
@@ -178,10 +172,10 @@ impl Evidence {
     }
 
     /// The decision per mode with the price of `effective_samples` (the last flight's).
-    pub fn decisions(&self, effective_samples: f32) -> [Decision; EVIDENCE_MODES] {
-        core::array::from_fn(|m| {
+    pub fn decisions(&self, effective_samples: f32) -> [Decision; MODE_COUNT] {
+        FaultMode::ALL.map(|m| {
             let h = threshold(m, effective_samples);
-            let s = self.llr.get(m).copied().unwrap_or(0.0);
+            let s = self.llr.get(m.index()).copied().unwrap_or(0.0);
             if s > h {
                 Decision::Present
             } else if s <= -h {
@@ -208,16 +202,15 @@ impl Evidence {
     }
 }
 
-/// The mode's name ([`FaultMode::name`]) by accumulator index.
-pub fn mode_name(mode: usize) -> &'static str {
-    FaultMode::ALL.get(mode).map_or("?", |m| m.name())
+/// The groups of `mode` ([`FaultMode::groups`]), in the order of [`FaultGroup::ALL`].
+fn mode_groups(mode: FaultMode) -> impl Iterator<Item = FaultGroup> + Clone {
+    let (first, last) = mode.groups();
+    FaultGroup::ALL.into_iter().filter(move |g| (first.index()..=last.index()).contains(&g.index()))
 }
 
-/// `true` when one of mode `mode`'s fault groups is present in `k` (a diagnosis' decision on it).
-pub fn mode_present(k: &FaultVector, mode: usize) -> bool {
-    MODE_GROUPS.get(mode).is_some_and(|&(first, last)| {
-        FAULT_GROUPS.iter().enumerate().any(|(g, &group)| (first..=last).contains(&g) && group_present(&k.0, group))
-    })
+/// `true` when one of `mode`'s fault groups is present in `k` (a diagnosis' decision on it).
+pub fn mode_present(k: &FaultVector, mode: FaultMode) -> bool {
+    mode_groups(mode).any(|group| group_present(&k.0, group))
 }
 
 /// `(n/2)·ln(without/with)`, ≥ 0 (0 when either cost is not positive and finite).
@@ -265,9 +258,9 @@ pub fn flight_evidence<const W: usize>(
         evaluations += 1;
         fit.error(&FaultVector(*x))
     };
-    let mut out = [0.0f32; EVIDENCE_MODES];
-    for (m, (&(first, last), lambda)) in MODE_GROUPS.iter().zip(out.iter_mut()).enumerate() {
-        let groups = FAULT_GROUPS.iter().enumerate().filter(|(g, _)| (first..=last).contains(g)).map(|(_, &g)| g);
+    let mut out = [0.0f32; MODE_COUNT];
+    for (m, lambda) in FaultMode::ALL.into_iter().zip(out.iter_mut()) {
+        let groups = mode_groups(m);
         let mut without = k.0;
         let mut present = false;
         for g in groups.clone() {
@@ -276,15 +269,15 @@ pub fn flight_evidence<const W: usize>(
                 present = true;
             }
         }
-        let step = PROBE_STEP.get(m).copied().unwrap_or(0.05);
+        let step = PROBE_STEP.get(m.index()).copied().unwrap_or(0.05);
         *lambda = if present {
             llr(n, cost, eval(&without))
         } else {
             let best = match m {
                 // eccentricity: the quadratic in v = ζ·(cos φ, sin φ)
-                3 => eccentricity_probe(&mut eval, &k.0, cost, step),
+                FaultMode::Eccentricity => eccentricity_probe(&mut eval, &k.0, cost, step),
                 // gain drift: both directions around the diagnosis' gain
-                4 => {
+                FaultMode::GainDrift => {
                     let g = k.0[7];
                     let at = |s: f32| {
                         let mut x = k.0;
@@ -298,7 +291,8 @@ pub fn flight_evidence<const W: usize>(
                 // one-sided severities: friction, backlash, each phase's short
                 _ => {
                     let mut best = cost;
-                    for (first, _) in groups {
+                    for group in groups {
+                        let (first, _) = group.params();
                         let at = |s: f32| with_parameter(&k.0, first, s);
                         let (e1, e2) = (eval(&at(step)), eval(&at(2.0 * step)));
                         best = best.min(quadratic_min(cost, (step, e1), (2.0 * step, e2), 0.0, 3.0 * step));
@@ -374,7 +368,7 @@ pub struct PooledFlight {
     /// The accumulated evidence after the flight (what the record now holds).
     pub evidence: Evidence,
     /// Per mode: present by the accumulated evidence while absent from the flight's own diagnosis.
-    pub declared: [bool; EVIDENCE_MODES],
+    pub declared: [bool; MODE_COUNT],
     /// The report the record keeps: the flight's own, with each declared mode refitted in.
     pub report: HealthReport,
     /// Evaluations of the refits.
@@ -411,9 +405,9 @@ pub fn record_flight<const W: usize>(
     evidence.update(&flight);
     record.set_evidence(evidence.llr, evidence.flights);
     let decisions = evidence.decisions(flight.effective_samples);
-    let mut declared = [false; EVIDENCE_MODES];
+    let mut declared = [false; MODE_COUNT];
     let (mut k, mut cost, mut refit_evaluations) = (report.faults, report.fitness, 0u32);
-    for (m, (d, decision)) in declared.iter_mut().zip(decisions).enumerate() {
+    for (m, (d, decision)) in FaultMode::ALL.into_iter().zip(declared.iter_mut().zip(decisions)) {
         if decision == Decision::Present && !mode_present(&report.faults, m) {
             *d = true;
             let (refit, e, n) = refit_mode(fit, &k, cost, m);
@@ -502,14 +496,14 @@ pub fn refit_mode<const W: usize>(
     fit: &EquivalentCurrentFit<'_, W>,
     k: &FaultVector,
     cost: f32,
-    mode: usize,
+    mode: FaultMode,
 ) -> (FaultVector, f32, u32) {
     let mut evaluations = 0u32;
     let mut eval = |x: &[f32; FAULT_COUNT]| {
         evaluations += 1;
         fit.error(&FaultVector(*x))
     };
-    let step = PROBE_STEP.get(mode).copied().unwrap_or(0.05);
+    let step = PROBE_STEP.get(mode.index()).copied().unwrap_or(0.05);
     let span = REFIT_SPAN_STEPS * step;
     let base = k.0;
     let severity = |eval: &mut dyn FnMut(&[f32; FAULT_COUNT]) -> f32, i: usize, lo: f32, hi: f32| {
@@ -517,8 +511,10 @@ pub fn refit_mode<const W: usize>(
         (with_parameter(&base, i, s), e)
     };
     let (x, e) = match mode {
-        0 | 1 => severity(&mut eval, mode, 0.0, span),
-        2 => {
+        FaultMode::Friction | FaultMode::Backlash => {
+            severity(&mut eval, mode.groups().0.severity_param().index(), 0.0, span)
+        }
+        FaultMode::ShortCircuit => {
             // the phase whose probe at one step costs least
             let mut phase = 2;
             let mut least = f32::INFINITY;
@@ -530,8 +526,8 @@ pub fn refit_mode<const W: usize>(
             }
             severity(&mut eval, phase, 0.0, span)
         }
-        3 => refit_eccentricity(&mut eval, &base, cost, step, span),
-        _ => {
+        FaultMode::Eccentricity => refit_eccentricity(&mut eval, &base, cost, step, span),
+        FaultMode::GainDrift => {
             let g = base[7];
             severity(&mut eval, 7, (g - span).max(0.0), (g + span).min(1.0))
         }
@@ -600,17 +596,17 @@ mod tests {
     #[test]
     fn one_flight_decides_as_the_information_criterion() {
         let n = 800.0;
-        for m in 0..EVIDENCE_MODES {
+        for m in FaultMode::ALL {
             let p = price(m, n);
-            assert!((p - 0.5 * MODE_PARAMETERS[m] as f32 * libm::logf(n)).abs() < 1e-6);
+            assert!((p - 0.5 * MODE_PARAMETERS[m.index()] as f32 * libm::logf(n)).abs() < 1e-6);
             // the one-flight threshold: the price, or c + P/2 when the allowance nears the price
             let p = (allowance(m) + threshold(m, n)).max(p);
             for (l, expected) in [(p * 1.01, Decision::Present), (p * 0.99, Decision::Undecided)] {
                 let mut e = Evidence::NONE;
-                let mut llr = [0.0; EVIDENCE_MODES];
-                llr[m] = l;
+                let mut llr = [0.0; MODE_COUNT];
+                llr[m.index()] = l;
                 e.update(&FlightEvidence { llr, effective_samples: n, evaluations: 1 });
-                assert_eq!(e.decisions(n)[m], expected, "mode {m}, λ {l}, price {p}");
+                assert_eq!(e.decisions(n)[m.index()], expected, "{m:?}, λ {l}, price {p}");
             }
         }
     }
@@ -618,12 +614,12 @@ mod tests {
     #[test]
     fn small_evidence_adds_up_and_noise_sinks_to_the_floor() {
         let n = 800.0;
-        let h = threshold(0, n);
+        let h = threshold(FaultMode::Friction, n);
         // 2 nats a flight: below the price alone (3.3), present after a few flights
         let mut e = Evidence::NONE;
         let mut flights = 0;
         while e.decisions(n)[0] != Decision::Present {
-            let mut llr = [0.0; EVIDENCE_MODES];
+            let mut llr = [0.0; MODE_COUNT];
             llr[0] = 2.0;
             e.update(&FlightEvidence { llr, effective_samples: n, evaluations: 1 });
             flights += 1;
@@ -633,7 +629,7 @@ mod tests {
         // noise: 0.5 nat a flight sinks to the floor, and stays there
         let mut e = Evidence::NONE;
         for _ in 0..50 {
-            e.update(&FlightEvidence { llr: [0.5; EVIDENCE_MODES], effective_samples: n, evaluations: 1 });
+            e.update(&FlightEvidence { llr: [0.5; MODE_COUNT], effective_samples: n, evaluations: 1 });
         }
         assert_eq!(e.llr[0], -h);
         assert_eq!(e.decisions(n)[0], Decision::Absent);

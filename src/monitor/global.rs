@@ -7,7 +7,7 @@ use super::config::{fault_bounds, starting_guesses, Algorithm, IdentifyConfig};
 use super::stage::Next;
 use super::state::{Account, IdentificationState};
 use super::MonitorError;
-use crate::faults::{FaultVector, FAULT_COUNT};
+use crate::faults::{FaultGroup, FaultVector, FAULT_COUNT};
 #[cfg(feature = "de")]
 use crate::optimizer::de::{DeConfig, DifferentialEvolution};
 #[cfg(feature = "ga")]
@@ -231,7 +231,7 @@ fn after_global_search<const W: usize>(state: &mut IdentificationState<'_, W>, r
     if model_selection && state.budget_left() > 0 {
         Next::Select
     } else if model_selection {
-        state.leave_untested_from(0);
+        state.leave_untested_from(FaultGroup::Friction); // the first group: all of them
         Next::Polish(reason)
     } else if state.config().polish.is_some() {
         Next::Polish(reason)

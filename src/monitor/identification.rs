@@ -14,7 +14,6 @@
 
 use super::config::{configured_fit, fault_bounds, IdentifyConfig};
 use super::global::{Solver, SolverPlan};
-use super::groups::FAULT_GROUPS;
 use super::polish;
 use super::probes::{self, Probing};
 use super::selection::Selection;
@@ -25,7 +24,7 @@ use super::warm::{self, warm_start_point, WarmStart};
 use super::MonitorError;
 use crate::command::Command;
 use crate::conditioning::{ConditionedWindow, ConditioningError, DECIMATION};
-use crate::faults::{FaultVector, FAULT_COUNT};
+use crate::faults::{FaultVector, FAULT_COUNT, GROUP_COUNT};
 use crate::fitness::{EquivalentCurrentFit, PooledTrace};
 use crate::health::HealthReport;
 use crate::optimizer::pattern::PatternSearch;
@@ -299,8 +298,8 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
         self.state.fitness()
     }
 
-    /// Which fault groups ([`FAULT_GROUPS`]) model selection kept (all when it is off).
-    pub fn kept_groups(&self) -> [bool; FAULT_GROUPS.len()] {
+    /// Which fault groups model selection kept (all when it is off), by [`FaultGroup::index`](crate::faults::FaultGroup::index).
+    pub fn kept_groups(&self) -> [bool; GROUP_COUNT] {
         self.state.kept_groups()
     }
 
@@ -334,6 +333,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
 #[cfg(test)]
 pub(super) mod tests {
     use super::*;
+    use crate::faults::FaultGroup;
     use crate::fitness::simulate_window;
     use crate::health::{Abstain, Status as HealthStatus};
     use crate::monitor::groups::group_present;
@@ -379,7 +379,7 @@ pub(super) mod tests {
         // the global search's budget, then 1 + (present groups) selection evaluations and the polish
         let global = ONBOARD_MAX_ITERATIONS * ONBOARD_POPULATION as u32;
         let polish = PatternConfig::default().max_evaluations;
-        let selection = 1 + FAULT_GROUPS.len() as u32 * SELECTION_REFIT.max_evaluations;
+        let selection = 1 + GROUP_COUNT as u32 * SELECTION_REFIT.max_evaluations;
         assert!(r.evaluations > global && r.evaluations <= global + selection + polish);
         let kept = id.kept_groups();
         assert!(kept[0] && kept[3] && kept[6], "a noise-free trace keeps its real faults: {kept:?}");
@@ -407,7 +407,7 @@ pub(super) mod tests {
             // the reported fitness is the reported vector's, whatever stage the budget stopped
             assert_eq!(r.fitness, id.fitness().error(&r.faults), "budget {budget}");
             untested[j] = r.untested_groups;
-            present[j] = FAULT_GROUPS.iter().filter(|&&g| group_present(&r.faults.0, g)).count() as u8;
+            present[j] = FaultGroup::ALL.iter().filter(|&&g| group_present(&r.faults.0, g)).count() as u8;
         }
         assert!(later[1] == 25 && later[2] > 25, "the small budget binds, the default does not: {later:?}");
         // No budget: every group found stays untested. 25: the first refit gets 24 evaluations,
@@ -430,9 +430,10 @@ pub(super) mod tests {
         id.run(u32::MAX);
         let (kept, k) = (id.kept_groups(), id.report().faults.0);
         assert!(kept[0] && kept[6], "friction and gain are real: {kept:?}");
-        for (g, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
-            if !kept[g] {
-                assert_eq!(&k[first..=last], &FaultVector::HEALTHY.0[first..=last], "group {g}");
+        for group in FaultGroup::ALL {
+            let (first, last) = group.params();
+            if !kept[group.index()] {
+                assert_eq!(&k[first..=last], &FaultVector::HEALTHY.0[first..=last], "{group:?}");
             }
         }
         assert!(kept.iter().filter(|k| !**k).count() >= 1, "noise alone paid for every group: {k:?}");

@@ -40,7 +40,7 @@ pub use config::{
     configured_fit, fault_bounds, starting_guesses, Algorithm, IdentifyConfig, ONBOARD_MAX_ITERATIONS,
     ONBOARD_POPULATION, ONBOARD_WINDOW, SELECTION_POLISH_MAX_EVALUATIONS,
 };
-pub use groups::{group_present, without_group, FAULT_GROUPS, GROUP_NAMES};
+pub use groups::{group_present, group_size, without_group};
 pub use identification::{Identification, StepDriver};
 pub use probes::{MAX_NEW_FAULTS, PROBE_SCOUT, PROBE_SEVERITY, TARGETED_REFIT};
 pub use selection::{

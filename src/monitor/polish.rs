@@ -4,10 +4,10 @@
 //! rescore). Either ends in [`Next::Finish`].
 
 use super::config::fault_bounds;
-use super::groups::{group_present, FAULT_GROUPS};
+use super::groups::group_present;
 use super::stage::Next;
 use super::state::{Account, IdentificationState};
-use crate::faults::{FaultVector, FAULT_COUNT};
+use crate::faults::{FaultGroup, FaultVector, FAULT_COUNT};
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
 use crate::optimizer::{Optimizer, SearchStatus, TerminationReason};
 
@@ -21,15 +21,16 @@ pub(super) fn start<const W: usize>(
     // gradient to follow from healthy (the eccentricity phase means nothing without magnitude),
     // so it is set exactly healthy.
     let mut free = [false; FAULT_COUNT];
-    for (g, &group) in FAULT_GROUPS.iter().enumerate() {
+    for group in FaultGroup::ALL {
         let present = group_present(state.best(), group);
+        let (first, last) = group.params();
         // The group's indices by iteration, not by slicing: no range to check, no panic path.
-        let in_group = |i: usize| (group.0..=group.1).contains(&i);
+        let in_group = |i: usize| (first..=last).contains(&i);
         let healthy = FaultVector::HEALTHY.0;
         if !present && state.best().iter().zip(healthy).enumerate().any(|(i, (&x, h))| in_group(i) && x != h) {
             state.drop_group(group); // re-evaluated by the polish's first step
         }
-        let keep = state.kept(g) && present;
+        let keep = state.kept(group) && present;
         free.iter_mut().enumerate().filter(|&(i, _)| in_group(i)).for_each(|(_, f)| *f = keep);
     }
     let unscored = state.best_cost().is_nan();

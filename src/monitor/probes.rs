@@ -14,11 +14,11 @@
 //! `docs/decisions/0018-warm-start.md`.
 
 use super::config::{fault_bounds, PHASE_INDEX};
-use super::groups::{group_present, present_free, FAULT_GROUPS};
+use super::groups::{group_present, group_size, present_free};
 use super::selection::group_pays;
 use super::stage::Next;
 use super::state::{Account, IdentificationState};
-use crate::faults::FAULT_COUNT;
+use crate::faults::{FaultGroup, FaultParam, FAULT_COUNT};
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
 use crate::optimizer::{Objective, Optimizer, SearchStatus, TerminationReason};
 
@@ -45,27 +45,26 @@ const ECCENTRICITY_PROBES: usize = 8;
 /// [`ECCENTRICITY_PROBES`] phases, gain drift up and down.
 const PROBES: usize = 7 + ECCENTRICITY_PROBES;
 
-/// The probe `index` (`0..PROBES`): its group (index into [`FAULT_GROUPS`]) and the parameters it
-/// sets, applied to `k`.
-fn probe_point(k: &[f32; FAULT_COUNT], index: usize) -> Option<(usize, [f32; FAULT_COUNT])> {
+/// The probe `index` (`0..PROBES`): its group and the parameters it sets, applied to `k`.
+fn probe_point(k: &[f32; FAULT_COUNT], index: usize) -> Option<(FaultGroup, [f32; FAULT_COUNT])> {
     let mut x = *k;
     let group = match index {
         0..=4 => {
             *x.get_mut(index)? = PROBE_SEVERITY;
-            index
+            FaultParam::ALL.get(index)?.group()
         }
         5..=12 => {
             x[5] = PROBE_SEVERITY;
             x[PHASE_INDEX] = (2 * (index - 5) + 1) as f32 / (2 * ECCENTRICITY_PROBES) as f32;
-            5
+            FaultGroup::Eccentricity
         }
         13 => {
             x[7] = 0.5 + 0.5 * PROBE_SEVERITY;
-            6
+            FaultGroup::GainDrift
         }
         14 => {
             x[7] = 0.5 - 0.5 * PROBE_SEVERITY;
-            6
+            FaultGroup::GainDrift
         }
         _ => return None,
     };
@@ -130,10 +129,8 @@ impl Probing {
                 let mut index = usize::from(*next);
                 while index < PROBES {
                     match probe_point(state.best(), index) {
-                        Some((g, x))
-                            if FAULT_GROUPS.get(g).is_some_and(|&group| !group_present(state.best(), group)) =>
-                        {
-                            let parameters = FAULT_GROUPS.get(g).map_or(1, |&(first, last)| last - first + 1);
+                        Some((g, x)) if !group_present(state.best(), g) => {
+                            let parameters = group_size(g);
                             let best_cost = state.best_cost();
                             // above this cost the group cannot pay: the model run stops there
                             let threshold =
@@ -231,11 +228,10 @@ fn probes_done<const W: usize>(state: &mut IdentificationState<'_, W>, reason: T
     }
 }
 
-/// The parameters of `FAULT_GROUPS[group]` free, the others fixed.
-fn group_free(group: usize) -> [bool; FAULT_COUNT] {
+/// The parameters of `group` free, the others fixed.
+fn group_free(group: FaultGroup) -> [bool; FAULT_COUNT] {
+    let (first, last) = group.params();
     let mut free = [false; FAULT_COUNT];
-    if let Some(&(first, last)) = FAULT_GROUPS.get(group) {
-        free.iter_mut().enumerate().filter(|(i, _)| (first..=last).contains(i)).for_each(|(_, f)| *f = true);
-    }
+    free.iter_mut().enumerate().filter(|(i, _)| (first..=last).contains(i)).for_each(|(_, f)| *f = true);
     free
 }

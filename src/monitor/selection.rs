@@ -19,10 +19,10 @@
 //! no budget left to test stay and are counted in the report.
 
 use super::config::{fault_bounds, PHASE_INDEX};
-use super::groups::{group_present, without_group, FAULT_GROUPS, PRESENT_ABOVE};
+use super::groups::{group_present, group_size, without_group, PRESENT_ABOVE};
 use super::stage::Next;
 use super::state::{Account, IdentificationState};
-use crate::faults::{FaultVector, FAULT_COUNT};
+use crate::faults::{FaultGroup, FaultParam, FaultVector, FAULT_COUNT};
 use crate::fitness::WindowErrors;
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
 use crate::optimizer::{Optimizer, SearchStatus};
@@ -83,10 +83,12 @@ pub const REPLACED_ABOVE: f32 = 0.01;
 /// [`REPLACED_ABOVE`] from `with`: another explanation took the group's place (a low short on
 /// phase A beside a smaller one on C, refitted as a larger one on C), so
 /// [`helps_without_its_best_window`] runs with `share` = 0.
-pub fn refit_replaces(with: &[f32; FAULT_COUNT], without: &[f32; FAULT_COUNT], tested: (usize, usize)) -> bool {
-    with.iter().zip(without).enumerate().any(|(i, (a, b))| {
-        i != PHASE_INDEX && !(tested.0..=tested.1).contains(&i) && libm::fabsf(a - b) > REPLACED_ABOVE
-    })
+pub fn refit_replaces(with: &[f32; FAULT_COUNT], without: &[f32; FAULT_COUNT], tested: FaultGroup) -> bool {
+    let (first, last) = tested.params();
+    with.iter()
+        .zip(without)
+        .enumerate()
+        .any(|(i, (a, b))| i != PHASE_INDEX && !(first..=last).contains(&i) && libm::fabsf(a - b) > REPLACED_ABOVE)
 }
 
 /// The phase moves of the short circuits, as `(from, to)` indices into the fault vector (`k3`,
@@ -114,7 +116,8 @@ pub fn phase_moved(k: &[f32; FAULT_COUNT], (from, to): (usize, usize)) -> Option
     Some(out)
 }
 
-/// Where model selection is. `group` indexes [`FAULT_GROUPS`]; `effective_samples` is the `n` of
+/// Where model selection is. `group` is an index in [`FaultGroup::ALL`] (a cursor over the
+/// groups: the enum's layout stays that of a plain index); `effective_samples` is the `n` of
 /// the information criterion, evaluated once on the global search's best vector.
 #[derive(Clone, Debug)]
 #[allow(clippy::large_enum_variant, reason = "held once, inline in the identification: no allocator to box into")]
@@ -125,21 +128,21 @@ pub(super) enum Selection {
     /// evaluation): a group that does not pay even against this unrefitted cost is dropped
     /// without its refit (`Selection::pre_check`).
     PreCheck {
-        /// Group under test.
+        /// Index in [`FaultGroup::ALL`] of the group under test.
         group: usize,
         /// `n` of the information criterion.
         effective_samples: f32,
     },
     /// Starts the test of the first present group from `group` on (no evaluation).
     NextGroup {
-        /// First group to consider.
+        /// Index in [`FaultGroup::ALL`] of the first group to consider.
         group: usize,
         /// `n` of the information criterion.
         effective_samples: f32,
     },
     /// Refits the other groups with `group` set back to healthy (one evaluation per step).
     Refit {
-        /// Group under test.
+        /// Index in [`FaultGroup::ALL`] of the group under test.
         group: usize,
         /// `n` of the information criterion.
         effective_samples: f32,
@@ -148,7 +151,7 @@ pub(super) enum Selection {
     },
     /// Checks window by window a group that paid the information criterion.
     WindowCheck {
-        /// Group under test.
+        /// Index in [`FaultGroup::ALL`] of the group under test.
         group: usize,
         /// `n` of the information criterion.
         effective_samples: f32,
@@ -201,7 +204,10 @@ impl Selection {
             }
             Selection::PreCheck { group, effective_samples } => {
                 let (group, effective_samples) = (*group, *effective_samples);
-                self.pre_check(state, group, effective_samples)
+                match FaultGroup::from_index(group) {
+                    Some(tested) => self.pre_check(state, tested, effective_samples),
+                    None => self.next_test(state, group, effective_samples),
+                }
             }
             Selection::NextGroup { group, effective_samples } => {
                 let (group, effective_samples) = (*group, *effective_samples);
@@ -211,7 +217,10 @@ impl Selection {
                 let status = state.step_search(search, Account::Later);
                 if let SearchStatus::Done(_) = status {
                     let (group, effective_samples) = (*group, *effective_samples);
-                    return self.refit_done(state, group, effective_samples);
+                    return match FaultGroup::from_index(group) {
+                        Some(tested) => self.refit_done(state, tested, effective_samples),
+                        None => self.next_test(state, group + 1, effective_samples),
+                    };
                 }
                 Next::Stay
             }
@@ -231,11 +240,13 @@ impl Selection {
                     let (group, effective_samples) = (*group, *effective_samples);
                     let without_errors =
                         state.evaluate(Account::Later, |fit| fit.window_errors(&FaultVector(*without)));
-                    let replaced =
-                        FAULT_GROUPS.get(group).is_some_and(|&tested| refit_replaces(state.best(), without, tested));
+                    let tested = FaultGroup::from_index(group);
+                    let replaced = tested.is_some_and(|tested| refit_replaces(state.best(), without, tested));
                     let share = if replaced { 0.0 } else { WINDOW_GAIN_SHARE };
                     let pays = helps_without_its_best_window(with, &without_errors, share);
-                    state.keep(group, pays);
+                    if let Some(tested) = tested {
+                        state.keep(tested, pays);
+                    }
                     self.next_test(state, group + 1, effective_samples)
                 }
             },
@@ -243,16 +254,21 @@ impl Selection {
     }
 
     /// Judges the finished refit of `group` and moves on to its window check or the next group.
-    fn refit_done<const W: usize>(&mut self, state: State<'_, '_, W>, group: usize, effective_samples: f32) -> Next {
+    fn refit_done<const W: usize>(
+        &mut self,
+        state: State<'_, '_, W>,
+        group: FaultGroup,
+        effective_samples: f32,
+    ) -> Next {
         let Selection::Refit { search, .. } = self else { return Next::Stay };
         let (x, without) = search.best();
         let x = *x;
         match judge_refit(state, group, effective_samples, x, without) {
             Some(check) => {
-                *self = Selection::WindowCheck { group, effective_samples, check };
+                *self = Selection::WindowCheck { group: group.index(), effective_samples, check };
                 Next::Stay
             }
-            None => self.next_test(state, group + 1, effective_samples),
+            None => self.next_test(state, group.index() + 1, effective_samples),
         }
     }
 
@@ -264,13 +280,15 @@ impl Selection {
     /// pays gets its refit, which starts from this point with its cost known, so the refit's
     /// trials and the evaluations spent are those of a refit without the pre-check
     /// (`docs/decisions/0018-warm-start.md`).
-    fn pre_check<const W: usize>(&mut self, state: State<'_, '_, W>, group: usize, effective_samples: f32) -> Next {
-        let Some(&tested) = FAULT_GROUPS.get(group) else {
-            return self.next_test(state, group, effective_samples);
-        };
-        let start = without_group(state.best(), tested);
+    fn pre_check<const W: usize>(
+        &mut self,
+        state: State<'_, '_, W>,
+        group: FaultGroup,
+        effective_samples: f32,
+    ) -> Next {
+        let start = without_group(state.best(), group);
         let cost = state.evaluate(Account::Later, |fit| fit.error(&FaultVector(start)));
-        let parameters = tested.1 - tested.0 + 1;
+        let parameters = group_size(group);
         let best_cost = state.best_cost();
         let pays = cost >= best_cost && group_pays(best_cost, cost, parameters, effective_samples);
         if !pays {
@@ -278,14 +296,15 @@ impl Selection {
                 state.set_best(start, cost);
             }
             state.keep(group, false);
-            return self.next_test(state, group + 1, effective_samples);
+            return self.next_test(state, group.index() + 1, effective_samples);
         }
         // The refit's budget as `next_test` gave it before this evaluation, less the evaluation
         // of its start point done here (at least 1: that budget was at least 2).
         let refit_budget = SELECTION_REFIT.max_evaluations.min(state.budget_left()).saturating_sub(1).max(1);
         let mut free = [false; FAULT_COUNT];
-        for (h, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
-            let movable = h != group && state.kept(h) && group_present(state.best(), (first, last));
+        for other in FaultGroup::ALL {
+            let (first, last) = other.params();
+            let movable = other != group && state.kept(other) && group_present(state.best(), other);
             // The group's indices by iteration, not by slicing: no range to check, no panic path.
             let in_group = |i: usize| (first..=last).contains(&i);
             free.iter_mut().enumerate().filter(|&(i, _)| in_group(i)).for_each(|(_, f)| *f = movable);
@@ -294,13 +313,13 @@ impl Selection {
         match PatternSearch::new(fault_bounds(), config, start, Some(cost), free) {
             Ok(search) => {
                 let done = matches!(search.status(), SearchStatus::Done(_));
-                *self = Selection::Refit { group, effective_samples, search };
+                *self = Selection::Refit { group: group.index(), effective_samples, search };
                 if done {
                     return self.refit_done(state, group, effective_samples); // nothing free: judged on the pre-check
                 }
                 Next::Stay
             }
-            Err(_) => self.next_test(state, group + 1, effective_samples),
+            Err(_) => self.next_test(state, group.index() + 1, effective_samples),
         }
     }
 
@@ -310,9 +329,9 @@ impl Selection {
     /// selection changed; with fewer than two to give, the groups not yet tested stay.
     fn next_test<const W: usize>(&mut self, state: State<'_, '_, W>, mut group: usize, effective_samples: f32) -> Next {
         let refit_budget = SELECTION_REFIT.max_evaluations.min(state.budget_left().saturating_sub(1));
-        while let Some(&tested) = FAULT_GROUPS.get(group) {
+        while let Some(tested) = FaultGroup::from_index(group) {
             if refit_budget < 2 {
-                state.leave_untested_from(group);
+                state.leave_untested_from(tested);
                 break;
             }
             if group_present(state.best(), tested) {
@@ -359,7 +378,9 @@ impl Selection {
             let cost = state.evaluate(Account::Later, |fit| fit.error_abandoning(&FaultVector(x), best_cost));
             if cost < best_cost {
                 state.set_best(x, cost);
-                state.keep(mv.1, true); // the groups of the shorts are indexed as their parameters
+                if let Some(to) = FaultParam::ALL.get(mv.1) {
+                    state.keep(to.group(), true);
+                }
             }
             *self = Selection::PhaseMove { next: index, origin };
             return Next::Stay;
@@ -374,18 +395,17 @@ impl Selection {
 /// plain test stands). Returns the window check to run, if any.
 fn judge_refit<const W: usize>(
     state: State<'_, '_, W>,
-    group: usize,
+    group: FaultGroup,
     effective_samples: f32,
     x: [f32; FAULT_COUNT],
     without: f32,
 ) -> Option<WindowCheck> {
-    let &(first, last) = FAULT_GROUPS.get(group)?;
     if without < state.best_cost() {
         state.set_best(x, without);
         state.keep(group, false);
         return None;
     }
-    let kept = group_pays(state.best_cost(), without, last - first + 1, effective_samples);
+    let kept = group_pays(state.best_cost(), without, group_size(group), effective_samples);
     state.keep(group, kept);
     (kept && state.budget_left() >= 2).then_some(WindowCheck::With { without: x })
 }
@@ -393,9 +413,9 @@ fn judge_refit<const W: usize>(
 /// Sets every group model selection refused back to healthy; the cost is re-evaluated by the
 /// polish (or by a rescore when there is none).
 fn drop_unpaid_groups<const W: usize>(state: State<'_, '_, W>) {
-    for (g, group) in FAULT_GROUPS.iter().enumerate() {
-        if !state.kept(g) && group_present(state.best(), *group) {
-            state.drop_group(*group);
+    for group in FaultGroup::ALL {
+        if !state.kept(group) && group_present(state.best(), group) {
+            state.drop_group(group);
         }
     }
 }
@@ -406,15 +426,13 @@ mod tests {
     use crate::fitness::MAX_EVIDENCE_WINDOWS;
 
     #[test]
-    fn group_helpers_follow_the_groups_and_ignore_indices_outside_the_vector() {
+    fn group_helpers_follow_the_groups() {
         let k = [0.2, 0.0, 0.0, 0.3, 0.0, 0.0, 0.9, 0.5]; // friction, short B, a phase without eccentricity
-        let present: [bool; 7] = core::array::from_fn(|g| group_present(&k, FAULT_GROUPS[g]));
+        let present = FaultGroup::ALL.map(|g| group_present(&k, g));
         assert_eq!(present, [true, false, false, true, false, false, false]);
-        assert_eq!(without_group(&k, FAULT_GROUPS[3]), [0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.9, 0.5]);
-        assert_eq!(without_group(&k, FAULT_GROUPS[5]), [0.2, 0.0, 0.0, 0.3, 0.0, 0.0, 0.5, 0.5]);
-        assert!(!group_present(&k, (8, 9)));
-        assert_eq!(without_group(&k, (7, 12)), [0.2, 0.0, 0.0, 0.3, 0.0, 0.0, 0.9, 0.5]);
-        assert_eq!(without_group(&k, (3, 2)), k);
+        assert_eq!(without_group(&k, FaultGroup::ShortB), [0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.9, 0.5]);
+        assert_eq!(without_group(&k, FaultGroup::Eccentricity), [0.2, 0.0, 0.0, 0.3, 0.0, 0.0, 0.5, 0.5]);
+        assert_eq!(FaultGroup::ALL.map(group_size), [1, 1, 1, 1, 1, 2, 1]);
     }
 
     #[test]
@@ -439,10 +457,10 @@ mod tests {
         assert!(!helps_without_its_best_window(&with, &with, 0.0));
         // a refit that moves another group by more than a step replaced the tested one
         let (a_and_c, c) = ([0.0, 0.0, 0.06, 0.0, 0.05, 0.0, 0.5, 0.5], [0.0, 0.0, 0.0, 0.0, 0.11, 0.0, 0.5, 0.5]);
-        assert!(refit_replaces(&a_and_c, &c, FAULT_GROUPS[2]));
+        assert!(refit_replaces(&a_and_c, &c, FaultGroup::ShortA));
         // an eccentricity dropped, friction and gain moving by specks: nothing took its place
         let ecc = [0.0006, 0.0, 0.0, 0.0, 0.0, 0.18, 0.18, 0.498];
-        assert!(!refit_replaces(&ecc, &[0.002, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5], FAULT_GROUPS[5]));
+        assert!(!refit_replaces(&ecc, &[0.002, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5], FaultGroup::Eccentricity));
     }
 
     #[test]

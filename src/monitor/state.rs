@@ -4,9 +4,9 @@
 //! methods here, so each stage's file says what it does to the shared state and nothing else can.
 
 use super::config::{selection_polish_left, IdentifyConfig};
-use super::groups::{group_present, without_group, FAULT_GROUPS};
+use super::groups::{group_present, without_group};
 use super::MODEL_MISMATCH_A;
-use crate::faults::{FaultVector, FAULT_COUNT};
+use crate::faults::{FaultGroup, FaultVector, FAULT_COUNT, GROUP_COUNT};
 use crate::fitness::{EquivalentCurrentFit, PoolError, PooledTrace};
 use crate::health::{window_score, Abstain, FitCheck, HealthReport, Status as HealthStatus};
 use crate::optimizer::pattern::PatternSearch;
@@ -39,7 +39,7 @@ struct WarmState {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct WarmReport {
-    /// Groups of [`FAULT_GROUPS`] whose probe fired, bit `g` for group `g`.
+    /// Groups whose probe fired, bit [`FaultGroup::index`] for each.
     pub fired: u8,
     /// Probe evaluations run.
     pub probes: u16,
@@ -55,9 +55,9 @@ pub struct WarmReport {
 }
 
 impl WarmReport {
-    /// `true` when group `g` of [`FAULT_GROUPS`] was found new by a probe.
-    pub fn fired_group(&self, g: usize) -> bool {
-        g < FAULT_GROUPS.len() && self.fired & (1 << g) != 0
+    /// `true` when `group` was found new by a probe.
+    pub fn fired_group(&self, group: FaultGroup) -> bool {
+        self.fired & (1 << group.index()) != 0
     }
 
     /// `true` when the next identification must be cold: the warm result failed its fit check
@@ -90,7 +90,7 @@ pub(super) struct IdentificationState<'a, const W: usize> {
     best: [f32; FAULT_COUNT],
     best_cost: f32,
     /// Groups kept by model selection (all of them when it is off).
-    kept: [bool; FAULT_GROUPS.len()],
+    kept: [bool; GROUP_COUNT],
     /// Evaluations spent after the global search (model selection and the polish).
     later_evaluations: u32,
     /// Present groups model selection had no budget left to test.
@@ -116,7 +116,7 @@ impl<'a, const W: usize> IdentificationState<'a, W> {
             config: *config,
             best: start.unwrap_or(FaultVector::HEALTHY.0),
             best_cost: f32::INFINITY,
-            kept: [true; FAULT_GROUPS.len()],
+            kept: [true; GROUP_COUNT],
             later_evaluations: 0,
             untested_groups: 0,
             global_reason: TerminationReason::FunctionTolerance,
@@ -163,7 +163,7 @@ impl<'a, const W: usize> IdentificationState<'a, W> {
 
     /// Sets `group` of the best vector back to healthy; its cost is unknown (NaN) until a later
     /// evaluation.
-    pub(super) fn drop_group(&mut self, group: (usize, usize)) {
+    pub(super) fn drop_group(&mut self, group: FaultGroup) {
         self.best = without_group(&self.best, group);
         self.best_cost = f32::NAN;
     }
@@ -215,27 +215,28 @@ impl<'a, const W: usize> IdentificationState<'a, W> {
         selection_polish_left(&self.config, self.later_evaluations)
     }
 
-    /// Whether model selection keeps group `g` of [`FAULT_GROUPS`] (`false` outside them).
-    pub(super) fn kept(&self, g: usize) -> bool {
-        self.kept.get(g).is_some_and(|&kept| kept)
+    /// Whether model selection keeps `group`.
+    pub(super) fn kept(&self, group: FaultGroup) -> bool {
+        self.kept.get(group.index()).is_some_and(|&kept| kept)
     }
 
-    /// Keeps group `g` of [`FAULT_GROUPS`] or drops it (nothing outside them).
-    pub(super) fn keep(&mut self, g: usize, kept: bool) {
-        if let Some(k) = self.kept.get_mut(g) {
+    /// Keeps `group` or drops it.
+    pub(super) fn keep(&mut self, group: FaultGroup, kept: bool) {
+        if let Some(k) = self.kept.get_mut(group.index()) {
             *k = kept;
         }
     }
 
-    /// Which groups model selection kept.
-    pub(super) fn kept_groups(&self) -> [bool; FAULT_GROUPS.len()] {
+    /// Which groups model selection kept, by [`FaultGroup::index`].
+    pub(super) fn kept_groups(&self) -> [bool; GROUP_COUNT] {
         self.kept
     }
 
-    /// Counts the present groups from index `first` on as left untested (no budget left).
-    pub(super) fn leave_untested_from(&mut self, first: usize) {
-        let present = FAULT_GROUPS.iter().skip(first).filter(|&&g| group_present(&self.best, g)).count();
-        self.untested_groups = present as u8; // at most FAULT_GROUPS.len() = 7
+    /// Counts the present groups from `first` on (in [`FaultGroup::ALL`] order) as left untested
+    /// (no budget left).
+    pub(super) fn leave_untested_from(&mut self, first: FaultGroup) {
+        let present = FaultGroup::ALL.iter().skip(first.index()).filter(|&&g| group_present(&self.best, g)).count();
+        self.untested_groups = present as u8; // at most GROUP_COUNT = 7
     }
 
     /// Why the global search stopped (a warm start, which has none, converged): the termination
@@ -284,11 +285,11 @@ impl<'a, const W: usize> IdentificationState<'a, W> {
     }
 
     /// Counts one probe run, and its group `fired` when it fired.
-    pub(super) fn record_probe(&mut self, fired: Option<usize>) {
+    pub(super) fn record_probe(&mut self, fired: Option<FaultGroup>) {
         if let Some(warm) = self.warm.as_mut() {
             warm.report.probes = warm.report.probes.saturating_add(1);
             if let Some(g) = fired {
-                warm.report.fired |= 1 << g;
+                warm.report.fired |= 1 << g.index();
             }
         }
     }
@@ -330,7 +331,7 @@ impl<'a, const W: usize> IdentificationState<'a, W> {
         warm.report.cold_fallback = true;
         warm.report.evaluations += self.later_evaluations;
         self.later_evaluations = 0;
-        self.kept = [true; FAULT_GROUPS.len()];
+        self.kept = [true; GROUP_COUNT];
         self.untested_groups = 0;
         (self.best, self.best_cost) = (FaultVector::HEALTHY.0, f32::INFINITY);
         true

@@ -53,11 +53,11 @@
 //! short below it may hide on any phase.
 
 use super::config::{configured_fit, IdentifyConfig, PHASE_INDEX};
-use super::groups::{group_present, FAULT_GROUPS};
+use super::groups::group_present;
 use super::verdict::{window_noise_variance_a2, MODEL_MISMATCH_A};
 use crate::command::Command;
 use crate::conditioning::ConditionedWindow;
-use crate::faults::{FaultVector, FAULT_COUNT};
+use crate::faults::{FaultGroup, FaultVector, FAULT_COUNT, GROUP_COUNT};
 use crate::fitness::{EquivalentCurrentFit, EVIDENCE_WINDOW_SAMPLES};
 use crate::health::{lag_correlation, HealthReport, Uncertainty};
 use crate::model::MonitorModel;
@@ -95,8 +95,8 @@ const ECCENTRICITY_INDEX: usize = PHASE_INDEX - 1;
 pub struct Fisher {
     /// The vector the sensitivities are taken at.
     pub k: FaultVector,
-    /// Groups of [`FAULT_GROUPS`] present in `k` (their parameters are the free ones).
-    pub present: [bool; FAULT_GROUPS.len()],
+    /// Groups present in `k`, by [`FaultGroup::index`] (their parameters are the free ones).
+    pub present: [bool; GROUP_COUNT],
     /// `A = Σ v_i·d_i·d_iᵀ` (upper triangle filled, then mirrored), A² per unit².
     pub information: [[f32; FAULT_COUNT]; FAULT_COUNT],
     /// `B = Σ v_i²·d_i·d_iᵀ`.
@@ -125,8 +125,8 @@ impl Fisher {
     /// lockstep run of 9 models (module doc). Groups present in `k` ([`group_present`]) are the
     /// free parameters; the others are stepped up from healthy.
     pub fn at<const W: usize>(fit: &EquivalentCurrentFit<'_, W>, params: &EmaParams, k: &FaultVector) -> Self {
-        let present: [bool; FAULT_GROUPS.len()] = core::array::from_fn(|g| group_present(&k.0, FAULT_GROUPS[g]));
-        let eccentric = present[5];
+        let present = FaultGroup::ALL.map(|g| group_present(&k.0, g));
+        let eccentric = present[FaultGroup::Eccentricity.index()];
         let mut steps = [FISHER_STEP; FAULT_COUNT];
         let mut stepped = [k.0; FAULT_COUNT];
         for (j, (h, x)) in steps.iter_mut().zip(stepped.iter_mut()).enumerate() {
@@ -179,7 +179,8 @@ impl Fisher {
     fn free(&self) -> ([usize; FAULT_COUNT], usize) {
         let mut idx = [0usize; FAULT_COUNT];
         let mut d = 0usize;
-        for (g, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
+        for (g, group) in FaultGroup::ALL.into_iter().enumerate() {
+            let (first, last) = group.params();
             if self.present[g] {
                 for i in first..=last {
                     if let Some(slot) = idx.get_mut(d) {
@@ -205,7 +206,8 @@ impl Fisher {
                 *s = sqrt_or_inf(row.get(r).copied().unwrap_or(f32::INFINITY));
             }
         }
-        for (g, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
+        for (g, group) in FaultGroup::ALL.into_iter().enumerate() {
+            let (first, last) = group.params();
             if self.present[g] {
                 continue;
             }
@@ -226,7 +228,7 @@ impl Fisher {
     }
 
     /// The severity model selection keeps with 95 % probability on this recording, per fault
-    /// mode of [`crate::health::FaultMode::ALL`], for the modes whose groups are all absent
+    /// mode of [`crate::faults::FaultMode::ALL`], for the modes whose groups are all absent
     /// (`None` for a mode found): `s_min + z·σ`, `s_min` the severity whose expected gain just
     /// pays the information criterion (kept half the time), `σ` the group's 1σ from `sigma`
     /// ([`Fisher::sigma`]), `z` = 1.645 (`DETECTION_Z`); with every `σ` zero, `s_min` itself.
@@ -243,8 +245,9 @@ impl Fisher {
                 f32::INFINITY
             }
         };
-        let mut group_min = [None::<f32>; FAULT_GROUPS.len()];
-        for (g, &(first, last)) in FAULT_GROUPS.iter().enumerate() {
+        let mut group_min = [None::<f32>; GROUP_COUNT];
+        for (g, group) in FaultGroup::ALL.into_iter().enumerate() {
+            let (first, last) = group.params();
             if self.present[g] {
                 continue;
             }

@@ -32,11 +32,11 @@
 //! flights, and after a warm flight whose result fails its fit check ([`super::WarmReport::needs_cold`]).
 
 use super::config::{fault_bounds, IdentifyConfig, PHASE_INDEX};
-use super::groups::{group_present, present_free, without_group, FAULT_GROUPS};
+use super::groups::{group_present, present_free, without_group};
 use super::stage::Next;
 use super::state::{Account, IdentificationState, WarmPhase};
 use super::MonitorError;
-use crate::faults::{FaultVector, FAULT_COUNT};
+use crate::faults::{FaultGroup, FaultVector, FAULT_COUNT};
 use crate::optimizer::pattern::{PatternConfig, PatternSearch};
 use crate::optimizer::{Bounds, Optimizer, SearchStatus, TerminationReason};
 
@@ -124,7 +124,7 @@ pub(super) fn warm_start_point(prior: &[f32; FAULT_COUNT]) -> Result<[f32; FAULT
     }
     let mut start = *prior;
     fault_bounds().enforce_point(&mut start);
-    for &group in FAULT_GROUPS.iter() {
+    for group in FaultGroup::ALL {
         if !group_present(&start, group) {
             start = without_group(&start, group);
         }
@@ -273,8 +273,8 @@ mod tests {
         // the prior knows the friction; the flight adds a short on phase C or an eccentricity
         let prior = FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
         for (truth, group) in [
-            (FaultVector([0.3, 0.0, 0.0, 0.0, 0.25, 0.0, 0.5, 0.5]), 4),
-            (FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.3, 0.7, 0.5]), 5),
+            (FaultVector([0.3, 0.0, 0.0, 0.0, 0.25, 0.0, 0.5, 0.5]), FaultGroup::ShortC),
+            (FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.3, 0.7, 0.5]), FaultGroup::Eccentricity),
         ] {
             let t = noisy_self_trace(&truth, 11);
             let (w, report) = warm(&t, &prior);

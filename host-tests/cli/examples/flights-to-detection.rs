@@ -17,12 +17,13 @@ use std::process::ExitCode;
 
 use ema_cli::flights::{flight_seed, flight_trace, fly, pooled};
 use ema_monitor::conditioning::ConditionedWindow;
-use ema_monitor::monitor::evidence::{mode_name, mode_present, Decision, Evidence, EVIDENCE_MODES};
+use ema_monitor::faults::FaultMode;
+use ema_monitor::monitor::evidence::{mode_present, Decision, Evidence};
 use ema_monitor::FaultVector;
 use rayon::prelude::*;
 
 /// A case: its label, the true faults, and the mode whose detection is counted (`None`: healthy).
-fn cases() -> Vec<(&'static str, FaultVector, Option<usize>)> {
+fn cases() -> Vec<(&'static str, FaultVector, Option<FaultMode>)> {
     let k = |i: usize, v: f32, phase: f32| {
         let mut x = FaultVector::HEALTHY;
         x.0[i] = v;
@@ -32,15 +33,15 @@ fn cases() -> Vec<(&'static str, FaultVector, Option<usize>)> {
         x
     };
     vec![
-        ("eccentricity 0.06, phase 0.2", k(5, 0.06, 0.2), Some(3)),
-        ("eccentricity 0.06, phase 0.7", k(5, 0.06, 0.7), Some(3)),
-        ("eccentricity 0.10, phase 0.35", k(5, 0.10, 0.35), Some(3)),
-        ("eccentricity 0.10, phase 0.85", k(5, 0.10, 0.85), Some(3)),
-        ("eccentricity 0.15, phase 0.5", k(5, 0.15, 0.5), Some(3)),
-        ("short B 2 % (k4 0.04)", k(3, 0.04, 0.0), Some(2)),
-        ("short B 5 % (k4 0.10)", k(3, 0.10, 0.0), Some(2)),
-        ("gain drift -3 % (k8 0.47)", k(7, 0.47, 0.0), Some(4)),
-        ("friction +6 % (k1 0.03)", k(0, 0.03, 0.0), Some(0)),
+        ("eccentricity 0.06, phase 0.2", k(5, 0.06, 0.2), Some(FaultMode::Eccentricity)),
+        ("eccentricity 0.06, phase 0.7", k(5, 0.06, 0.7), Some(FaultMode::Eccentricity)),
+        ("eccentricity 0.10, phase 0.35", k(5, 0.10, 0.35), Some(FaultMode::Eccentricity)),
+        ("eccentricity 0.10, phase 0.85", k(5, 0.10, 0.85), Some(FaultMode::Eccentricity)),
+        ("eccentricity 0.15, phase 0.5", k(5, 0.15, 0.5), Some(FaultMode::Eccentricity)),
+        ("short B 2 % (k4 0.04)", k(3, 0.04, 0.0), Some(FaultMode::ShortCircuit)),
+        ("short B 5 % (k4 0.10)", k(3, 0.10, 0.0), Some(FaultMode::ShortCircuit)),
+        ("gain drift -3 % (k8 0.47)", k(7, 0.47, 0.0), Some(FaultMode::GainDrift)),
+        ("friction +6 % (k1 0.03)", k(0, 0.03, 0.0), Some(FaultMode::Friction)),
     ]
 }
 
@@ -104,12 +105,12 @@ struct Series {
     detected_at: Option<usize>,
     single_hits: usize,
     flown: usize,
-    false_modes: Vec<(usize, usize)>,
+    false_modes: Vec<(FaultMode, usize)>,
     pooled: Vec<(usize, bool, bool)>,
     lines: Vec<String>,
 }
 
-fn series(truth: &FaultVector, mode: Option<usize>, key: u64, flights: usize, o: &Options, pool: bool) -> Series {
+fn series(truth: &FaultVector, mode: Option<FaultMode>, key: u64, flights: usize, o: &Options, pool: bool) -> Series {
     let mut traces: Vec<Box<ConditionedWindow<8192>>> = Vec::new();
     let trace = |traces: &mut Vec<Box<ConditionedWindow<8192>>>, f: usize| {
         while traces.len() <= f {
@@ -130,10 +131,11 @@ fn series(truth: &FaultVector, mode: Option<usize>, key: u64, flights: usize, o:
         let r = fly(&traces[f], flight_seed(key, f) ^ 0x55, &mut evidence).expect("identification");
         s.flown += 1;
         if let Some(m) = mode {
-            s.single_hits += usize::from(r.single[m]);
+            s.single_hits += usize::from(r.single[m.index()]);
         }
-        for m in 0..EVIDENCE_MODES {
-            if r.decisions[m] == Decision::Present && Some(m) != mode && !s.false_modes.iter().any(|x| x.0 == m) {
+        for m in FaultMode::ALL {
+            if r.decisions[m.index()] == Decision::Present && Some(m) != mode && !s.false_modes.iter().any(|x| x.0 == m)
+            {
                 s.false_modes.push((m, f + 1));
             }
         }
@@ -150,7 +152,7 @@ fn series(truth: &FaultVector, mode: Option<usize>, key: u64, flights: usize, o:
             ));
         }
         if let Some(m) = mode {
-            if r.decisions[m] == Decision::Present {
+            if r.decisions[m.index()] == Decision::Present {
                 s.detected_at = Some(f + 1);
                 break; // flights-to-detection: the series stops at its detection
             }
@@ -162,14 +164,14 @@ fn series(truth: &FaultVector, mode: Option<usize>, key: u64, flights: usize, o:
             let refs: Vec<&ConditionedWindow<8192>> = traces.iter().take(n).map(|t| &**t).collect();
             let report = pooled(&refs, key ^ 0x77).expect("pooled identification");
             let hit = mode.is_some_and(|m| mode_present(&report.faults, m));
-            let false_hit = (0..EVIDENCE_MODES).any(|m| Some(m) != mode && mode_present(&report.faults, m));
+            let false_hit = FaultMode::ALL.into_iter().any(|m| Some(m) != mode && mode_present(&report.faults, m));
             if o.verbose {
                 s.lines.push(format!("  pooled {n}: {:?} {}", report.faults.0, report.status.label()));
             }
             s.pooled.push((n, hit, false_hit));
         }
     }
-    let label = mode.map_or("healthy", mode_name);
+    let label = mode.map_or("healthy", FaultMode::name);
     eprintln!(
         "done: {label} key {key}: detected at {:?}, own diagnosis {}/{}, false {:?}, pooled {:?}",
         s.detected_at, s.single_hits, s.flown, s.false_modes, s.pooled
@@ -249,7 +251,7 @@ fn main() -> ExitCode {
     let which: Vec<String> = healthy
         .iter()
         .flat_map(|(seed, s)| {
-            s.false_modes.iter().map(move |(m, f)| format!("series {seed}: {} at flight {f}", mode_name(*m)))
+            s.false_modes.iter().map(move |(m, f)| format!("series {seed}: {} at flight {f}", m.name()))
         })
         .collect();
     println!(

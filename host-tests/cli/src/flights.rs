@@ -8,8 +8,9 @@
 use std::path::PathBuf;
 
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::faults::{FaultMode, MODE_COUNT};
 use ema_monitor::health::HealthReport;
-use ema_monitor::monitor::evidence::{mode_present, Decision, Evidence, FlightEvidence, EVIDENCE_MODES};
+use ema_monitor::monitor::evidence::{mode_present, Decision, Evidence, FlightEvidence};
 use ema_monitor::monitor::{Identification, IdentifyConfig, ONBOARD_POPULATION};
 use ema_monitor::optimizer::rng::{splitmix64_mix, SPLITMIX_GAMMA};
 use ema_monitor::{Command, EmaParams, FaultVector, Profile};
@@ -46,9 +47,9 @@ pub struct FlightRecord {
     /// The accumulators after the flight.
     pub accumulated: Evidence,
     /// The sequential test's decision per mode after the flight.
-    pub decisions: [Decision; EVIDENCE_MODES],
+    pub decisions: [Decision; MODE_COUNT],
     /// Which modes the flight's own diagnosis holds.
-    pub single: [bool; EVIDENCE_MODES],
+    pub single: [bool; MODE_COUNT],
 }
 
 /// Identifies `trace` with the on-board settings (optimizer seed `seed`) and adds it to `evidence`.
@@ -66,8 +67,8 @@ pub fn fly(
     let report = id.report();
     let flight = evidence.observe(&id);
     let n = flight.map_or(f32::NAN, |f| f.effective_samples);
-    let decisions = if n.is_finite() { evidence.decisions(n) } else { [Decision::Undecided; EVIDENCE_MODES] };
-    let single = core::array::from_fn(|m| report.status.is_diagnosis() && mode_present(&report.faults, m));
+    let decisions = if n.is_finite() { evidence.decisions(n) } else { [Decision::Undecided; MODE_COUNT] };
+    let single = FaultMode::ALL.map(|m| report.status.is_diagnosis() && mode_present(&report.faults, m));
     Ok(FlightRecord { report, evidence: flight, accumulated: *evidence, decisions, single })
 }
 

@@ -7,7 +7,8 @@ mod common;
 use common::{accepted, refused, s, scratch};
 use std::sync::OnceLock;
 
-use ema_monitor::monitor::{FAULT_GROUPS, ONBOARD_POPULATION, SELECTION_REFIT};
+use ema_monitor::faults::GROUP_COUNT;
+use ema_monitor::monitor::{ONBOARD_POPULATION, SELECTION_REFIT};
 use ema_monitor::optimizer::pattern::PatternConfig;
 use ema_monitor::FAULT_COUNT;
 
@@ -247,13 +248,13 @@ fn check_json(out: &str, max_iterations: u64) -> serde_json::Value {
     // the global search's iterations × population, then model selection and the polish
     let global = ONBOARD_POPULATION as u64 * iterations;
     let later = 1
-        + (FAULT_GROUPS.len() as u64) * u64::from(SELECTION_REFIT.max_evaluations)
+        + (GROUP_COUNT as u64) * u64::from(SELECTION_REFIT.max_evaluations)
         + u64::from(PatternConfig::default().max_evaluations);
     assert!((global..=global + later).contains(&evaluations), "{v}");
     // groups model selection had no budget left to test (the default budget never runs out on
     // the standard recordings)
     let untested = v["untested_groups"].as_u64().unwrap_or_else(|| panic!("no untested_groups in {v}"));
-    assert!(untested <= FAULT_GROUPS.len() as u64, "{v}");
+    assert!(untested <= GROUP_COUNT as u64, "{v}");
     v
 }
 

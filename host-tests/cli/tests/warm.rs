@@ -17,7 +17,7 @@ use ema_cli::recording::Recording;
 use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::health::HealthReport;
 use ema_monitor::monitor::{Identification, IdentifyConfig, WarmReport, ONBOARD_POPULATION};
-use ema_monitor::{EmaParams, FaultVector, Profile};
+use ema_monitor::{EmaParams, FaultGroup, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 use rayon::prelude::*;
 
@@ -46,25 +46,29 @@ fn warm(trace: &ConditionedWindow<HOST_WINDOW>, prior: &FaultVector) -> (HealthR
     (id.report(), id.warm_report().unwrap())
 }
 
-/// Group index (0..7 of FAULT_GROUPS) to a fault: sets it at `severity` in `k`.
-fn inject(k: &mut FaultVector, group: usize, severity: f32, rng: &mut SplitMix) {
+/// A fault of `group`: sets it at `severity` in `k` (a random phase for the eccentricity, a
+/// random direction for the gain).
+fn inject(k: &mut FaultVector, group: FaultGroup, severity: f32, rng: &mut SplitMix) {
+    let i = group.severity_param().index();
     match group {
-        0..=4 => k.0[group] = severity,
-        5 => {
-            k.0[5] = severity;
-            k.0[6] = rng.unit();
+        FaultGroup::Eccentricity => {
+            k.0[i] = severity;
+            k.0[i + 1] = rng.unit();
         }
-        _ => k.0[7] = if rng.next_u64().is_multiple_of(2) { 0.5 - 0.5 * severity } else { 0.5 + 0.5 * severity },
+        FaultGroup::GainDrift => {
+            k.0[i] = if rng.next_u64().is_multiple_of(2) { 0.5 - 0.5 * severity } else { 0.5 + 0.5 * severity }
+        }
+        _ => k.0[i] = severity,
     }
 }
 
 /// Flight 1's truth: one or two groups among friction, backlash, a short, eccentricity, gain.
-fn first_truth(rng: &mut SplitMix) -> (FaultVector, Vec<usize>) {
+fn first_truth(rng: &mut SplitMix) -> (FaultVector, Vec<FaultGroup>) {
     let mut k = FaultVector::HEALTHY;
     let count = 1 + (rng.next_u64() % 2) as usize;
     let mut groups = Vec::new();
     while groups.len() < count {
-        let g = (rng.next_u64() % 7) as usize;
+        let g = FaultGroup::ALL[(rng.next_u64() % 7) as usize];
         if !groups.contains(&g) {
             groups.push(g);
         }
@@ -101,7 +105,7 @@ struct Pair {
     warm: WarmReport,
     /// The warm result failed its fit check: the next identification is cold.
     cold_next: bool,
-    new_group: Option<usize>,
+    new_group: Option<FaultGroup>,
     /// Flight 1's cold diagnosis (the prior), flight 2's cold and warm diagnoses.
     vectors: [FaultVector; 3],
     /// Flight 2's truth.
@@ -122,8 +126,8 @@ fn base_seed() -> u64 {
 
 /// `true` when `k` has a fault group (of the seven) that `truth` does not have.
 fn extra_group(k: &FaultVector, truth: &FaultVector) -> bool {
-    use ema_monitor::monitor::{group_present, FAULT_GROUPS};
-    FAULT_GROUPS.iter().any(|&g| group_present(&k.0, g) && !group_present(&truth.0, g))
+    use ema_monitor::monitor::group_present;
+    FaultGroup::ALL.into_iter().any(|g| group_present(&k.0, g) && !group_present(&truth.0, g))
 }
 
 fn run_pair(index: u64, new_fault: bool) -> Pair {
@@ -132,7 +136,7 @@ fn run_pair(index: u64, new_fault: bool) -> Pair {
     let mut k2 = drifted(&k1, &mut rng);
     let mut new_group = None;
     if new_fault {
-        let candidates: Vec<usize> = (0..7).filter(|g| !groups.contains(g)).collect();
+        let candidates: Vec<FaultGroup> = FaultGroup::ALL.into_iter().filter(|g| !groups.contains(g)).collect();
         let g = candidates[(rng.next_u64() % candidates.len() as u64) as usize];
         let s = rng.range(0.15, 0.6);
         inject(&mut k2, g, s, &mut rng);

@@ -3,9 +3,10 @@
 //! report's "not detectable below" bounds read against the truth.
 
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::faults::FaultGroup;
 use ema_monitor::fitness::{EquivalentCurrentFit, PooledTrace};
 use ema_monitor::health::{HealthReport, Uncertainty};
-use ema_monitor::monitor::{group_pays, group_present, without_group, IdentifyConfig, FAULT_GROUPS};
+use ema_monitor::monitor::{group_pays, group_present, group_size, without_group, IdentifyConfig};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 
 /// The faulted modes of a run that its report gives as not found (a "not detectable below"
@@ -56,9 +57,9 @@ pub fn bounds_vs_truth(truth: &FaultVector, params: &EmaParams, uncertainty: Opt
 /// phase counts only when both have an eccentricity, by its distance on the circle.
 pub fn coverage(truth: &FaultVector, estimate: &FaultVector, sigma: &[f32; 8]) -> (u32, u32) {
     let (mut counted, mut covered) = (0u32, 0u32);
-    for &(first, last) in &FAULT_GROUPS {
-        let (in_truth, in_estimate) =
-            (group_present(&truth.0, (first, last)), group_present(&estimate.0, (first, last)));
+    for group in FaultGroup::ALL {
+        let (first, last) = group.params();
+        let (in_truth, in_estimate) = (group_present(&truth.0, group), group_present(&estimate.0, group));
         if !in_truth && !in_estimate {
             continue;
         }
@@ -118,10 +119,10 @@ pub fn detectability_floor_pooled<'a, const W: usize>(
     let error_with = fit.error(truth);
     let n = fit.effective_samples(truth);
     let mut floor = truth.0;
-    for &group in &FAULT_GROUPS {
+    for group in FaultGroup::ALL {
         if group_present(&truth.0, group) {
             let error_without = fit.error(&FaultVector(without_group(&truth.0, group)));
-            if !group_pays(error_with, error_without, group.1 - group.0 + 1, n) {
+            if !group_pays(error_with, error_without, group_size(group), n) {
                 floor = without_group(&floor, group);
             }
         }

@@ -6,10 +6,10 @@
 use ema_monitor::conditioning::ConditionedWindow;
 use ema_monitor::effects::MAX_SEVERITY;
 use ema_monitor::fitness::simulate_window_with_effects;
-use ema_monitor::monitor::{fault_bounds, group_pays, group_present, without_group, FAULT_GROUPS, SELECTION_REFIT};
+use ema_monitor::monitor::{fault_bounds, group_pays, group_present, group_size, without_group, SELECTION_REFIT};
 use ema_monitor::optimizer::pattern::{PatternConfig, PatternSearch};
 use ema_monitor::optimizer::{self, Bounds, Objective, Optimizer};
-use ema_monitor::{Command, EffectId, EmaParams, FaultVector, ModelEffects, FAULT_COUNT};
+use ema_monitor::{Command, EffectId, EmaParams, FaultGroup, FaultVector, ModelEffects, FAULT_COUNT};
 use rayon::prelude::*;
 
 /// Blocks per chunk of the fit / held-out split (62 × 0.4 ms ≈ 25 ms, the length of the "where"
@@ -132,8 +132,9 @@ const SEVERITY_SCAN: usize = 20;
 /// The fault groups of the electrical model (shorts, eccentricity) and of the mechanics
 /// (friction, backlash): an effect competes with one or the other, so the candidate fits also
 /// start with each set reset to healthy.
-const ELECTRICAL_GROUPS: [usize; 4] = [2, 3, 4, 5];
-const MECHANICAL_GROUPS: [usize; 2] = [0, 1];
+const ELECTRICAL_GROUPS: [FaultGroup; 4] =
+    [FaultGroup::ShortA, FaultGroup::ShortB, FaultGroup::ShortC, FaultGroup::Eccentricity];
+const MECHANICAL_GROUPS: [FaultGroup; 2] = [FaultGroup::Friction, FaultGroup::Backlash];
 
 /// The fault part of a point `x = (k_1 … k_8, s_1 …)`.
 fn faults_of<const D: usize>(x: &[f32; D]) -> [f32; FAULT_COUNT] {
@@ -142,14 +143,14 @@ fn faults_of<const D: usize>(x: &[f32; D]) -> [f32; FAULT_COUNT] {
     k
 }
 
-/// `k` with the fault groups `groups` (indices into [`FAULT_GROUPS`]) set healthy.
-fn reset_groups(k: &FaultVector, groups: &[usize]) -> FaultVector {
-    FaultVector(groups.iter().fold(k.0, |k, &g| without_group(&k, FAULT_GROUPS[g])))
+/// `k` with the fault groups `groups` set healthy.
+fn reset_groups(k: &FaultVector, groups: &[FaultGroup]) -> FaultVector {
+    FaultVector(groups.iter().fold(k.0, |k, &g| without_group(&k, g)))
 }
 
 /// Free parameters of the present fault groups.
 pub fn fault_parameter_count(k: &FaultVector) -> usize {
-    FAULT_GROUPS.iter().filter(|g| group_present(&k.0, **g)).map(|(first, last)| last - first + 1).sum()
+    FaultGroup::ALL.into_iter().filter(|&g| group_present(&k.0, g)).map(group_size).sum()
 }
 
 /// Free parameters of a model: the present fault groups' and the effects' severities.
@@ -173,7 +174,7 @@ fn select_groups<const W: usize, const D: usize>(
     evaluations: &mut u32,
 ) -> ([f32; D], f32) {
     let mut snapped = x;
-    for &group in FAULT_GROUPS.iter() {
+    for group in FaultGroup::ALL {
         let k = faults_of(&snapped);
         if !group_present(&k, group) {
             snapped[..FAULT_COUNT].copy_from_slice(&without_group(&k, group));
@@ -183,12 +184,12 @@ fn select_groups<const W: usize, const D: usize>(
         (x, cost) = (snapped, Objective::<D>::cost(objective, &snapped, f32::INFINITY));
         *evaluations += 1;
     }
-    for (g, &group) in FAULT_GROUPS.iter().enumerate() {
+    for group in FaultGroup::ALL {
         let k = faults_of(&x);
         if !group_present(&k, group) {
             continue;
         }
-        let parameters = group.1 - group.0 + 1;
+        let parameters = group_size(group);
         let mut without = x;
         without[..FAULT_COUNT].copy_from_slice(&without_group(&k, group));
         let c = Objective::<D>::cost(objective, &without, f32::INFINITY);
@@ -201,8 +202,9 @@ fn select_groups<const W: usize, const D: usize>(
             continue;
         }
         let mut movable = [true; D];
-        for (h, &(f, l)) in FAULT_GROUPS.iter().enumerate() {
-            let m = h != g && group_present(&k, (f, l));
+        for other in FaultGroup::ALL {
+            let (f, l) = other.params();
+            let m = other != group && group_present(&k, other);
             movable[f..=l].iter_mut().for_each(|x| *x = m);
         }
         if let Ok(mut search) = PatternSearch::new(bounds, SELECTION_REFIT, without, None, movable) {
@@ -365,8 +367,9 @@ fn fit_d<const W: usize, const D: usize>(
     // polish what is left
     let mut movable = [true; D];
     let k = faults_of(&best);
-    for &(f, l) in FAULT_GROUPS.iter() {
-        let m = group_present(&k, (f, l));
+    for group in FaultGroup::ALL {
+        let (f, l) = group.params();
+        let m = group_present(&k, group);
         movable[f..=l].iter_mut().for_each(|x| *x = m);
     }
     let polish = PatternConfig { initial_step: 0.02, min_step: 2e-4, max_evaluations: 400 };

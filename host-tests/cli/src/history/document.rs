@@ -1,7 +1,8 @@
 //! The document of a finished series: every mode's trend, RUL and detection scores, and the
 //! campaign's scores under `--simulate`.
 
-use ema_monitor::health::{FaultMode, HealthReport, FAILING_AT};
+use ema_monitor::faults::FaultMode;
+use ema_monitor::health::{HealthReport, FAILING_AT};
 use ema_monitor::prognosis::{HISTORY_CAPACITY, RUL_CONFIDENCE};
 use ema_monitor::{EmaParams, FaultVector};
 
@@ -34,7 +35,7 @@ fn modes_json(series: &Series, laws: &[Law], params: &EmaParams) -> Vec<ModeJson
             let reported = |f: &FlightJson| f.status_is_diagnosis() && f.severity[i] > PRESENT_SEVERITY;
             let detected =
                 onset.and_then(|o| series.flights.iter().find(|f| f.flight >= o && reported(f))).map(|f| f.flight);
-            let truth = true_crossing(laws, i, f64::from(FAILING_AT));
+            let truth = true_crossing(laws, mode, f64::from(FAILING_AT));
             let false_reports =
                 series.flights.iter().filter(|f| reported(f) && onset.is_none_or(|o| f.flight < o)).count() as u32;
             let declarations = &series.declared[i];

@@ -74,7 +74,7 @@ pub use args::HistoryArgs;
 pub use document::{document, PRESENT_SEVERITY};
 pub use flight::{identify_flight, FlightResult, Start};
 pub use json::{CampaignJson, FlightJson, HistoryJson, ModeJson};
-pub use law::{true_crossing, truth_at, Law, LAW_MODES};
+pub use law::{true_crossing, truth_at, Law, LAW_PARAMS};
 pub use plot::plot;
 pub use series::{check_flights, run_series, Series};
 pub use text::text;

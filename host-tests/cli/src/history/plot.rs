@@ -1,7 +1,8 @@
 //! `severity.svg`: severity against flight per mode as the record keeps it, with the trend lines,
 //! the failing threshold and the RUL band.
 
-use ema_monitor::health::{FaultMode, FAILING_AT};
+use ema_monitor::faults::FaultMode;
+use ema_monitor::health::FAILING_AT;
 
 use super::document::PRESENT_SEVERITY;
 use super::json::HistoryJson;

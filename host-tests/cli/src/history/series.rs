@@ -4,9 +4,10 @@
 
 use std::path::PathBuf;
 
-use ema_monitor::health::{FaultMode, HealthReport, Status};
-use ema_monitor::monitor::evidence::{self, PooledFlight, EVIDENCE_MODES};
-use ema_monitor::monitor::{self as core_monitor, group_present, IdentifyConfig, FAULT_GROUPS};
+use ema_monitor::faults::{FaultGroup, FaultMode};
+use ema_monitor::health::{HealthReport, Status};
+use ema_monitor::monitor::evidence::PooledFlight;
+use ema_monitor::monitor::{group_present, IdentifyConfig};
 use ema_monitor::optimizer::rng::{splitmix64_mix, SPLITMIX_GAMMA};
 use ema_monitor::persist::HealthRecord;
 use ema_monitor::prognosis::Prognosis;
@@ -137,9 +138,9 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
         let r = &flight.report;
         if let (Some(w), Some(truth), Some(prior)) = (flight.warm, f.truth, prior) {
             // per warm flight: a new fault is a group present in the truth and absent from the prior
-            let new = |g: &(usize, usize)| group_present(&truth.0, *g) && !group_present(&prior, *g);
-            let any_new = FAULT_GROUPS.iter().any(new);
-            let unreported = FAULT_GROUPS.iter().any(|g| new(g) && !group_present(&r.faults.0, *g));
+            let new = |g: FaultGroup| group_present(&truth.0, g) && !group_present(&prior, g);
+            let any_new = FaultGroup::ALL.into_iter().any(new);
+            let unreported = FaultGroup::ALL.into_iter().any(|g| new(g) && !group_present(&r.faults.0, g));
             probe_false_alarms += u32::from(!any_new && w.fired != 0);
             probe_misses += u32::from(any_new && w.fired == 0 && unreported);
         }
@@ -147,7 +148,7 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
         let number = flight.number;
         let pooled: Option<PooledFlight> = flight.pooled;
         let names = pooled.map_or_else(Vec::new, |p| {
-            (0..EVIDENCE_MODES).filter(|&m| p.declared[m]).map(evidence::mode_name).collect::<Vec<_>>()
+            FaultMode::ALL.into_iter().filter(|m| p.declared[m.index()]).map(FaultMode::name).collect::<Vec<_>>()
         });
         if let Some(p) = &pooled {
             for (m, d) in declared.iter_mut().enumerate() {
@@ -167,14 +168,9 @@ pub fn run_series(args: &HistoryArgs, laws: &[Law], params: &EmaParams) -> Resul
             temperature_c: model.temperature_c,
             start: result.start,
             evaluations: r.evaluations,
-            probes_fired: flight.warm.map(|w| {
-                core_monitor::GROUP_NAMES
-                    .iter()
-                    .enumerate()
-                    .filter(|&(g, _)| w.fired_group(g))
-                    .map(|(_, &n)| n)
-                    .collect()
-            }),
+            probes_fired: flight
+                .warm
+                .map(|w| FaultGroup::ALL.into_iter().filter(|&g| w.fired_group(g)).map(FaultGroup::name).collect()),
             identification_s: result.seconds,
             status: r.status.label(),
             severity: r.modes.map(|m| m.severity),

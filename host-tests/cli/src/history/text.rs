@@ -2,7 +2,8 @@
 
 use std::fmt::Write as _;
 
-use ema_monitor::health::{FaultMode, DEGRADED_AT};
+use ema_monitor::faults::FaultMode;
+use ema_monitor::health::DEGRADED_AT;
 
 use super::flight::Start;
 use super::json::HistoryJson;

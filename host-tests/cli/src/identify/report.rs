@@ -20,7 +20,7 @@ use crate::schema::Document;
 /// One fault mode of the JSON report, in physical terms.
 #[derive(Clone, Debug, Serialize)]
 pub struct ModeJson {
-    /// Mode name ([`ema_monitor::health::FaultMode::name`]).
+    /// Mode name ([`ema_monitor::faults::FaultMode::name`]).
     pub mode: &'static str,
     /// Severity in [0, 1].
     pub severity: f32,

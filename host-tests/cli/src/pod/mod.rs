@@ -99,8 +99,8 @@ pub struct PodArgs {
 /// One recording to identify.
 #[derive(Clone, Copy, Debug)]
 struct Trial {
-    /// The fault mode's index in [`FaultMode::ALL`] (`None`: healthy).
-    mode: Option<usize>,
+    /// The fault mode (`None`: healthy).
+    mode: Option<FaultMode>,
     /// Its severity (0 when healthy).
     severity: f64,
     /// The recording's seed (its noise, and its unit under `--units`).
@@ -115,15 +115,15 @@ impl Trial {
         let mut k = FaultVector::HEALTHY;
         let s = self.severity as f32;
         match self.mode {
-            Some(0) => k.0[0] = s,
-            Some(1) => k.0[1] = s,
-            Some(2) => k.0[2 + (self.index % 3) as usize] = s,
-            Some(3) => {
+            Some(FaultMode::Friction) => k.0[0] = s,
+            Some(FaultMode::Backlash) => k.0[1] = s,
+            Some(FaultMode::ShortCircuit) => k.0[2 + (self.index % 3) as usize] = s,
+            Some(FaultMode::Eccentricity) => {
                 k.0[5] = s;
                 // the golden-ratio sequence spreads the phases over the recordings
                 k.0[6] = (0.25 + 0.618_034 * self.index as f32).fract();
             }
-            Some(_) => k.0[7] = 0.5 - 0.5 * s,
+            Some(FaultMode::GainDrift) => k.0[7] = 0.5 - 0.5 * s,
             None => {}
         }
         k
@@ -245,12 +245,13 @@ pub fn run(args: &PodArgs) -> Result<String, CliError> {
 /// Every recording of the run: each mode at each severity `--seeds` times, then the healthy ones.
 fn trials(args: &PodArgs) -> Vec<Trial> {
     let mut out = Vec::new();
-    let modes = if args.no_faults { 0 } else { FaultMode::ALL.len() };
-    for m in 0..modes {
+    let modes = if args.no_faults { &[][..] } else { &FaultMode::ALL[..] };
+    for &mode in modes {
+        let m = mode.index();
         for (j, &severity) in args.severities.iter().enumerate() {
             for index in 0..args.seeds {
                 let seed = 0x504F_4400_0000 + ((m as u64 * 1000 + j as u64) << 16) + u64::from(index);
-                out.push(Trial { mode: Some(m), severity, seed, index });
+                out.push(Trial { mode: Some(mode), severity, seed, index });
             }
         }
     }
@@ -283,13 +284,13 @@ fn identify(
     let outcome =
         identify_trace(&*trace, &monitor_params(&params, noise), profile, &IdentifyConfig::onboard(), &label)?;
     let r = &outcome.report;
-    let found = |m: usize| r.status.is_diagnosis() && mode_present(&r.faults, m);
+    let found = |m: FaultMode| r.status.is_diagnosis() && mode_present(&r.faults, m);
     let hit = match t.mode {
         Some(m) => found(m),
-        None => (0..FaultMode::ALL.len()).any(found),
+        None => FaultMode::ALL.into_iter().any(found),
     };
     Ok(RecordingRow {
-        mode: t.mode.and_then(|m| FaultMode::ALL.get(m)).map_or("healthy", |m| m.name()),
+        mode: t.mode.map_or("healthy", FaultMode::name),
         severity: t.severity,
         seed: t.seed,
         status: r.status.label(),

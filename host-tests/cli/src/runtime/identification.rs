@@ -10,11 +10,11 @@ use std::time::Instant;
 
 use ema_monitor::command::CommandSource;
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::faults::FaultGroup;
 use ema_monitor::fitness::{PoolError, PooledTrace, MAX_POOLED_RECORDINGS};
 use ema_monitor::health::HealthReport;
 use ema_monitor::monitor::{
-    configured_fit, Identification, IdentifyConfig, MonitorError, StepDriver, WarmReport, GROUP_NAMES,
-    ONBOARD_POPULATION,
+    configured_fit, Identification, IdentifyConfig, MonitorError, StepDriver, WarmReport, ONBOARD_POPULATION,
 };
 use ema_monitor::operating_temperature::estimate_temperature_c;
 use ema_monitor::optimizer::Objective;
@@ -62,7 +62,7 @@ pub struct WarmStart {
 impl WarmStart {
     /// Names of the groups whose new-fault probe fired.
     pub fn fired(&self) -> Vec<&'static str> {
-        GROUP_NAMES.iter().enumerate().filter(|&(g, _)| self.report.fired_group(g)).map(|(_, &n)| n).collect()
+        FaultGroup::ALL.into_iter().filter(|&g| self.report.fired_group(g)).map(FaultGroup::name).collect()
     }
 }
 

@@ -17,8 +17,9 @@ use ema_monitor::commissioning::{
     SWARM_PARTICLES,
 };
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::faults::FaultGroup;
 use ema_monitor::health::{Abstain, HealthReport, Status};
-use ema_monitor::monitor::{configured_fit, group_present, IdentifyConfig, FAULT_GROUPS};
+use ema_monitor::monitor::{configured_fit, group_present, group_size, IdentifyConfig};
 use ema_monitor::unit::{Tolerances, UNIT_PARAM_COUNT};
 use ema_monitor::{Command, EmaParams, FaultVector};
 
@@ -62,8 +63,7 @@ pub fn check_unit<const W: usize>(
     let error_unit = fit.error_of_unit(&unit.params, &FaultVector::HEALTHY, f32::INFINITY);
     let k = &report.faults;
     let error_fault = fit.error(k);
-    let parameters: usize =
-        FAULT_GROUPS.iter().filter(|&&g| group_present(&k.0, g)).map(|&(first, last)| last - first + 1).sum();
+    let parameters: usize = FaultGroup::ALL.into_iter().filter(|&g| group_present(&k.0, g)).map(group_size).sum();
     let z_sq: f32 = unit.z.iter().map(|z| z * z).sum();
     // a unit that needs a parameter beyond its tolerance is not an ordinary one
     let pays = unit.beyond_tolerance().is_some()
