@@ -33,8 +33,8 @@ use ema_monitor::acquisition::{
 };
 use ema_monitor::command::ONBOARD_COMMAND_SAMPLES;
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::{Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::flight::{Acquired, HealthMonitor, NoHooks};
-use ema_monitor::monitor::{Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::persist::{HealthRecord, KeptRecord, RamFlash, StoreError};
 use ema_monitor::trace::PackedTrace;
 use ema_monitor::{Command, EmaParams, Profile, SampledCommand};

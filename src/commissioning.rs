@@ -34,11 +34,11 @@
 //! its tolerances, or a fault, and must not become a baseline; the caller also diagnoses the
 //! recordings against the new baseline before it keeps it.
 
+use crate::diagnosis::{covariance_noise_a2, window_noise_variance_a2, MODEL_MISMATCH_A};
 use crate::faults::FaultVector;
 use crate::fitness::EquivalentCurrentFit;
 use crate::health::DEGRADED_AT;
 use crate::model::MonitorModel;
-use crate::monitor::{covariance_noise_a2, window_noise_variance_a2, MODEL_MISMATCH_A};
 use crate::optimizer::pso::{ParticleSwarm, PsoConfig};
 use crate::optimizer::{run, Bounds, ConfigError, Objective, Optimizer};
 use crate::params::{EmaParams, ParamsError};
@@ -285,7 +285,7 @@ pub fn commission<const W: usize, const P: usize>(
 /// recording is explained better by the faults `k` on the unit as described (fitness
 /// `error_fault`, `fault_parameters` free parameters) than by a healthy unit moved within its
 /// tolerances (fitness `error_unit` at deviations of squared norm `unit_z_sq`, the prior's price).
-/// In the currency of model selection ([`crate::monitor::group_pays`]), with the prior's
+/// In the currency of model selection ([`crate::diagnosis::group_pays`]), with the prior's
 /// `−2·ln` density in place of the parameters' price on the unit's side:
 ///
 /// ```text

@@ -337,7 +337,7 @@ impl ModeReport {
 }
 
 /// What the recording can tell about the reported vector
-/// ([`crate::monitor::Identification::with_uncertainty`], `src/monitor/uncertainty.rs`).
+/// ([`crate::diagnosis::Identification::with_uncertainty`], `src/diagnosis/uncertainty.rs`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Uncertainty {
@@ -386,7 +386,7 @@ pub struct HealthReport {
     pub termination: Option<TerminationReason>,
     /// Fault groups found by the global search that model selection could not price before the
     /// budget of selection and polish ran out
-    /// ([`crate::monitor::IdentifyConfig::selection_polish_max_evaluations`]):
+    /// ([`crate::diagnosis::IdentifyConfig::selection_polish_max_evaluations`]):
     /// reported as found, not tested against the information criterion. 0 when every group
     /// was tested (or model selection is off).
     pub untested_groups: u8,
@@ -397,7 +397,7 @@ pub struct HealthReport {
     /// Frames acquisition refused (masked by holding the last good frame).
     pub refused_frames: u32,
     /// The 1σ of each parameter and the detectable-below severities (`None`: not computed,
-    /// [`crate::monitor::Identification::with_uncertainty`] adds it).
+    /// [`crate::diagnosis::Identification::with_uncertainty`] adds it).
     pub uncertainty: Option<Uncertainty>,
 }
 

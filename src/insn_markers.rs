@@ -9,8 +9,8 @@
 //! the run, what an integrator schedules the monitor by.
 
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::Start;
 use ema_monitor::flight::{FlightCall, FlightHooks};
-use ema_monitor::monitor::Start;
 use ema_monitor::report_log;
 
 use crate::record_flash::{self, RecordFlash};

@@ -20,7 +20,7 @@
 //! (particles), `D` = parameters fitted.
 //!
 //! Stages, one module each: [`acquisition`], [`conditioning`], [`model`], [`fitness`],
-//! [`optimizer`], [`health`]; [`monitor`] wires them; [`effects`] holds the optional effect terms
+//! [`optimizer`], [`health`]; [`diagnosis`] wires them; [`effects`] holds the optional effect terms
 //! the discrepancy workflow adds to the model. Shared definitions: [`params`] (nominal
 //! actuator; with [`effects`], the crate `ema-model-config`, which the build script and the host
 //! tools use too), [`faults`] (the fault vector and its physical mapping), [`profile`] (the test
@@ -42,13 +42,13 @@ pub mod acquisition;
 pub mod command;
 pub mod commissioning;
 pub mod conditioning;
+pub mod diagnosis;
 pub mod faults;
 pub mod fitness;
 pub mod flight;
 pub mod health;
 mod lockstep;
 pub mod model;
-pub mod monitor;
 pub mod operating_temperature;
 pub mod optimizer;
 pub mod persist;

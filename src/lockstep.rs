@@ -2,7 +2,7 @@
 //! the fitness conditions it ([`crate::fitness`]): the measured envelope (or the sensor-error
 //! envelope when effect terms are on), block means of [`DECIMATION`] frames, the fast-regime
 //! weight `ρ_i` times the trace's weight `w_i`. The finite-difference sensitivities of the fault
-//! uncertainty (`monitor/uncertainty.rs`) and of commissioning ([`crate::commissioning`]) are
+//! uncertainty (`diagnosis/uncertainty.rs`) and of commissioning ([`crate::commissioning`]) are
 //! both such runs: a base model and one stepped model per parameter, differenced sample by
 //! sample, nothing stored per sample.
 

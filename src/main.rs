@@ -26,8 +26,8 @@ use panic_probe as _; // panic → defmt message → `udf` → HardFault → exi
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use ema_monitor::acquisition::{Sampler, SamplerConfig, SAMPLER_QUEUE};
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::ONBOARD_WINDOW;
 use ema_monitor::flight::{Acquired, HealthMonitor};
-use ema_monitor::monitor::ONBOARD_WINDOW;
 use ema_monitor::trace::PackedTrace;
 use ema_monitor::unit::Tolerances;
 use ema_monitor::{report_log, EmaParams, ModelEffects, Profile};

@@ -62,8 +62,8 @@ pub fn estimate_temperature_c<const W: usize>(fit: &EquivalentCurrentFit<'_, W>,
 mod tests {
     use super::*;
     use crate::conditioning::{ConditionedWindow, DECIMATION};
+    use crate::diagnosis::ONBOARD_WINDOW;
     use crate::fitness::simulate_window;
-    use crate::monitor::ONBOARD_WINDOW;
     use crate::optimizer::rng::Rng;
     use crate::profile::Profile;
     use crate::unit::Tolerances;

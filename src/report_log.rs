@@ -5,11 +5,11 @@
 //! with the host's `ema identify --firmware-trace FILE --bits`. Built with the `defmt` feature.
 
 use crate::acquisition::{SensorCheck, ZeroSource};
+use crate::diagnosis::evidence::PooledFlight;
+use crate::diagnosis::{ColdReason, Start};
 use crate::faults::FaultMode;
 use crate::flight::Flight;
 use crate::health::{Abstain, Condition, HealthReport};
-use crate::monitor::evidence::PooledFlight;
-use crate::monitor::{ColdReason, Start};
 use crate::persist::{Commissioning, CommissioningRefusal, StoreError};
 use crate::unit::unit_name;
 

@@ -24,10 +24,10 @@ use ema_monitor::acquisition::{
     SamplerState, SAMPLER_QUEUE,
 };
 use ema_monitor::conditioning::{ConditionedWindow, ConditioningError, DECIMATION};
+use ema_monitor::diagnosis::{self, Identification, IdentifyConfig, MonitorError, ONBOARD_WINDOW};
 use ema_monitor::fitness::{simulate_window, EquivalentCurrentFit};
 use ema_monitor::health::HealthReport;
 use ema_monitor::model::{ModelState, MonitorModel};
-use ema_monitor::monitor::{self, Identification, IdentifyConfig, MonitorError, ONBOARD_WINDOW};
 use ema_monitor::optimizer::pso::{ParticleSwarm, PsoConfig};
 use ema_monitor::optimizer::{run, Bounds, Objective, Optimizer};
 use ema_monitor::persist::{FlashFault, HealthRecord, HealthStore, RamFlash, StoreError};
@@ -682,7 +682,7 @@ fn acquire_built_in(trace: &mut ConditionedWindow<ONBOARD_WINDOW>) -> Result<(),
         AcquisitionConfig::DEFAULT,
     )
     .map_err(|_| "config refused")?;
-    monitor::acquire(&mut reader, trace).map_err(|_| "acquisition refused")?;
+    diagnosis::acquire(&mut reader, trace).map_err(|_| "acquisition refused")?;
     Ok(())
 }
 
@@ -691,7 +691,7 @@ fn acquire_built_in(trace: &mut ConditionedWindow<ONBOARD_WINDOW>) -> Result<(),
 fn warm_identification(
     trace: &ConditionedWindow<ONBOARD_WINDOW>,
     prior: &[f32; 8],
-) -> Result<(HealthReport, monitor::WarmReport), &'static str> {
+) -> Result<(HealthReport, diagnosis::WarmReport), &'static str> {
     let config = IdentifyConfig::onboard();
     let mut id =
         Identification::<'_, ONBOARD_WINDOW, 50>::warm(trace, EmaParams::NOMINAL, Profile::STANDARD, &config, prior)

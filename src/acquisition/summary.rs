@@ -14,7 +14,7 @@ pub const MAX_REFUSED_SHARE: f32 = 0.01;
 /// tenth of that already moves the fitted friction and backlash.
 pub const MAX_REFUSED_RUN: u32 = 40;
 
-/// Counts of one acquisition (`monitor::acquire`).
+/// Counts of one acquisition (`diagnosis::acquire`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct AcquisitionSummary {

@@ -403,7 +403,7 @@ fn acquire_masks_and_counts_refused_frames() {
     let bytes = packed(&frames);
     let mut r = reader(&bytes);
     let mut trace = ConditionedWindow::<128>::new();
-    let summary = crate::monitor::acquire(&mut r, &mut trace).unwrap();
+    let summary = crate::diagnosis::acquire(&mut r, &mut trace).unwrap();
     assert_eq!((summary.frames, summary.refused, summary.longest_refused_run), (400, 1, 1));
     assert!(!summary.is_sensor_fault());
     assert_eq!(trace.len(), 100);
@@ -434,7 +434,7 @@ fn frame_limit_ends_a_live_source_on_the_manoeuvre_frame_count() {
     );
     let mut limited = FrameLimit::new(live, 400);
     let mut trace = ConditionedWindow::<128>::new();
-    let summary = crate::monitor::acquire(&mut limited, &mut trace).unwrap();
+    let summary = crate::diagnosis::acquire(&mut limited, &mut trace).unwrap();
     assert_eq!((summary.frames, summary.refused), (400, 0));
     assert_eq!((trace.len(), limited.remaining(), limited.source().frames_read()), (100, 0, 400));
     // past the count: end of data again, and the source is not read

@@ -1,7 +1,7 @@
 use super::*;
 use crate::conditioning::ConditionedWindow;
+use crate::diagnosis::{Identification, IdentifyConfig, ONBOARD_WINDOW};
 use crate::health::Status;
-use crate::monitor::{Identification, IdentifyConfig, ONBOARD_WINDOW};
 use crate::profile::Profile;
 
 /// The monitor model's own trace of the healthy `unit` at `temperature_c`, with the nominal

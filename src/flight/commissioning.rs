@@ -23,10 +23,10 @@
 use super::{Flight, FlightHooks, HealthMonitor};
 use crate::commissioning::{commission, Baseline, BaselineFit, CommissioningFlight, SWARM_ITERATIONS, SWARM_PARTICLES};
 use crate::conditioning::ConditionedWindow;
+use crate::diagnosis::{configured_fit, ColdReason, MonitorError, Start};
 use crate::faults::FaultVector;
 use crate::flight::Acquired;
 use crate::health::{Abstain, HealthReport, Status};
-use crate::monitor::{configured_fit, ColdReason, MonitorError, Start};
 use crate::persist::{Commissioning, CommissioningRefusal, HealthRecord, UnitBaseline};
 
 /// Most flights an on-board commissioning fits: all but the last are held on the stack as

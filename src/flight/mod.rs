@@ -43,12 +43,12 @@
 
 use crate::acquisition::{PhaseCurrents, SensorCheck};
 use crate::conditioning::ConditionedWindow;
-use crate::health::{Abstain, HealthReport, Status};
-use crate::monitor::evidence::{self, PooledFlight};
-use crate::monitor::{
+use crate::diagnosis::evidence::{self, PooledFlight};
+use crate::diagnosis::{
     self, plan_start, with_uncertainty, AcquisitionSummary, Identification, IdentifyConfig, MonitorError, Start,
     StepDriver, WarmReport, ONBOARD_POPULATION, ONBOARD_WINDOW,
 };
+use crate::health::{Abstain, HealthReport, Status};
 use crate::persist::{Commissioning, HealthRecord, KeptRecord, RecordIdentity};
 use crate::unit::Tolerances;
 use crate::{Command, EmaParams, ModelEffects};
@@ -148,9 +148,9 @@ pub struct Acquired {
 
 impl Acquired {
     /// `true` when the frames came evenly at the control rate of `params`
-    /// ([`monitor::rate_matches`]): what the monitor model's fixed step assumes.
+    /// ([`diagnosis::rate_matches`]): what the monitor model's fixed step assumes.
     pub fn rate_ok(&self, params: &EmaParams) -> bool {
-        self.late_frames == 0 && monitor::rate_matches(self.sample_rate_hz, params)
+        self.late_frames == 0 && diagnosis::rate_matches(self.sample_rate_hz, params)
     }
 }
 
@@ -320,7 +320,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         plan_start(prior.as_ref(), record.flights_since_cold(), last_needs_cold, &self.config)
     }
 
-    /// Reads every frame of `source` into `trace` and closes the window ([`monitor::acquire`]):
+    /// Reads every frame of `source` into `trace` and closes the window ([`diagnosis::acquire`]):
     /// a refused frame is held at the last good one and counted. `sample_rate_hz` is the rate the
     /// frames come at; the late frames are 0 (a caller whose timer can overrun sets them).
     pub fn acquire<S: PhaseCurrents>(
@@ -329,7 +329,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         trace: &mut ConditionedWindow<W>,
         sample_rate_hz: f32,
     ) -> Result<Acquired, MonitorError> {
-        let summary = monitor::acquire(source, trace)?;
+        let summary = diagnosis::acquire(source, trace)?;
         Ok(Acquired { summary, sample_rate_hz, late_frames: 0, temperature_c: f32::NAN })
     }
 

@@ -1,8 +1,8 @@
 //! The flight API over several flights, on units off nominal.
 
 use super::*;
+use crate::diagnosis::ColdReason;
 use crate::faults::FaultVector;
-use crate::monitor::ColdReason;
 use crate::Profile;
 
 /// Units off the drawing: winding resistance, EMF constant and dynamic friction a few
@@ -412,7 +412,7 @@ fn acquire_bench(
     bytes: &[u8],
     rest: usize,
     config: crate::acquisition::AcquisitionConfig,
-) -> (ConditionedWindow<{ crate::monitor::ONBOARD_WINDOW }>, Acquired) {
+) -> (ConditionedWindow<{ crate::diagnosis::ONBOARD_WINDOW }>, Acquired) {
     use crate::acquisition::{Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, ReplayAdc};
     let adc = ReplayAdc::new(crate::trace::PackedTrace::parse(bytes).unwrap());
     let mut reader = PhaseCurrentReader::new(adc, (PhaseA, PhaseB, PhaseC), Calibration::NOMINAL, config).unwrap();

@@ -16,8 +16,8 @@
 use cortex_m::peripheral::DWT;
 use ema_monitor::acquisition::{AcquisitionError, SamplerConfig, SamplerConsumer, TemperatureSensor};
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::ONBOARD_WINDOW;
 use ema_monitor::flight::{Acquired, Flight, HealthMonitor};
-use ema_monitor::monitor::ONBOARD_WINDOW;
 use ema_monitor::persist::KeptRecord;
 use ema_monitor::report_log;
 use stm32f4xx_hal::flash::LockedFlash;

@@ -6,8 +6,8 @@
 use cortex_m::peripheral::DWT;
 use cortex_m_rt::{exception, ExceptionFrame};
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::Start;
 use ema_monitor::flight::{FlightCall, FlightHooks};
-use ema_monitor::monitor::Start;
 use ema_monitor::report_log;
 use stm32f4xx_hal::flash::LockedFlash;
 use stm32f4xx_hal::pac::{DBGMCU, IWDG, RCC};

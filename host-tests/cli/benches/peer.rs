@@ -46,11 +46,11 @@ use criterion::Criterion;
 use ema_cli::identify::{condition_recording, identify_trace, HOST_WINDOW};
 use ema_cli::recording::Recording;
 use ema_monitor::conditioning::ConditionedWindow;
-use ema_monitor::fitness::{EquivalentCurrentFit, FAST_REGIME_WEIGHT};
-use ema_monitor::monitor::{
+use ema_monitor::diagnosis::{
     fault_bounds, starting_guesses, Algorithm, Identification, IdentifyConfig, ONBOARD_MAX_ITERATIONS,
     ONBOARD_POPULATION,
 };
+use ema_monitor::fitness::{EquivalentCurrentFit, FAST_REGIME_WEIGHT};
 use ema_monitor::optimizer::de::{DeConfig, DifferentialEvolution, Strategy};
 use ema_monitor::optimizer::{run, Optimizer};
 use ema_monitor::{EmaParams, FaultVector, Profile, FAULT_COUNT};

@@ -2,7 +2,7 @@
 //! (`IdentifyConfig::onboard`) of the reference model's recording of the standard manoeuvre with
 //! the built-in trace's fault (friction k1 = 0.25, noise seed 1), cold, and warm from the cold
 //! diagnosis (the same recording: model selection, the polish and the new-fault probes,
-//! `src/monitor/warm.rs`). The ratio of the two times is the figure; the machine's speed cancels.
+//! `src/diagnosis/warm.rs`). The ratio of the two times is the figure; the machine's speed cancels.
 //! A third line times the cold identification as `ema identify` runs it, each PSO sweep on a pool
 //! of 2 threads (`identify::run_to_end`; the same result bit for bit).
 //!
@@ -15,8 +15,8 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use ema_cli::identify::{condition_recording, run_to_end, HOST_WINDOW};
 use ema_cli::recording::Recording;
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::{Identification, IdentifyConfig, ONBOARD_POPULATION};
 use ema_monitor::health::HealthReport;
-use ema_monitor::monitor::{Identification, IdentifyConfig, ONBOARD_POPULATION};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 

@@ -17,8 +17,8 @@ use std::process::ExitCode;
 
 use ema_cli::flights::{flight_seed, flight_trace, fly, pooled};
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::evidence::{mode_present, Decision, Evidence};
 use ema_monitor::faults::FaultMode;
-use ema_monitor::monitor::evidence::{mode_present, Decision, Evidence};
 use ema_monitor::FaultVector;
 use rayon::prelude::*;
 

@@ -31,8 +31,8 @@ use ema_monitor::commissioning::{
     SWARM_PARTICLES,
 };
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::{configured_fit, IdentifyConfig};
 use ema_monitor::health::Status;
-use ema_monitor::monitor::{configured_fit, IdentifyConfig};
 use ema_monitor::unit::{unit_field, unit_name, Tolerances, UNIT_PARAM_COUNT};
 use ema_monitor::{Command, EmaParams};
 use serde::Serialize;

@@ -4,7 +4,7 @@
 //! default: friction, backlash, a short on phase A, an eccentricity at `k7` = 0.25, the gain at
 //! `0.5 − severity/2`), the reference model records the manoeuvre (`--profile`, sensor noise per
 //! `--noise`, seed `--seed`), and the core's Fisher information at the true vector
-//! ([`ema_monitor::monitor::Fisher`], `src/monitor/uncertainty.rs`) gives:
+//! ([`ema_monitor::diagnosis::Fisher`], `src/diagnosis/uncertainty.rs`) gives:
 //! - the 1σ of each mode's severity: for the sensor noise alone, the Cramér–Rao bound of the
 //!   monitor's weighted least squares (sandwich form, the noise model of the fit test), and
 //!   with the model mismatch counted as the reports count it; for a mode present with the other
@@ -18,10 +18,10 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use clap::Args;
+use ema_monitor::diagnosis::{covariance_noise_a2, window_noise_variance_a2, Fisher, IdentifyConfig};
 use ema_monitor::faults::FaultMode;
 use ema_monitor::fitness::{EquivalentCurrentFit, FAST_REGIME_WEIGHT};
 use ema_monitor::health::{HealthReport, Uncertainty};
-use ema_monitor::monitor::{covariance_noise_a2, window_noise_variance_a2, Fisher, IdentifyConfig};
 use ema_monitor::{EmaParams, FaultVector, Profile, FAULT_COUNT};
 use ema_reference::{simulate, SimConfig};
 use serde::Serialize;

@@ -1,17 +1,17 @@
 //! Series of flights of one actuator, for the evidence pooled over flights: each flight is a
 //! reference-model recording of the standard manoeuvre with sensor noise (its own noise seed),
 //! identified on board's way ([`IdentifyConfig::onboard`]), then added to the sequential test of
-//! [`ema_monitor::monitor::evidence`]; the same recordings feed the pooled fit
+//! [`ema_monitor::diagnosis::evidence`]; the same recordings feed the pooled fit
 //! ([`crate::runtime::identification::identify_pooled`]). The measurement of flights-to-detection
 //! (`examples/flights-to-detection.rs`) and its tests run on these.
 
 use std::path::PathBuf;
 
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::evidence::{mode_present, Decision, Evidence, FlightEvidence};
+use ema_monitor::diagnosis::{Identification, IdentifyConfig, ONBOARD_POPULATION};
 use ema_monitor::faults::{FaultMode, MODE_COUNT};
 use ema_monitor::health::HealthReport;
-use ema_monitor::monitor::evidence::{mode_present, Decision, Evidence, FlightEvidence};
-use ema_monitor::monitor::{Identification, IdentifyConfig, ONBOARD_POPULATION};
 use ema_monitor::optimizer::rng::{splitmix64_mix, SPLITMIX_GAMMA};
 use ema_monitor::{Command, EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};

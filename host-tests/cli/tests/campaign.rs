@@ -289,7 +289,7 @@ fn a_profile_file_drives_every_run() {
             std::path::Path::new("by hand"),
             &ema_monitor::EmaParams::NOMINAL,
             &profile,
-            &ema_monitor::monitor::IdentifyConfig { seed: p.seed, ..config },
+            &ema_monitor::diagnosis::IdentifyConfig { seed: p.seed, ..config },
         )
         .expect("identifies");
         assert_eq!((r.estimate, r.evaluations), (by_hand.report.faults, by_hand.report.evaluations), "{}", p.mode);

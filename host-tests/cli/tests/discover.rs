@@ -251,7 +251,7 @@ fn an_effect_refitted_at_its_bound_is_withdrawn() {
 /// an eccentricity. Its ripple is periodic in the rotor angle, as eccentricity's is; at seed 8 an
 /// eccentricity of about 0.2 fits, with all of its net gain in the last 40 ms of the manoeuvre
 /// (the rest gaining 2 % of it), and the window check drops it: the other windows must gain a
-/// quarter of the best window's gain (`monitor::helps_without_its_best_window`,
+/// quarter of the best window's gain (`diagnosis::helps_without_its_best_window`,
 /// `docs/decisions/0002-window-check.md`). With friction 0.3 the window check is not enough
 /// (seeds 10 and 30 read 0.19 and 0.16), nor at seed 30 without it (0.15): with friction the
 /// repair is naming the cogging and promoting it (the test below); on the healthy seed 30 it is
@@ -261,7 +261,7 @@ fn the_on_board_fit_does_not_read_cogging_as_eccentricity() {
     for seed in [8, 9, 10] {
         let recording = recording(&[(Effect::Cogging, 1.0)], HEALTHY, seed);
         let path = Path::new("in-memory.csv");
-        let config = ema_monitor::monitor::IdentifyConfig::onboard();
+        let config = ema_monitor::diagnosis::IdentifyConfig::onboard();
         let outcome = ema_cli::identify::identify_recording(
             &recording,
             path,

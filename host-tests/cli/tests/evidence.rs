@@ -1,11 +1,11 @@
-//! The sequential test over flights (`ema_monitor::monitor::evidence`) on reference-model series
+//! The sequential test over flights (`ema_monitor::diagnosis::evidence`) on reference-model series
 //! with sensor noise: a small eccentricity, below model selection's price in most single flights,
 //! is found within a few flights in most series, and healthy series raise nothing. Pass rates over
 //! seeds are asserted, not one seed's value.
 
 use ema_cli::flights::{flight_seed, flight_trace, fly};
+use ema_monitor::diagnosis::evidence::{Decision, Evidence};
 use ema_monitor::faults::FaultMode;
-use ema_monitor::monitor::evidence::{Decision, Evidence};
 use ema_monitor::FaultVector;
 use rayon::prelude::*;
 

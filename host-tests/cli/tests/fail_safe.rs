@@ -11,8 +11,8 @@ use common::{accepted, refused, s, scratch};
 use ema_cli::identify::identify_recording;
 use ema_cli::output::Overwrite;
 use ema_cli::recording::{write_recording, Recording};
+use ema_monitor::diagnosis::IdentifyConfig;
 use ema_monitor::health::{Abstain, HealthReport, Status};
-use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::{FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 

@@ -12,8 +12,8 @@ use ema_cli::firmware_trace::{
 };
 use ema_cli::identify::firmware_trace_outcome_for;
 use ema_cli::recording::read_recording;
+use ema_monitor::diagnosis::IdentifyConfig;
 use ema_monitor::health::Status;
-use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::trace::{counts_to_amps, PackedTrace, SAMPLE_RATE_HZ};
 use ema_monitor::Profile;
 

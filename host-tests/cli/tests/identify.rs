@@ -7,8 +7,9 @@ mod common;
 use common::{accepted, refused, s, scratch};
 use std::sync::OnceLock;
 
+use ema_monitor::diagnosis::tuning::SELECTION_REFIT;
+use ema_monitor::diagnosis::ONBOARD_POPULATION;
 use ema_monitor::faults::GROUP_COUNT;
-use ema_monitor::monitor::{ONBOARD_POPULATION, SELECTION_REFIT};
 use ema_monitor::optimizer::pattern::PatternConfig;
 use ema_monitor::FAULT_COUNT;
 
@@ -303,7 +304,7 @@ fn differential_evolution_is_selectable_and_deterministic() {
 fn parallel_global_search_is_the_sequential_one() {
     use ema_cli::identify::{condition_recording, run_to_end, HOST_WINDOW};
     use ema_cli::recording::Recording;
-    use ema_monitor::monitor::{Identification, IdentifyConfig};
+    use ema_monitor::diagnosis::{Identification, IdentifyConfig};
     use ema_monitor::{EmaParams, FaultVector, Profile};
     use ema_reference::{simulate, SimConfig};
 

@@ -9,9 +9,9 @@ use common::{ema, s};
 
 use ema_cli::identify::{firmware_trace_outcome, summary_line, Refusal};
 use ema_cli::parity_traces::{parity_traces, PARITY_FILES};
+use ema_monitor::diagnosis::IdentifyConfig;
 use ema_monitor::effects::parse_model_config;
 use ema_monitor::health::{Abstain, Status};
-use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::trace::SAMPLE_RATE_HZ;
 
 const REGENERATE: &str =

@@ -12,7 +12,7 @@ use ema_cli::identify::{identify_recording, summary_line};
 use ema_cli::pooled::identify_pooled;
 use ema_cli::recording::Recording;
 use ema_monitor::conditioning::ConditionedWindow;
-use ema_monitor::monitor::IdentifyConfig;
+use ema_monitor::diagnosis::IdentifyConfig;
 use ema_monitor::{Command, EmaParams, Profile};
 
 /// A recording of the healthy actuator (`ema simulate --seed SEED`) for the test `test`.

@@ -12,8 +12,8 @@ use ema_cli::identify::{
     HOST_COMMAND_SAMPLES,
 };
 use ema_cli::recording::Recording;
+use ema_monitor::diagnosis::IdentifyConfig;
 use ema_monitor::health::HealthReport;
-use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::profile::Segment;
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};

@@ -20,7 +20,7 @@ use common::{accepted, refused, s, scratch};
 
 use ema_cli::identify::identify_recording;
 use ema_cli::recording::{write_csv, Recording, RecordingArgs};
-use ema_monitor::monitor::IdentifyConfig;
+use ema_monitor::diagnosis::IdentifyConfig;
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 

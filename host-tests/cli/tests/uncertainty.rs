@@ -1,4 +1,4 @@
-//! The uncertainty of every diagnosis (`src/monitor/uncertainty.rs`): `ema detectability`
+//! The uncertainty of every diagnosis (`src/diagnosis/uncertainty.rs`): `ema detectability`
 //! against its schema, and the ±2σ coverage of the true values on a small campaign.
 
 mod common;

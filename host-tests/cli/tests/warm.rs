@@ -1,4 +1,4 @@
-//! The warm start over pairs of flights of the reference model (`src/monitor/warm.rs`): flight 1
+//! The warm start over pairs of flights of the reference model (`src/diagnosis/warm.rs`): flight 1
 //! identified cold gives the prior; flight 2 (another noise draw) is identified warm from it and
 //! cold, and both are scored against flight 2's truth.
 //! - drift-only pairs: flight 2's faults are flight 1's, drifted a little; no probe may fire,
@@ -15,8 +15,8 @@ use ema_cli::campaign::SplitMix;
 use ema_cli::identify::{condition_recording, HOST_WINDOW};
 use ema_cli::recording::Recording;
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::{Identification, IdentifyConfig, WarmReport, ONBOARD_POPULATION};
 use ema_monitor::health::HealthReport;
-use ema_monitor::monitor::{Identification, IdentifyConfig, WarmReport, ONBOARD_POPULATION};
 use ema_monitor::{EmaParams, FaultGroup, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 use rayon::prelude::*;
@@ -126,7 +126,7 @@ fn base_seed() -> u64 {
 
 /// `true` when `k` has a fault group (of the seven) that `truth` does not have.
 fn extra_group(k: &FaultVector, truth: &FaultVector) -> bool {
-    use ema_monitor::monitor::group_present;
+    use ema_monitor::diagnosis::group_present;
     FaultGroup::ALL.into_iter().any(|g| group_present(&k.0, g) && !group_present(&truth.0, g))
 }
 

@@ -51,8 +51,8 @@ use std::path::Path;
 
 use ema_cli::identify::condition_recording;
 use ema_cli::recording::Recording;
+use ema_monitor::diagnosis::IdentifyConfig;
 use ema_monitor::fitness::{simulate_window, EquivalentCurrentFit};
-use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 

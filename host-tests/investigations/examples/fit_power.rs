@@ -22,8 +22,9 @@ use ema_cli::campaign::{plan, CampaignArgs};
 use ema_cli::identify::{condition_recording, identify_trace, AlgorithmArg};
 use ema_cli::recording::Recording;
 use ema_cli::simulate::parse_effects;
+use ema_monitor::diagnosis::tuning::MODEL_MISMATCH_A;
+use ema_monitor::diagnosis::{window_noise_variance_a2, Algorithm, IdentifyConfig};
 use ema_monitor::fitness::{simulate_window, EquivalentCurrentFit};
-use ema_monitor::monitor::{window_noise_variance_a2, Algorithm, IdentifyConfig, MODEL_MISMATCH_A};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 

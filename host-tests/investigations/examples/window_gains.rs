@@ -1,7 +1,7 @@
 //! Where one fault vector fits a recording better than another, 40 ms window by window: the
 //! on-board fitness `E` (fast regime weighted as on board) split over the evidence windows
 //! ([`ema_monitor::fitness::EquivalentCurrentFit::window_errors`]), and each window's gain `E_A − E_B`.
-//! It is what the firmware's window check ([`ema_monitor::monitor::helps_without_its_best_window`])
+//! It is what the firmware's window check ([`ema_monitor::diagnosis::helps_without_its_best_window`])
 //! weighs: a group whose gain comes from one window alone is dropped.
 //!
 //! Produces the window gains of `docs/decisions/0002-window-check.md` (a hidden cogging read as
@@ -18,8 +18,8 @@ use std::path::Path;
 use ema_cli::identify::condition_recording;
 use ema_cli::recording::read_recording;
 use ema_cli::simulate::parse_faults;
+use ema_monitor::diagnosis::tuning::WINDOW_GAIN_SHARE;
 use ema_monitor::fitness::{EquivalentCurrentFit, FAST_REGIME_WEIGHT};
-use ema_monitor::monitor::WINDOW_GAIN_SHARE;
 use ema_monitor::{EmaParams, Profile};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

@@ -3,7 +3,7 @@
 //!
 //! ```text
 //!  timer interrupt (every Tc)                       thread mode
-//!  SamplerProducer::tick(trigger) ── spsc queue ──► SamplerConsumer (PhaseCurrents) ─► monitor::acquire
+//!  SamplerProducer::tick(trigger) ── spsc queue ──► SamplerConsumer (PhaseCurrents) ─► diagnosis::acquire
 //!  reads one frame from the source    (N − 1 frames)   waits with the caller's hook (e.g. `wfi`)
 //! ```
 //!
@@ -39,7 +39,7 @@
 //!   again, [`SamplerProducer::rearm`] arms the next acquisition on the same queue and source.
 //!
 //! **Consumer** ([`SamplerConsumer`], thread mode): a [`PhaseCurrents`] source for
-//! [`monitor::acquire`](crate::monitor::acquire). `read_frame` returns the next queued frame,
+//! [`diagnosis::acquire`](crate::diagnosis::acquire). `read_frame` returns the next queued frame,
 //! waits with its hook while the queue is empty, and returns [`AcquisitionError::EndOfData`] once
 //! the acquisition has ended (complete, overrun or no trigger). Why it ended is
 //! [`SamplerConsumer::outcome`]: the caller checks it after `acquire`, before using the trace.

@@ -2,8 +2,8 @@
 //! and the identification settings.
 
 use clap::Args;
+use ema_monitor::diagnosis::IdentifyConfig;
 use ema_monitor::fitness::MAX_POOLED_RECORDINGS;
-use ema_monitor::monitor::IdentifyConfig;
 
 use crate::identify::args::{method_flags, AlgorithmArg};
 use crate::output::OutputArgs;

@@ -4,8 +4,8 @@
 use std::path::PathBuf;
 
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::{Algorithm, Identification, IdentifyConfig, MonitorError, ONBOARD_POPULATION};
 use ema_monitor::fitness::PooledTrace;
-use ema_monitor::monitor::{Algorithm, Identification, IdentifyConfig, MonitorError, ONBOARD_POPULATION};
 use ema_monitor::{Command, EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};
 use rayon::prelude::*;

@@ -28,7 +28,7 @@
 //! measured envelope, the verdict's noise model and the 1σ assume only the controller's
 //! resolution jitter and the sensed hysteresis ripple that a noiseless recording still has.
 //!
-//! **Coverage.** Each report carries the 1σ of every parameter (`src/monitor/uncertainty.rs`);
+//! **Coverage.** Each report carries the 1σ of every parameter (`src/diagnosis/uncertainty.rs`);
 //! a run counts how many of its true values lie within ±2σ of the estimate ([`coverage`]), and
 //! each cell reports the share (near 95 % when the σ are calibrated).
 //!

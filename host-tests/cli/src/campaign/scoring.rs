@@ -3,10 +3,10 @@
 //! report's "not detectable below" bounds read against the truth.
 
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::{group_pays, group_present, group_size, without_group, IdentifyConfig};
 use ema_monitor::faults::FaultGroup;
 use ema_monitor::fitness::{EquivalentCurrentFit, PooledTrace};
 use ema_monitor::health::{HealthReport, Uncertainty};
-use ema_monitor::monitor::{group_pays, group_present, group_size, without_group, IdentifyConfig};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 
 /// The faulted modes of a run that its report gives as not found (a "not detectable below"

@@ -23,7 +23,7 @@ pub struct Discovery {
     /// The model with the named effects (whole recording).
     pub after: ModelFit,
     /// The on-board diagnosis
-    /// ([`IdentifyConfig::onboard`](ema_monitor::monitor::IdentifyConfig::onboard): fast regime
+    /// ([`IdentifyConfig::onboard`](ema_monitor::diagnosis::IdentifyConfig::onboard): fast regime
     /// weighted as on board, model selection, polish) with the paper's model.
     pub onboard_before: FaultVector,
     /// The same with the named effects promoted at their fitted severities (what the firmware

@@ -4,9 +4,10 @@
 //! polish.
 
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::tuning::SELECTION_REFIT;
+use ema_monitor::diagnosis::{fault_bounds, group_pays, group_present, group_size, without_group};
 use ema_monitor::effects::MAX_SEVERITY;
 use ema_monitor::fitness::simulate_window_with_effects;
-use ema_monitor::monitor::{fault_bounds, group_pays, group_present, group_size, without_group, SELECTION_REFIT};
 use ema_monitor::optimizer::pattern::{PatternConfig, PatternSearch};
 use ema_monitor::optimizer::{self, Bounds, Objective, Optimizer};
 use ema_monitor::{Command, EffectId, EmaParams, FaultGroup, FaultVector, ModelEffects, FAULT_COUNT};

@@ -63,8 +63,8 @@ use std::time::Instant;
 use clap::Args;
 use ema_monitor::command::CommandSource;
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::IdentifyConfig;
 use ema_monitor::fitness::EquivalentCurrentFit;
-use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::{Command, EffectId, EmaParams, FaultVector, ModelEffects};
 use indicatif::ProgressBar;
 

@@ -4,9 +4,9 @@
 use std::path::Path;
 
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::IdentifyConfig;
 use ema_monitor::faults::FaultMode;
 use ema_monitor::health::Status;
-use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::unit::{Tolerances, MAX_RELATIVE_SIGMA};
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};

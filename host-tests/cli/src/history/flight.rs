@@ -6,8 +6,8 @@
 
 use std::path::Path;
 
+use ema_monitor::diagnosis::{IdentifyConfig, ONBOARD_POPULATION};
 use ema_monitor::flight::{Flight, HealthMonitor};
-use ema_monitor::monitor::{IdentifyConfig, ONBOARD_POPULATION};
 use ema_monitor::persist::HealthRecord;
 use ema_monitor::EmaParams;
 use serde::Serialize;
@@ -53,7 +53,7 @@ pub fn identify_flight(
     config: &IdentifyConfig,
     record: &mut HealthRecord,
 ) -> Result<FlightResult, CliError> {
-    let refused = |e: ema_monitor::monitor::MonitorError| CliError::input(label, e.to_string());
+    let refused = |e: ema_monitor::diagnosis::MonitorError| CliError::input(label, e.to_string());
     let monitor =
         HealthMonitor::<HOST_WINDOW, ONBOARD_POPULATION>::new(*params, command.command(), *config).map_err(refused)?;
     let (trace, acquired) = acquire_flight(&monitor, recording, label, model, command)?;

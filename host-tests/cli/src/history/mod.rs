@@ -15,11 +15,11 @@
 //! firmware persists, a ring of the last 16 flights per mode): planned from the record (the first
 //! flight cold, a later flight warm from the previous diagnosis, with new-fault probes, unless the
 //! plan asks for a cold one), identified with the on-board settings
-//! ([`IdentifyConfig::onboard`](ema_monitor::monitor::IdentifyConfig::onboard): the firmware's
+//! ([`IdentifyConfig::onboard`](ema_monitor::diagnosis::IdentifyConfig::onboard): the firmware's
 //! iteration budget; the host evaluates the global search's sweeps in parallel, bit for bit the
 //! same), reported with its uncertainty, and recorded: when its status is a diagnosis, its five
 //! mode severities join the record's history through the evidence pooled over flights
-//! ([`evidence::record_flight_on`](ema_monitor::monitor::evidence::record_flight_on)): the
+//! ([`evidence::record_flight_on`](ema_monitor::diagnosis::evidence::record_flight_on)): the
 //! flight's log-likelihood ratio per mode joins the record's sequential sums, and a mode the sums
 //! call present while the flight's own model selection dropped it is *declared by pooled evidence*
 //! and refitted into the diagnosis the record keeps

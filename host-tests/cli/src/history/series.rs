@@ -4,10 +4,10 @@
 
 use std::path::PathBuf;
 
+use ema_monitor::diagnosis::evidence::PooledFlight;
+use ema_monitor::diagnosis::{group_present, IdentifyConfig};
 use ema_monitor::faults::{FaultGroup, FaultMode};
 use ema_monitor::health::{HealthReport, Status};
-use ema_monitor::monitor::evidence::PooledFlight;
-use ema_monitor::monitor::{group_present, IdentifyConfig};
 use ema_monitor::optimizer::rng::{splitmix64_mix, SPLITMIX_GAMMA};
 use ema_monitor::persist::HealthRecord;
 use ema_monitor::prognosis::Prognosis;

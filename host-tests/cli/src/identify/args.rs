@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use ema_monitor::monitor::{Algorithm, IdentifyConfig};
+use ema_monitor::diagnosis::{Algorithm, IdentifyConfig};
 use ema_monitor::FaultVector;
 
 use crate::error::{num, CliError};

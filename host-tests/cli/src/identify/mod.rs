@@ -3,7 +3,7 @@
 //!
 //! Two inputs:
 //! - a recording CSV (`ema simulate`'s format, 10 kHz): phase currents in amperes go through the
-//!   core's own acquisition ([`ema_monitor::monitor::acquire`], on the recording as its
+//!   core's own acquisition ([`ema_monitor::diagnosis::acquire`], on the recording as its
 //!   phase-current source, [`crate::runtime::source`]), so they pass the same range,
 //!   stuck-channel and sum checks as on board
 //!   ([`FrameCheck::amps`](ema_monitor::acquisition::FrameCheck::amps), nominal calibration); a
@@ -43,8 +43,8 @@ pub mod report;
 
 use std::io::Write;
 
+use ema_monitor::diagnosis::IdentifyConfig;
 use ema_monitor::effects::ModelEffects;
-use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::unit::Tolerances;
 use ema_monitor::Profile;
 

@@ -9,9 +9,9 @@
 use std::path::{Path, PathBuf};
 
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::{AcquisitionSummary, IdentifyConfig, MonitorError};
 use ema_monitor::effects::ModelEffects;
 use ema_monitor::fitness::MAX_POOLED_RECORDINGS;
-use ema_monitor::monitor::{AcquisitionSummary, IdentifyConfig, MonitorError};
 use ema_monitor::{Command, EmaParams};
 use serde::Serialize;
 

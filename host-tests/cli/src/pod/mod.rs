@@ -27,9 +27,9 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use clap::Args;
+use ema_monitor::diagnosis::evidence::mode_present;
+use ema_monitor::diagnosis::IdentifyConfig;
 use ema_monitor::faults::FaultMode;
-use ema_monitor::monitor::evidence::mode_present;
-use ema_monitor::monitor::IdentifyConfig;
 use ema_monitor::unit::Tolerances;
 use ema_monitor::{EmaParams, FaultVector, Profile};
 use ema_reference::{simulate, SimConfig};

@@ -70,7 +70,7 @@ pub struct LoadSummary {
 
 impl LoadSummary {
     /// Independent frames in a block of [`DECIMATION`] frames at the monitor's rate, for the fit
-    /// test's noise model ([`ema_monitor::monitor::IdentifyConfig::independent_frames_per_block`]):
+    /// test's noise model ([`ema_monitor::diagnosis::IdentifyConfig::independent_frames_per_block`]):
     /// [`DECIMATION`] for a file at the monitor's rate or faster, `DECIMATION · f_file / f_monitor`
     /// for a slower one, whose frames in between are interpolated.
     pub fn independent_frames_per_block(&self) -> f32 {

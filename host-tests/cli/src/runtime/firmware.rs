@@ -11,9 +11,9 @@ use ema_monitor::acquisition::{
     replay_config, AcquisitionError, Calibration, PhaseA, PhaseB, PhaseC, PhaseCurrentReader, PhaseCurrents, ReplayAdc,
 };
 use ema_monitor::conditioning::{ConditionedWindow, DECIMATION};
+use ema_monitor::diagnosis::{self, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::flight::HealthMonitor;
 use ema_monitor::health::{Abstain, HealthReport, Status};
-use ema_monitor::monitor::{self, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
 use ema_monitor::persist::{HealthStore, KeptRecord, RamFlash, StoreError};
 use ema_monitor::trace::{PackedTrace, TraceHeader};
 use ema_monitor::{Command, EmaParams, Profile};
@@ -113,9 +113,9 @@ pub fn firmware_trace_outcome_for(
         return Ok(firmware_trace_flights_for(bytes, params, profile, config, 1)?.first);
     }
     let (packed, mut reader) = replay(bytes)?;
-    let rate_ok = monitor::rate_matches(packed.sample_rate_hz() as f32, params);
+    let rate_ok = diagnosis::rate_matches(packed.sample_rate_hz() as f32, params);
     let mut trace = Box::new(ConditionedWindow::<ONBOARD_WINDOW>::new());
-    let acquired = monitor::acquire(&mut reader, &mut trace).map_err(|e| Refusal::new("acquisition", e))?;
+    let acquired = diagnosis::acquire(&mut reader, &mut trace).map_err(|e| Refusal::new("acquisition", e))?;
     let outcome = run_identification(&trace, params, Command::Profile(*profile), config)
         .map_err(|e| Refusal::new("identification", e))?;
     let report = outcome.report.with_acquisition(&acquired);

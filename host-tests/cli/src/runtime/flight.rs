@@ -9,8 +9,8 @@ use std::path::Path;
 use std::time::Instant;
 
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::{Identification, Start, StepDriver};
 use ema_monitor::flight::{Acquired, FlightHooks, HealthMonitor};
-use ema_monitor::monitor::{Identification, Start, StepDriver};
 
 use super::command::ModelCommand;
 use super::identification::ParallelSweeps;

@@ -10,12 +10,12 @@ use std::time::Instant;
 
 use ema_monitor::command::CommandSource;
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::{
+    configured_fit, Identification, IdentifyConfig, MonitorError, StepDriver, WarmReport, ONBOARD_POPULATION,
+};
 use ema_monitor::faults::FaultGroup;
 use ema_monitor::fitness::{PoolError, PooledTrace, MAX_POOLED_RECORDINGS};
 use ema_monitor::health::HealthReport;
-use ema_monitor::monitor::{
-    configured_fit, Identification, IdentifyConfig, MonitorError, StepDriver, WarmReport, ONBOARD_POPULATION,
-};
 use ema_monitor::operating_temperature::estimate_temperature_c;
 use ema_monitor::optimizer::Objective;
 use ema_monitor::unit::Tolerances;
@@ -50,7 +50,7 @@ pub struct Outcome {
     pub position: Option<PositionCheck>,
 }
 
-/// The prior of a warm start and what its stages did ([`ema_monitor::monitor::WarmReport`]).
+/// The prior of a warm start and what its stages did ([`ema_monitor::diagnosis::WarmReport`]).
 #[derive(Clone, Copy, Debug)]
 pub struct WarmStart {
     /// The prior fault vector.

@@ -3,7 +3,7 @@
 //! `discover`, `compare`, `detectability`, the flights and the investigations).
 //!
 //! - [`source`]: a recording as the core's [`PhaseCurrents`](ema_monitor::acquisition::PhaseCurrents)
-//!   source, read by the core's own [`acquire`](ema_monitor::monitor::acquire) into the measured
+//!   source, read by the core's own [`acquire`](ema_monitor::diagnosis::acquire) into the measured
 //!   trace (the frame checks and the hold-last-good-frame rule are the firmware's code);
 //! - [`recording`]: the checks a recording passes before it drives the monitor model (rate,
 //!   command), then its acquisition into a host-sized window ([`HOST_WINDOW`]);

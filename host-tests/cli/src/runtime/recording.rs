@@ -10,7 +10,7 @@
 use std::path::Path;
 
 use ema_monitor::conditioning::ConditionedWindow;
-use ema_monitor::monitor::AcquisitionSummary;
+use ema_monitor::diagnosis::AcquisitionSummary;
 use ema_monitor::{EmaParams, Profile};
 
 use super::command::ModelCommand;
@@ -99,7 +99,7 @@ pub fn condition_recording_for(
 
 /// As [`condition_recording`], as on board: every frame passes the core's frame checks
 /// ([`ema_monitor::acquisition::FrameCheck::amps`], nominal calibration, default settings) on its
-/// way through the core's acquisition ([`ema_monitor::monitor::acquire`]), which holds a refused
+/// way through the core's acquisition ([`ema_monitor::diagnosis::acquire`]), which holds a refused
 /// frame at the last good one (zero currents before the first) and counts it in the returned
 /// summary.
 pub fn condition_recording_checked(

@@ -1,6 +1,6 @@
 //! A recording as the core's phase-current source, read by the core's own acquisition.
 //!
-//! [`RecordingSource`] hands the recording's rows to [`monitor::acquire`] one frame at a time as
+//! [`RecordingSource`] hands the recording's rows to [`diagnosis::acquire`] one frame at a time as
 //! [`PhaseCurrents`] does on board, and reports [`AcquisitionError::EndOfData`] after the last
 //! row. With [`FrameChecks::OnBoard`] every frame first passes the core's frame checks
 //! ([`FrameCheck::amps`]: range, stuck channel and sum, nominal calibration, default settings),
@@ -18,7 +18,7 @@ use ema_monitor::acquisition::{
     AcquisitionConfig, AcquisitionError, Calibration, FrameCheck, PhaseCurrents, PhaseFrame, SensorCheck,
 };
 use ema_monitor::conditioning::ConditionedWindow;
-use ema_monitor::monitor::{self, AcquisitionSummary, MonitorError};
+use ema_monitor::diagnosis::{self, AcquisitionSummary, MonitorError};
 
 use crate::error::CliError;
 use crate::recording::Recording;
@@ -98,7 +98,7 @@ impl PhaseCurrents for RecordingSource<'_> {
     }
 }
 
-/// Every row of `recording` (read from `path`, named in errors) through [`monitor::acquire`]
+/// Every row of `recording` (read from `path`, named in errors) through [`diagnosis::acquire`]
 /// into a new conditioned window of `W` window samples, under `checks`. A frame the window refuses
 /// names its file line; a window refused when it closes (too short, no excitation) names the file.
 pub fn acquire_recording<const W: usize>(
@@ -106,11 +106,11 @@ pub fn acquire_recording<const W: usize>(
     path: &Path,
     checks: FrameChecks,
 ) -> Result<(Box<ConditionedWindow<W>>, AcquisitionSummary), CliError> {
-    acquire_recording_by(recording, path, checks, |source, trace| monitor::acquire(source, trace))
+    acquire_recording_by(recording, path, checks, |source, trace| diagnosis::acquire(source, trace))
 }
 
 /// [`acquire_recording`] by `acquire`, which reads every frame of the source into the window as
-/// [`monitor::acquire`] does (the flight API's
+/// [`diagnosis::acquire`] does (the flight API's
 /// [`HealthMonitor::acquire`](ema_monitor::flight::HealthMonitor::acquire)), and gives what it
 /// returns beside the window.
 pub fn acquire_recording_by<const W: usize, T>(

@@ -17,9 +17,9 @@ use ema_monitor::commissioning::{
     SWARM_PARTICLES,
 };
 use ema_monitor::conditioning::ConditionedWindow;
+use ema_monitor::diagnosis::{configured_fit, group_present, group_size, IdentifyConfig};
 use ema_monitor::faults::FaultGroup;
 use ema_monitor::health::{Abstain, HealthReport, Status};
-use ema_monitor::monitor::{configured_fit, group_present, group_size, IdentifyConfig};
 use ema_monitor::unit::{Tolerances, UNIT_PARAM_COUNT};
 use ema_monitor::{Command, EmaParams, FaultVector};
 

@@ -217,8 +217,8 @@ mod tests {
     use super::super::state::WarmReport;
     use super::*;
     use crate::conditioning::ConditionedWindow;
+    use crate::diagnosis::{ONBOARD_POPULATION, ONBOARD_WINDOW};
     use crate::health::HealthReport;
-    use crate::monitor::{ONBOARD_POPULATION, ONBOARD_WINDOW};
     use crate::params::EmaParams;
     use crate::profile::Profile;
 

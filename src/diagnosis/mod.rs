@@ -38,23 +38,28 @@ mod warm;
 
 pub use config::{
     configured_fit, fault_bounds, starting_guesses, Algorithm, IdentifyConfig, ONBOARD_MAX_ITERATIONS,
-    ONBOARD_POPULATION, ONBOARD_WINDOW, SELECTION_POLISH_MAX_EVALUATIONS,
+    ONBOARD_POPULATION, ONBOARD_WINDOW,
 };
 pub use groups::{group_present, group_size, without_group};
 pub use identification::{Identification, StepDriver};
-pub use probes::{MAX_NEW_FAULTS, PROBE_SCOUT, PROBE_SEVERITY, TARGETED_REFIT};
-pub use selection::{
-    group_pays, helps_without_its_best_window, refit_replaces, REPLACED_ABOVE, SELECTION_REFIT, WINDOW_GAIN_SHARE,
-};
+pub use selection::{group_pays, helps_without_its_best_window, refit_replaces};
 pub use state::WarmReport;
-pub use uncertainty::{
-    covariance_noise_a2, uncertainty_at, with_uncertainty, Fisher, FISHER_STEP, MISMATCH_CORRELATION_SAMPLES,
-};
-pub use verdict::{
-    covers, rate_matches, window_noise_variance_a2, AcquisitionSummary, MAX_REFUSED_RUN, MAX_REFUSED_SHARE,
-    MODEL_MISMATCH_A,
-};
-pub use warm::{plan_start, ColdReason, Start, COLD_EVERY_FLIGHTS};
+pub use uncertainty::{covariance_noise_a2, uncertainty_at, with_uncertainty, Fisher};
+pub use verdict::{covers, rate_matches, window_noise_variance_a2, AcquisitionSummary};
+pub use warm::{plan_start, ColdReason, Start};
+
+// The tuning the crate's other modules read; the rest of it stays in the stage that uses it.
+pub(crate) use verdict::MODEL_MISMATCH_A;
+pub(crate) use warm::COLD_EVERY_FLIGHTS;
+
+/// The few tuning constants a host tool reuses to reproduce the identification's decisions (the
+/// discrepancy workflow refits as model selection does and judges a window's gain as its window
+/// check does; the fit test's allowance for the monitor model's known mismatch). A flight needs
+/// none of them; the rest of the tuning stays inside the crate, documented where it is used.
+pub mod tuning {
+    pub use super::selection::{SELECTION_REFIT, WINDOW_GAIN_SHARE};
+    pub use super::verdict::MODEL_MISMATCH_A;
+}
 
 use crate::acquisition::{AcquisitionError, GainCheck, PhaseCurrents, MAX_GAIN_MISMATCH};
 use crate::conditioning::{ConditionedWindow, ConditioningError};

@@ -5,7 +5,7 @@
 use crate::conditioning::{MeasuredEnvelope, DECIMATION};
 use crate::params::EmaParams;
 
-pub use crate::acquisition::{AcquisitionSummary, MAX_REFUSED_RUN, MAX_REFUSED_SHARE};
+pub use crate::acquisition::AcquisitionSummary;
 pub use crate::conditioning::covers;
 
 /// The monitor model's structural mismatch allowed for in the goodness-of-fit test, in A RMS per
@@ -42,6 +42,7 @@ pub fn rate_matches(rate_hz: f32, params: &EmaParams) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::acquisition::MAX_REFUSED_RUN;
 
     #[test]
     fn sensor_fault_coverage_and_rate_rules() {

@@ -340,7 +340,7 @@ impl Fisher {
 }
 
 /// The noise `s²` of the covariance (module doc): the fit test's window-sample noise for
-/// `independent_frames` per block plus [`MISMATCH_CORRELATION_SAMPLES`]`·m²`.
+/// `independent_frames` per block plus `MISMATCH_CORRELATION_SAMPLES``·m²`.
 pub fn covariance_noise_a2(params: &EmaParams, independent_frames: f32) -> f32 {
     window_noise_variance_a2(params, independent_frames)
         + MISMATCH_CORRELATION_SAMPLES * MODEL_MISMATCH_A * MODEL_MISMATCH_A
@@ -499,8 +499,8 @@ fn accumulate(sums: &mut Sums, inv_step: &[f32; FAULT_COUNT], y_i: f32, v: f32, 
 mod tests {
     use super::*;
     use crate::conditioning::DECIMATION;
+    use crate::diagnosis::{Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
     use crate::fitness::simulate_window;
-    use crate::monitor::{Identification, IdentifyConfig, ONBOARD_POPULATION, ONBOARD_WINDOW};
     use crate::profile::Profile;
 
     /// The model's own trace of `truth` with Gaussian noise of `sigma` A on the pair current of

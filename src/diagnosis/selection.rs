@@ -80,7 +80,7 @@ pub fn helps_without_its_best_window(with: &WindowErrors, without: &WindowErrors
 pub const REPLACED_ABOVE: f32 = 0.01;
 
 /// `true` when the refit `without` the group `tested` moved another group's magnitude by more than
-/// [`REPLACED_ABOVE`] from `with`: another explanation took the group's place (a low short on
+/// `REPLACED_ABOVE` (0.01) from `with`: another explanation took the group's place (a low short on
 /// phase A beside a smaller one on C, refitted as a larger one on C), so
 /// [`helps_without_its_best_window`] runs with `share` = 0.
 pub fn refit_replaces(with: &[f32; FAULT_COUNT], without: &[f32; FAULT_COUNT], tested: FaultGroup) -> bool {

@@ -75,7 +75,7 @@ pub struct IdentifyConfig {
     /// [`FAST_REGIME_WEIGHT`] by default).
     pub fast_regime_weight: f32,
     /// Evaluations model selection and the polish may spend together
-    /// ([`SELECTION_POLISH_MAX_EVALUATIONS`] by default). When it runs out, the groups not yet
+    /// (700 by default, `SELECTION_POLISH_MAX_EVALUATIONS`). When it runs out, the groups not yet
     /// tested stay and the polish stops where it is; the report's fitness is always that of the
     /// reported vector (at 0, that may take the one evaluation of a global-search vector whose
     /// absent groups were reset to healthy).
@@ -91,7 +91,7 @@ pub struct IdentifyConfig {
     /// is allowed is [`super::plan_start`]'s decision.
     pub prior: Option<[f32; FAULT_COUNT]>,
     /// Flights after which a cold identification runs again instead of a warm one
-    /// ([`super::plan_start`]; [`super::COLD_EVERY_FLIGHTS`] by default).
+    /// ([`super::plan_start`]; 20 by default, `COLD_EVERY_FLIGHTS`).
     pub cold_every_flights: u32,
 }
 

@@ -333,14 +333,14 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
 #[cfg(test)]
 pub(super) mod tests {
     use super::*;
+    use crate::diagnosis::config::SELECTION_POLISH_MAX_EVALUATIONS;
+    use crate::diagnosis::groups::group_present;
+    use crate::diagnosis::selection::SELECTION_REFIT;
+    use crate::diagnosis::Algorithm;
+    use crate::diagnosis::{ONBOARD_MAX_ITERATIONS, ONBOARD_POPULATION, ONBOARD_WINDOW};
     use crate::faults::FaultGroup;
     use crate::fitness::simulate_window;
     use crate::health::{Abstain, Status as HealthStatus};
-    use crate::monitor::groups::group_present;
-    use crate::monitor::Algorithm;
-    use crate::monitor::{
-        ONBOARD_MAX_ITERATIONS, ONBOARD_POPULATION, ONBOARD_WINDOW, SELECTION_POLISH_MAX_EVALUATIONS, SELECTION_REFIT,
-    };
     use crate::optimizer::pattern::PatternConfig;
     use crate::profile::Profile;
 
@@ -360,7 +360,7 @@ pub(super) mod tests {
 
     /// The model's own trace of `truth` on the nominal actuator, with its noise
     /// ([`crate::test_traces`]).
-    pub(in crate::monitor) fn noisy_self_trace(truth: &FaultVector, seed: u64) -> ConditionedWindow<ONBOARD_WINDOW> {
+    pub(in crate::diagnosis) fn noisy_self_trace(truth: &FaultVector, seed: u64) -> ConditionedWindow<ONBOARD_WINDOW> {
         crate::test_traces::noisy_trace(&EmaParams::NOMINAL, truth, seed)
     }
 
