@@ -454,8 +454,8 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     }
 
     /// The identification, cold without a prior and warm from it, one evaluation per step with
-    /// `hooks` around each ([`Identification::run_with`]). Not inlined: the identification's state lives in this frame alone,
-    /// not beside the uncertainty's and the record's.
+    /// `hooks` around each ([`Identification::run_with`]). Not inlined: the identification's
+    /// state lives in this frame alone, not beside the uncertainty's and the record's.
     #[inline(never)]
     fn identify(
         &self,

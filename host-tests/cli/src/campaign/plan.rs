@@ -1,7 +1,7 @@
 //! The planned runs of a campaign and their seeded draws: the fault of each run, the seed of its
 //! sensor noise and optimizer, and the noise seed of each of its flights.
 
-use ema_monitor::faults::{FaultMode, MODE_COUNT};
+use ema_monitor::faults::{FaultMode, FaultParam, MODE_COUNT};
 use ema_monitor::optimizer::rng::splitmix64;
 use ema_monitor::FaultVector;
 
@@ -60,16 +60,19 @@ impl SplitMix {
 }
 
 /// Sets mode `mode` to `severity` in `k` (drawing the phase/direction it needs from `rng`).
-fn inject(k: &mut FaultVector, mode: usize, severity: f32, rng: &mut SplitMix) {
+fn inject(k: &mut FaultVector, mode: FaultMode, severity: f32, rng: &mut SplitMix) {
     match mode {
-        0 => k.0[0] = severity,
-        1 => k.0[1] = severity,
-        2 => k.0[2 + (rng.next_u64() % 3) as usize] = severity,
-        3 => {
-            k.0[5] = severity;
-            k.0[6] = rng.unit();
+        FaultMode::Friction => k.0[FaultParam::Friction.index()] = severity,
+        FaultMode::Backlash => k.0[FaultParam::Backlash.index()] = severity,
+        FaultMode::ShortCircuit => k.0[FaultParam::ShortA.index() + (rng.next_u64() % 3) as usize] = severity,
+        FaultMode::Eccentricity => {
+            k.0[FaultParam::Eccentricity.index()] = severity;
+            k.0[FaultParam::EccentricityPhase.index()] = rng.unit();
         }
-        _ => k.0[7] = if rng.next_u64().is_multiple_of(2) { 0.5 - 0.5 * severity } else { 0.5 + 0.5 * severity },
+        FaultMode::GainDrift => {
+            k.0[FaultParam::GainDrift.index()] =
+                if rng.next_u64().is_multiple_of(2) { 0.5 - 0.5 * severity } else { 0.5 + 0.5 * severity }
+        }
     }
 }
 
@@ -104,7 +107,7 @@ pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
                     let mut rng = SplitMix(master ^ key.wrapping_mul(0xD1B5_4A32_D192_ED03));
                     let mut truth = FaultVector::HEALTHY;
                     let severity = rng.range(lo, hi);
-                    inject(&mut truth, mode, severity, &mut rng);
+                    inject(&mut truth, FaultMode::ALL[mode], severity, &mut rng);
                     let seed = rng.next_u64() ^ alg_key;
                     out.push(Plan {
                         algorithm,
@@ -133,7 +136,7 @@ pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
             let mut truth = FaultVector::HEALTHY;
             for &m in &chosen {
                 let severity = rng.range(0.05, 0.95);
-                inject(&mut truth, m, severity, &mut rng);
+                inject(&mut truth, FaultMode::ALL[m], severity, &mut rng);
             }
             let names: Vec<&str> = chosen.iter().map(|&m| MODES[m]).collect();
             let seed = rng.next_u64() ^ alg_key;
@@ -153,7 +156,7 @@ pub fn plan(args: &CampaignArgs) -> Result<Vec<Plan>, CliError> {
             let mut truth = FaultVector::HEALTHY;
             for m in 0..MODES.len() {
                 let severity = rng.range(0.05, 0.15);
-                inject(&mut truth, m, severity, &mut rng);
+                inject(&mut truth, FaultMode::ALL[m], severity, &mut rng);
             }
             let seed = rng.next_u64() ^ alg_key;
             out.push(Plan {
