@@ -88,6 +88,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     /// longer than the command (by more than one control period) is refused. With
     /// [`IdentifyConfig::prior`] set, the identification is a warm start from it
     /// ([`Identification::warm`]).
+    #[inline(never)]
     pub fn new(
         trace: &'a ConditionedWindow<W>,
         params: EmaParams,
@@ -159,6 +160,7 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
 
     /// One objective evaluation (one monitor-model run over the trace, possibly abandoned early):
     /// one step of the stage under way, then the stage it hands over to.
+    #[inline(never)]
     pub fn step(&mut self) -> SearchStatus {
         let state = &mut self.state;
         let next = match &mut self.stage {

@@ -68,7 +68,7 @@ pub struct Board<'a> {
 /// Runs flight after flight: `isr` is the sampling interrupt's state (disarmed), `live` the sampler's
 /// thread-mode half, `config` each acquisition's settings.
 pub fn run<W: FnMut()>(
-    mut board: Board<'_>,
+    board: &mut Board<'_>,
     mut isr: Isr,
     live: &mut SamplerConsumer<'_, W>,
     config: SamplerConfig,
@@ -134,8 +134,7 @@ impl Board<'_> {
     /// record may be.
     fn fly(&mut self, trace: &ConditionedWindow<ONBOARD_WINDOW>, acquired: &Acquired) {
         if self.record.needs_load() {
-            self.record = health_flash::load(&mut self.flash, self.watchdog);
-            health_flash::adopt(&mut self.flash, self.watchdog, &self.monitor, &mut self.record);
+            self.reload();
         }
         defmt::info!(
             "refused frames: {=u32} (longest run {=u32}), held at the last good frame; late frames: {=u32}",
@@ -155,6 +154,14 @@ impl Board<'_> {
         self.send_line(&flight, acquired.late_frames);
         health_flash::save(&mut self.flash, self.watchdog, &self.record);
         defmt::info!("ema-monitor: OK (flight {=u32}); re-arming", flight.number);
+    }
+
+    /// The record loaded again from flash (and adopted). Not inlined: the loaded record's
+    /// temporaries stay out of [`Board::fly`]'s frame, which the identification runs above.
+    #[inline(never)]
+    fn reload(&mut self) {
+        self.record = health_flash::load(&mut self.flash, self.watchdog);
+        health_flash::adopt(&mut self.flash, self.watchdog, &self.monitor, &mut self.record);
     }
 
     /// Sends `flight`'s report line on USART2 (logged). Not inlined: the line's 512-byte buffer

@@ -143,7 +143,9 @@ pub fn adopt(flash: &mut LockedFlash, watchdog: &Watchdog, monitor: &HealthMonit
 
 /// After the flight (which the core's `HealthMonitor::diagnose_kept` added to the record): the
 /// record is saved when it may be ([`KeptRecord::savable`]); a save withheld or refused is
-/// logged, and the monitor goes on.
+/// logged, and the monitor goes on. Not inlined: the record's encoding buffer lives only for
+/// the call, not in the frame of the flight loop, which the identification runs above.
+#[inline(never)]
 pub fn save(flash: &mut LockedFlash, watchdog: &Watchdog, kept: &KeptRecord) {
     let Some(record) = kept.savable() else {
         defmt::warn!("health record not saved ({}): the stored record is left as it is", kept.origin());

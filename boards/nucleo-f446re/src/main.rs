@@ -36,17 +36,25 @@ use ema_monitor::flight::HealthMonitor;
 #[cfg(feature = "commissioning")]
 use ema_monitor::Tolerances;
 use ema_monitor::{ModelEffects, Profile};
+use static_cell::ConstStaticCell;
 use stm32f4xx_hal::flash::LockedFlash;
+use stm32f4xx_hal::gpio::{Input, PA10};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
+use stm32f4xx_hal::timer::CounterUs;
 
 use ema_monitor_nucleo_f446re::dma_sampling::{BoardSampler, Isr};
 use ema_monitor_nucleo_f446re::safe_state::{failsafe, idle_failed, refused};
 use ema_monitor_nucleo_f446re::triple_adc::{self, SimultaneousReader, TripleAdc};
+use ema_monitor_nucleo_f446re::watchdog::Watchdog;
 #[cfg(feature = "commissioning")]
 use ema_monitor_nucleo_f446re::COMMISSIONING_FLIGHTS;
 use ema_monitor_nucleo_f446re::{flash_control, FRAME_PERIOD_US, PARAMS, TRIGGER_TIMEOUT_FRAMES};
 use ema_monitor_nucleo_f446re::{flights, health_flash, rcc, report_uart, safe_state, timestamp};
+
+/// The sampler's queue and shared state (1.6 KB), built in its static at compile time: a
+/// `cortex_m::singleton!` builds its value on the stack first.
+static SAMPLER: ConstStaticCell<BoardSampler> = ConstStaticCell::new(BoardSampler::new());
 
 /// `defmt::panic!` and friends: straight to the HardFault path (panic-probe's advice, so that the
 /// message is not printed twice), which logs `FAILSAFE` and parks (`safe_state.rs`).
@@ -57,25 +65,51 @@ fn defmt_panic() -> ! {
 
 #[entry]
 fn main() -> ! {
+    let mut booted = boot();
+
+    // 5. The sampler: DMA2's interrupt queues the frames, thread mode consumes them, sleeping
+    //    (`wfi`) and feeding the watchdog while it waits; then the flights, one after another.
+    let Some(sampler) = SAMPLER.try_take() else { failsafe("sampler already taken") };
+    let config =
+        SamplerConfig { frames: booted.board.monitor.frames(), trigger_timeout_frames: TRIGGER_TIMEOUT_FRAMES };
+    let watchdog = booted.board.watchdog;
+    let (producer, mut live) = sampler.split(booted.reader, config, || {
+        cortex_m::asm::wfi();
+        watchdog.feed();
+    });
+    let isr = Isr { producer, timer: booted.timer, trigger: booted.trigger };
+    flights::run(&mut booted.board, isr, &mut live, config)
+}
+
+/// Steps 1–4: the watchdog, clocks, health record, sampling hardware and monitor. Not inlined:
+/// the set-up's temporaries (the peripherals' handles, the record and monitor before they move
+/// into the board) stay out of `main`'s frame, under which every flight runs.
+#[inline(never)]
+fn boot() -> Booted {
     // 1. Watchdog first: from here on, a hang resets the chip.
     let Some(dp) = pac::Peripherals::take() else { failsafe("device peripherals already taken") };
-    let watchdog = safe_state::start_watchdog(dp.IWDG, &dp.DBGMCU, &dp.RCC);
+    let Some(watchdog) = cortex_m::singleton!(: Watchdog = safe_state::start_watchdog(dp.IWDG, &dp.DBGMCU, &dp.RCC))
+    else {
+        failsafe("watchdog already taken")
+    };
+    let watchdog: &'static Watchdog = watchdog;
+
     let Some(mut cp) = cortex_m::Peripherals::take() else { failsafe("core peripherals already taken") };
 
     // Clocks: 8 MHz HSE (ST-LINK MCO, bypass) or 16 MHz HSI → PLL → 180 MHz; APB1 45, APB2 90 MHz.
-    let (mut rcc, clock) = rcc::freeze(dp.RCC, &watchdog);
+    let (mut rcc, clock) = rcc::freeze(dp.RCC, watchdog);
     cp.DCB.enable_trace();
     cp.DWT.enable_cycle_counter();
     if !timestamp::start(dp.TIM5, &mut rcc) {
         defmt::warn!("log timestamps off: TIM5's clock is not a whole number of MHz");
     }
-    flash_control::ensure_brown_out_level3(&dp.FLASH, &watchdog);
+    flash_control::ensure_brown_out_level3(&dp.FLASH, watchdog);
 
     // 2. Health record; B1 (PC13, low when pressed) held at start-up is the maintenance reset.
     let gpioc = dp.GPIOC.split(&mut rcc);
     let maintenance = gpioc.pc13.into_floating_input().is_low();
     let mut flash = LockedFlash::new(dp.FLASH);
-    let mut record = health_flash::start(&mut flash, &watchdog, maintenance);
+    let mut record = health_flash::start(&mut flash, watchdog, maintenance);
 
     // 3. ADC1–3 on PA0/PA1/PC0 at one instant on TIM2's trigger, read by DMA2, PB0 through
     //    ADC1 between acquisitions; the trigger on PA10; TIM2 at the frame period; USART2 on PA2.
@@ -86,13 +120,13 @@ fn main() -> ! {
     let mut timer = dp.TIM2.counter_us(&mut rcc);
     if timer.start(FRAME_PERIOD_US.micros()).is_err() {
         defmt::error!("TIM2 refused the {=u32} us period", FRAME_PERIOD_US);
-        idle_failed(&watchdog)
+        idle_failed(watchdog)
     }
     let adc1 = triple_adc::hal_adc1(dp.ADC1, &mut rcc);
     let parts = triple_adc::Parts { adc1, adc2: dp.ADC2, adc3: dp.ADC3, common: dp.ADC_COMMON, dma2: dp.DMA2 };
     let reader = match SimultaneousReader::new(TripleAdc::new(parts, pins, &mut timer, &mut rcc)) {
         Ok(r) => r,
-        Err(e) => refused("acquisition config refused", e, &watchdog),
+        Err(e) => refused("acquisition config refused", e, watchdog),
     };
     let uart = report_uart::ReportUart::new(dp.USART2, gpioa.pa2, &mut rcc);
     if uart.is_none() {
@@ -107,20 +141,19 @@ fn main() -> ! {
     defmt::info!("image: {=str}", if cfg!(feature = "commissioning") { "commissioning" } else { "flight" });
     let monitor = match monitor {
         Ok(m) => m,
-        Err(e) => refused("monitor refused", e, &watchdog),
+        Err(e) => refused("monitor refused", e, watchdog),
     };
-    health_flash::adopt(&mut flash, &watchdog, &monitor, &mut record);
+    health_flash::adopt(&mut flash, watchdog, &monitor, &mut record);
 
-    // 5. The sampler: DMA2's interrupt queues the frames, thread mode consumes them, sleeping
-    //    (`wfi`) and feeding the watchdog while it waits; then the flights, one after another.
-    let Some(sampler) = cortex_m::singleton!(: BoardSampler = BoardSampler::new()) else {
-        failsafe("sampler already taken")
-    };
-    let config = SamplerConfig { frames: monitor.frames(), trigger_timeout_frames: TRIGGER_TIMEOUT_FRAMES };
-    let (producer, mut live) = sampler.split(reader, config, || {
-        cortex_m::asm::wfi();
-        watchdog.feed();
-    });
-    let board = flights::Board { monitor, record, flash, watchdog: &watchdog, uart, temperature_pin, clock };
-    flights::run(board, Isr { producer, timer, trigger }, &mut live, config)
+    let board = flights::Board { monitor, record, flash, watchdog, uart, temperature_pin, clock };
+    Booted { board, reader, timer, trigger }
+}
+
+/// What [`boot`] sets up: the board the flights run on, and the sampling hardware the sampler
+/// takes. Used in place, field by field, so that `main`'s frame holds the board once.
+struct Booted {
+    board: flights::Board<'static>,
+    reader: SimultaneousReader,
+    timer: CounterUs<pac::TIM2>,
+    trigger: PA10<Input>,
 }
