@@ -33,6 +33,17 @@ pub const ONBOARD_WINDOW: usize = 2200;
 /// Fewest window samples an identification accepts (20 ms at 2.5 kHz).
 pub const MIN_SAMPLES: usize = 50;
 
+/// The step of an empty window's codes (A), 2⁻¹⁶: it doubles as larger samples come
+/// ([`ConditionedWindow`]).
+pub const FIRST_STEP_A: f32 = 1.0 / 65536.0;
+
+/// Largest window sample (A) a window stores: a larger (or negative) one is refused
+/// ([`ConditioningError::OutOfRange`]).
+pub const MAX_SAMPLE_A: f32 = 1.0e6;
+
+/// Largest code of a window sample.
+const MAX_CODE: f32 = u16::MAX as f32;
+
 /// Equivalent single-phase current `I_3eq = ½(|i_a| + |i_b| + |i_c|)`.
 pub fn equivalent_current_a(ia_a: f32, ib_a: f32, ic_a: f32) -> f32 {
     0.5 * (libm::fabsf(ia_a) + libm::fabsf(ib_a) + libm::fabsf(ic_a))
@@ -200,7 +211,11 @@ pub struct SensorErrorEnvelope {
 impl SensorErrorEnvelope {
     /// The envelope of `params` with per-phase sensor gain errors `gain` and offsets `offset_a`.
     pub fn new(params: &EmaParams, gain: [f32; 3], offset_a: [f32; 3]) -> Self {
-        let envelope = MeasuredEnvelope::of(params);
+        Self::around(MeasuredEnvelope::of(params), params, gain, offset_a)
+    }
+
+    /// [`SensorErrorEnvelope::new`] around `envelope`, the [`MeasuredEnvelope::of`] `params`.
+    fn around(envelope: MeasuredEnvelope, params: &EmaParams, gain: [f32; 3], offset_a: [f32; 3]) -> Self {
         let mut pair = [[0.0; 4]; 6];
         let mut open_a = [0.0; 6];
         let mut open = [[1.0, 0.0]; 6];
@@ -213,14 +228,17 @@ impl SensorErrorEnvelope {
         Self { envelope, pair, open_a, open }
     }
 
-    /// The envelope of `params` with the `sensor_offset` effect of `effects`; `None` when it is off.
-    pub fn of(params: &EmaParams, effects: &crate::effects::ModelEffects) -> Option<Self> {
+    /// The envelope of `params` with the `sensor_offset` effect of `effects`, around `envelope`
+    /// (the [`MeasuredEnvelope::of`] `params`, which a model run has already: not computed
+    /// twice); `None` when the effect is off.
+    pub fn of(envelope: &MeasuredEnvelope, params: &EmaParams, effects: &crate::effects::ModelEffects) -> Option<Self> {
         use crate::effects::{maxima, EffectId};
         let s = effects.get(EffectId::SensorOffset);
         if s == 0.0 {
             return None;
         }
-        Some(Self::new(params, maxima::SENSOR_GAIN.map(|g| s * g), maxima::SENSOR_OFFSET_A.map(|o| s * o)))
+        let (gain, offset_a) = (maxima::SENSOR_GAIN.map(|g| s * g), maxima::SENSOR_OFFSET_A.map(|o| s * o));
+        Some(Self::around(*envelope, params, gain, offset_a))
     }
 
     /// Expected measured `I_3eq` in commutation sector `sector` for the true pair current `current_a`,
@@ -267,6 +285,9 @@ pub enum ConditioningError {
     NoExcitation,
     /// A frame came after the window was closed, or the window is used before it was closed.
     Finished,
+    /// A window sample is negative or above [`MAX_SAMPLE_A`] (a rebuilt window's sample, or a
+    /// frame of currents beyond any actuator's).
+    OutOfRange,
 }
 
 impl core::fmt::Display for ConditioningError {
@@ -277,6 +298,7 @@ impl core::fmt::Display for ConditioningError {
             ConditioningError::TooShort => "the trace is too short to identify from",
             ConditioningError::NoExcitation => "the measured current never changes: no excitation",
             ConditioningError::Finished => "the window is closed (frames after finish) or not closed yet",
+            ConditioningError::OutOfRange => "a window sample is negative or above 1e6 A",
         })
     }
 }
@@ -289,14 +311,27 @@ impl core::error::Error for ConditioningError {}
 /// [`ConditionedWindow::finish`] closes the window and takes the derivative's mean square `C²`. Only
 /// a finished trace is identified from.
 ///
+/// **Storage**: 2 bytes a sample (4.4 KB for [`ONBOARD_WINDOW`]), the half of an `f32`'s. Each
+/// sample is a 16-bit code of the window's scale, `y_i = c_i·Δ`, where the step `Δ` is a power of
+/// two: it starts at [`FIRST_STEP_A`] and doubles whenever a sample would need a code above
+/// 65 535, every code stored so far halved (rounded half up). So the step ends as the smallest
+/// power of two the window's largest sample fits under: 16 bits relative to the window's range
+/// whatever the actuator's current (0.49 mA for the nominal actuator's 16–32 A range), with no
+/// setting. The rounding adds a uniform error of `Δ/√12` (0.14 mA nominal) to each sample, far
+/// below the sensors' noise (20 mA a frame, 10 mA a window sample). `c_i·Δ` is exact in `f32`, so
+/// every read gives the same bits on every target, and a window rebuilt from its samples
+/// ([`ConditionedWindow::from_samples`]) has the same codes and step.
+///
 /// The weights are not stored: [`ConditionedWindow::sample`] computes `w_i` from the two neighbours
-/// of sample `i` and `C²` each time it is read, which halves the window's RAM (4 bytes a sample
-/// instead of 8, 8.8 KB for [`ONBOARD_WINDOW`]) for two divisions a sample in each model run.
+/// of sample `i` and `C²` each time it is read, for two divisions a sample in each model run.
 /// The arithmetic is the same whenever it runs, so the weights are the same bit for bit on every
 /// read and on every target.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ConditionedWindow<const W: usize> {
-    current_a: Vec<f32, W>,
+    /// Sample `i` is `codes[i]·step_a`.
+    codes: Vec<u16, W>,
+    /// The codes' step `Δ` (A), a power of two.
+    step_a: f32,
     /// `C²`, the mean square of the central-difference derivative; 0 until [`ConditionedWindow::finish`].
     derivative_mean_sq: f32,
     block_sum_a: f32,
@@ -313,13 +348,33 @@ impl<const W: usize> ConditionedWindow<W> {
     /// An empty window.
     pub const fn new() -> Self {
         const { assert!(W >= MIN_SAMPLES, "the window must hold at least MIN_SAMPLES samples") };
-        Self { current_a: Vec::new(), derivative_mean_sq: 0.0, block_sum_a: 0.0, block_len: 0 }
+        Self { codes: Vec::new(), step_a: FIRST_STEP_A, derivative_mean_sq: 0.0, block_sum_a: 0.0, block_len: 0 }
     }
 
     /// Window sample `i` in amperes.
     #[inline(always)]
     fn current_at(&self, i: usize) -> Option<f32> {
-        self.current_a.get(i).copied()
+        self.codes.get(i).map(|&c| c as f32 * self.step_a)
+    }
+
+    /// Stores the window sample `y_a` (A) as a code of the window's step, the step doubled (and
+    /// the stored codes halved) until its code fits in 16 bits.
+    fn store(&mut self, y_a: f32) -> Result<(), ConditioningError> {
+        if !(0.0..=MAX_SAMPLE_A).contains(&y_a) {
+            return Err(ConditioningError::OutOfRange);
+        }
+        if self.codes.is_full() {
+            return Err(ConditioningError::WindowFull);
+        }
+        // y/Δ is exact (Δ a power of two); a code rounds to at most 65 535 below 65 535.5
+        while y_a / self.step_a >= MAX_CODE + 0.5 {
+            self.step_a *= 2.0;
+            for c in self.codes.iter_mut() {
+                *c = ((u32::from(*c) + 1) >> 1) as u16;
+            }
+        }
+        let code = libm::roundf(y_a / self.step_a) as u16;
+        self.codes.push(code).map_err(|_| ConditioningError::WindowFull)
     }
 
     /// Adds one frame of phase currents (amperes). Refused after [`ConditionedWindow::finish`].
@@ -336,7 +391,7 @@ impl<const W: usize> ConditionedWindow<W> {
             let mean = self.block_sum_a / DECIMATION as f32;
             self.block_sum_a = 0.0;
             self.block_len = 0;
-            self.current_a.push(mean).map_err(|_| ConditioningError::WindowFull)?;
+            self.store(mean)?;
         }
         Ok(())
     }
@@ -347,7 +402,7 @@ impl<const W: usize> ConditionedWindow<W> {
         if self.is_finished() {
             return Ok(());
         }
-        let n = self.current_a.len();
+        let n = self.codes.len();
         if n < MIN_SAMPLES {
             return Err(ConditioningError::TooShort);
         }
@@ -370,7 +425,7 @@ impl<const W: usize> ConditionedWindow<W> {
     /// exists.
     #[inline(always)]
     fn derivative(&self, i: usize) -> f32 {
-        let n = self.current_a.len();
+        let n = self.codes.len();
         let at = |j: usize| self.current_at(j).unwrap_or(0.0);
         let (a, b, span) = if i == 0 {
             (at(0), at(1), 1.0)
@@ -400,8 +455,10 @@ impl<const W: usize> ConditionedWindow<W> {
     }
 
     /// The closed window of the block means `samples` (as [`ConditionedWindow::current_a`] gives
-    /// them), its weights computed by [`ConditionedWindow::finish`]: the window a flight acquired,
-    /// rebuilt bit for bit from its samples alone (a commissioning flight's window kept in flash).
+    /// them), each stored as [`ConditionedWindow::push`] stores a block mean, its weights computed
+    /// by [`ConditionedWindow::finish`]: the window a flight acquired, rebuilt bit for bit from its
+    /// samples alone (a commissioning flight's window kept in flash; the type's doc says why the
+    /// codes and step come out the same).
     pub fn from_samples(samples: impl IntoIterator<Item = f32>) -> Result<Self, ConditioningError> {
         let mut trace = Self::new();
         trace.rebuild(samples)?;
@@ -410,13 +467,13 @@ impl<const W: usize> ConditionedWindow<W> {
 
     /// [`ConditionedWindow::from_samples`] in place: whatever the window held is dropped first.
     pub fn rebuild(&mut self, samples: impl IntoIterator<Item = f32>) -> Result<(), ConditioningError> {
-        self.current_a.clear();
-        (self.derivative_mean_sq, self.block_sum_a, self.block_len) = (0.0, 0.0, 0);
+        self.codes.clear();
+        (self.step_a, self.derivative_mean_sq, self.block_sum_a, self.block_len) = (FIRST_STEP_A, 0.0, 0.0, 0);
         for y in samples {
             if !y.is_finite() {
                 return Err(ConditioningError::NonFinite);
             }
-            self.current_a.push(y).map_err(|_| ConditioningError::WindowFull)?;
+            self.store(y)?;
         }
         self.finish()
     }
@@ -428,17 +485,24 @@ impl<const W: usize> ConditionedWindow<W> {
 
     /// Block-averaged equivalent current (A), one value per complete window sample, in order.
     pub fn current_a(&self) -> impl ExactSizeIterator<Item = f32> + Clone + '_ {
-        self.current_a.iter().copied()
+        let step_a = self.step_a;
+        self.codes.iter().map(move |&c| c as f32 * step_a)
+    }
+
+    /// The step of the stored samples (A), a power of two: each is within half of it of the
+    /// block mean it stores.
+    pub fn step_a(&self) -> f32 {
+        self.step_a
     }
 
     /// Number of complete window samples.
     pub fn len(&self) -> usize {
-        self.current_a.len()
+        self.codes.len()
     }
 
     /// `true` before the first complete window sample.
     pub fn is_empty(&self) -> bool {
-        self.current_a.is_empty()
+        self.codes.is_empty()
     }
 }
 
@@ -446,6 +510,56 @@ impl<const W: usize> ConditionedWindow<W> {
 mod tests {
     use super::*;
     use core::f32::consts::PI;
+
+    #[test]
+    fn each_sample_is_stored_within_half_a_step_on_a_scale_its_largest_sample_sets() {
+        // windows of very different ranges: a quiet one, the nominal actuator's, a large actuator's
+        let mut steps = [0.0f32; 3];
+        for (n, scale_a) in [0.01f32, 12.0, 700.0].into_iter().enumerate() {
+            let mut t = ConditionedWindow::<600>::new();
+            let (mut means, mut block) = (std::vec::Vec::new(), 0.0f32);
+            for j in 0..2000 {
+                // rising: each larger sample coarsens the step over the codes stored before it
+                let i = scale_a * (j as f32 / 2000.0) * (1.2 + libm::sinf(j as f32 * 0.05));
+                t.push(i, -i, 0.0).unwrap();
+                block += i; // I_3eq = ½(|i| + |−i| + 0)
+                if j % DECIMATION == DECIMATION - 1 {
+                    means.push(block / DECIMATION as f32);
+                    block = 0.0;
+                }
+            }
+            let step_a = t.step_a();
+            steps[n] = step_a;
+            assert_eq!(step_a, 2f32.powi(step_a.log2() as i32), "a power of two");
+            // the smallest step the largest sample fits under, or the first one
+            let max = means.iter().fold(0.0f32, |m, &y| m.max(y));
+            assert!(max < 65535.5 * step_a, "{max} A at step {step_a}");
+            assert!(step_a == FIRST_STEP_A || max >= 32767.75 * step_a, "{max} A at step {step_a}");
+            for (y, mean) in t.current_a().zip(&means) {
+                // a code rounded once, or rounded and then halved, is within one step; direct
+                // rounding (no coarsening after it) within half of it
+                assert!((y - mean).abs() <= step_a, "{y} for {mean} at step {step_a}");
+            }
+            let last = t.current_a().last().unwrap();
+            assert!((last - means[means.len() - 1]).abs() <= 0.5 * step_a);
+        }
+        assert!(steps[0] == FIRST_STEP_A && steps[0] < steps[1] && steps[1] < steps[2], "{steps:?}");
+    }
+
+    #[test]
+    fn samples_out_of_range_are_refused_and_the_window_left_as_it_was() {
+        let mut t = ConditionedWindow::<100>::from_samples((0..60).map(|j| 1.0 + 0.1 * j as f32)).unwrap();
+        let before = t.clone();
+        for bad in [-0.001f32, MAX_SAMPLE_A * 1.01, f32::MAX] {
+            assert_eq!(ConditionedWindow::<100>::from_samples([1.0, bad]).err(), Some(ConditioningError::OutOfRange));
+            assert_eq!(t.rebuild((0..60).map(|j| if j == 30 { bad } else { 1.0 })), Err(ConditioningError::OutOfRange));
+        }
+        assert!(t.rebuild(before.current_a()).is_ok());
+        assert_eq!(t, before);
+        // the largest sample a window takes stores, on the coarsest step
+        let big = ConditionedWindow::<100>::from_samples((0..60).map(|j| MAX_SAMPLE_A * j as f32 / 59.0)).unwrap();
+        assert_eq!(big.current_a().last(), Some(MAX_SAMPLE_A));
+    }
 
     #[test]
     fn a_window_rebuilt_from_its_samples_is_the_same_bit_for_bit() {

@@ -212,7 +212,7 @@ fn run_window<const TERMS: bool, const SHARED_STEP: bool>(
     sink: &mut (impl FnMut(usize, f32, &ModelState) -> bool + ?Sized),
 ) {
     let envelope = MeasuredEnvelope::of(params);
-    let sensors = SensorErrorEnvelope::of(params, effects);
+    let sensors = SensorErrorEnvelope::of(&envelope, params, effects);
     let dt = model.dt_s();
     let mut state = ModelState::at_rest();
     let mut step = 0u32;

@@ -39,7 +39,7 @@ fn run<const TERMS: bool, const M: usize, const W: usize>(
     mut sink: impl FnMut(f32, f32, &[f32; M]),
 ) {
     let envelope = MeasuredEnvelope::of(params);
-    let sensors = SensorErrorEnvelope::of(params, fit.effects());
+    let sensors = SensorErrorEnvelope::of(&envelope, params, fit.effects());
     let Some(dt) = models.first().map(MonitorModel::dt_s) else { return };
     let mut states = [ModelState::at_rest(); M];
     let trace = fit.trace();

@@ -123,7 +123,9 @@ struct Sums {
 impl Fisher {
     /// The sensitivities of `fit` (the monitor model of `params` against its trace) at `k`: one
     /// lockstep run of 9 models (module doc). Groups present in `k` ([`group_present`]) are the
-    /// free parameters; the others are stepped up from healthy.
+    /// free parameters; the others are stepped up from healthy. Not inlined: the 9 models live
+    /// in this frame alone, not beside the fitness its caller builds first.
+    #[inline(never)]
     pub fn at<const W: usize>(fit: &EquivalentCurrentFit<'_, W>, params: &EmaParams, k: &FaultVector) -> Self {
         let present = FaultGroup::ALL.map(|g| group_present(&k.0, g));
         let eccentric = present[FaultGroup::Eccentricity.index()];

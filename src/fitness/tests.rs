@@ -41,11 +41,13 @@ fn an_unfinished_trace_is_refused_not_indexed() {
 }
 
 #[test]
-fn the_true_vector_has_zero_error_and_others_do_not() {
+fn the_true_vector_has_only_the_windows_rounding_as_error_and_others_do_not() {
     let truth = FaultVector([0.3, 0.1, 0.0, 0.2, 0.0, 0.0, 0.5, 0.4]);
     let trace = self_trace(&truth);
     let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
-    assert_eq!(fit.error(&truth), 0.0);
+    // each stored sample is within half a step of the model's; the weights are at most 1
+    let rounding_a = 0.5 * trace.step_a();
+    assert!(fit.error(&truth) <= rounding_a * rounding_a, "{} at step {}", fit.error(&truth), trace.step_a());
     for i in [0usize, 1, 3, 7] {
         let mut k = truth;
         k.0[i] += 0.05;
@@ -63,8 +65,9 @@ fn effective_samples_fall_with_a_correlated_residual() {
     let wrong = FaultVector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.3]);
     let n_eff = fit.effective_samples(&wrong);
     assert!(n_eff > 0.0 && n_eff < 0.2 * n, "{n_eff} of {n}");
-    // The exact vector leaves no residual at all: ρ = 0, every sample counts.
-    assert_eq!(fit.effective_samples(&truth), n);
+    // The exact vector leaves the window's rounding alone, uncorrelated: nearly every sample counts.
+    let n_true = fit.effective_samples(&truth);
+    assert!(n_true > 0.8 * n && n_true <= n, "{n_true} of {n}");
 }
 
 #[test]

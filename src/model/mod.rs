@@ -224,7 +224,9 @@ impl MonitorModel {
         let mut phase_r = [0.0f32; 3];
         let mut phase_l = [0.0f32; 3];
         let mut ecc_phase = [(1.0, 0.0); 3];
-        let (cphi, sphi) = (libm::cosf(f.eccentricity_phase_rad), libm::sinf(f.eccentricity_phase_rad));
+        // the crate's f32 sine and cosine, as in the step: libm's `sinf`/`cosf` would bring their
+        // large-argument reduction (`rem_pio2f`, a 768-byte frame) onto every model run's stack
+        let (sphi, cphi) = crate::trig::sin_cos(f.eccentricity_phase_rad);
         for j in 0..3 {
             let healthy = 1.0 - f.shorted_fraction[j];
             phase_k[j] = p.phase_emf_constant_v_s_per_rad * healthy;

@@ -286,7 +286,8 @@ mod tests {
     fn pages_the_crate_wrote_are_never_repaired() {
         fn run<const N: usize, const P: usize>(seed: u64) -> usize {
             let window = |n: usize, phase: f32| {
-                ConditionedWindow::<600>::from_samples((0..n).map(|j| libm::sinf(0.02 * j as f32 + phase))).unwrap()
+                ConditionedWindow::<600>::from_samples((0..n).map(|j| 1.5 + libm::sinf(0.02 * j as f32 + phase)))
+                    .unwrap()
             };
             let mut buffer = vec![0u8; window_encoded_len(MAX_KEPT_SAMPLES)];
             let mut state = seed;

@@ -255,7 +255,7 @@ impl Operation for Archive {
 type Window = ConditionedWindow<600>;
 
 fn window(phase: f32) -> Window {
-    ConditionedWindow::from_samples((0..600).map(|j| 4.0 * libm::sinf(0.013 * j as f32 + phase) + 0.5)).unwrap()
+    ConditionedWindow::from_samples((0..600).map(|j| 4.0 * libm::sinf(0.013 * j as f32 + phase) + 4.5)).unwrap()
 }
 
 const WINDOW_BUFFER: usize = window::window_encoded_len(MAX_KEPT_SAMPLES);

@@ -430,7 +430,8 @@ fn commissioning_windows_are_kept_beside_the_record() {
     let mut flash = Box::new(RamFlash::<8, 4096>::new());
     let mut s = HealthStore::new(&mut *flash, 0..RamFlash::<8, 4096>::CAPACITY as u32).unwrap();
     let window = |phase: f32| {
-        ConditionedWindow::<2200>::from_samples((0..2125).map(|j| 4.0 * libm::sinf(0.01 * j as f32 + phase))).unwrap()
+        ConditionedWindow::<2200>::from_samples((0..2125).map(|j| 4.5 + 4.0 * libm::sinf(0.01 * j as f32 + phase)))
+            .unwrap()
     };
     let mut buffer = [0u8; window::window_encoded_len(2200) + 32];
     let record = record_after(3);
@@ -464,7 +465,8 @@ fn commissioning_windows_are_kept_beside_the_record() {
 fn a_window_kept_again_and_cut_never_reads_as_two_windows_spliced() {
     use crate::conditioning::ConditionedWindow;
     let window = |phase: f32| {
-        ConditionedWindow::<600>::from_samples((0..600).map(|j| 4.0 * libm::sinf(0.01 * j as f32 + phase))).unwrap()
+        ConditionedWindow::<600>::from_samples((0..600).map(|j| 4.5 + 4.0 * libm::sinf(0.01 * j as f32 + phase)))
+            .unwrap()
     };
     let same = |a: &ConditionedWindow<600>, b: &ConditionedWindow<600>| {
         a.len() == b.len() && a.current_a().zip(b.current_a()).all(|(x, y)| x.to_bits() == y.to_bits())

@@ -105,7 +105,8 @@ mod tests {
     use super::*;
 
     fn window() -> ConditionedWindow<300> {
-        ConditionedWindow::from_samples((0..240).map(|j| 3.0 * libm::sinf(0.05 * j as f32) + 0.01 * j as f32)).unwrap()
+        ConditionedWindow::from_samples((0..240).map(|j| 3.5 + 3.0 * libm::sinf(0.05 * j as f32) + 0.01 * j as f32))
+            .unwrap()
     }
 
     #[test]
