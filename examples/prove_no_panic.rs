@@ -64,7 +64,7 @@ fn main() -> ! {
         let params = black_box(EmaParams::NOMINAL);
         let profile = black_box(Profile::STANDARD);
         let sampled = SampledCommand::<ONBOARD_COMMAND_SAMPLES>::sampled(&profile, black_box(1), &params).ok()?;
-        let command = if black_box(true) { Command::Profile(profile) } else { sampled.as_command() };
+        let command = if black_box(true) { Command::Profile(&profile) } else { sampled.as_command() };
         // the flight API both firmwares call: acquisition, then plan, identification, report
         // with its uncertainty and record with the pooled evidence, over a record of any content
         let config = black_box(IdentifyConfig { max_iterations: 30, ..IdentifyConfig::onboard() });

@@ -156,7 +156,7 @@ impl<const N: usize> SampledCommand<N> {
             self.len = 0;
             return Err(CommandError::Stride);
         };
-        let frames = Command::Profile(*profile).frames(params);
+        let frames = Command::Profile(profile).frames(params);
         let count = frames.saturating_add(step.get() - 1) / step; // ⌈frames / S⌉, S ≠ 0
         let dt = params.control_period_s;
         let samples = (0..count).map(|i| profile.command_rad(i.wrapping_mul(step.get()) as f32 * dt));
@@ -200,14 +200,12 @@ impl CommandSamples<'_> {
 }
 
 /// What drives the monitor model: a profile, evaluated at every step, or a sampled command.
+/// Both are borrowed: a command is held by every fitness and monitor (copies of a profile's
+/// segments would cost each of them 320 bytes; nine at once on board).
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[allow(
-    clippy::large_enum_variant,
-    reason = "a profile is held by value, as the fitness held it: no allocator to box into"
-)]
 pub enum Command<'a> {
     /// A command profile (the standard manoeuvre or a profile file).
-    Profile(Profile),
+    Profile(&'a Profile),
     /// A sampled command, e.g. a recording's command column.
     Sampled(CommandSamples<'a>),
 }
@@ -240,15 +238,9 @@ impl Command<'_> {
     }
 }
 
-impl From<Profile> for Command<'_> {
-    fn from(p: Profile) -> Self {
+impl<'a> From<&'a Profile> for Command<'a> {
+    fn from(p: &'a Profile) -> Self {
         Command::Profile(p)
-    }
-}
-
-impl From<&Profile> for Command<'_> {
-    fn from(p: &Profile) -> Self {
-        Command::Profile(*p)
     }
 }
 
@@ -278,9 +270,9 @@ pub trait CommandSource<'a> {
     fn into_command(self) -> Command<'a>;
 }
 
-impl<'a> CommandSource<'a> for &Profile {
+impl<'a> CommandSource<'a> for &'a Profile {
     fn into_command(self) -> Command<'a> {
-        Command::Profile(*self)
+        Command::Profile(self)
     }
 }
 

@@ -230,9 +230,12 @@ impl SensorErrorEnvelope {
 
     /// The envelope of `params` with the `sensor_offset` effect of `effects`, around `envelope`
     /// (the [`MeasuredEnvelope::of`] `params`, which a model run has already: not computed
-    /// twice); `None` when the effect is off.
+    /// twice); `None` when the effect is off, and always without the `effect-terms` feature.
     pub fn of(envelope: &MeasuredEnvelope, params: &EmaParams, effects: &crate::effects::ModelEffects) -> Option<Self> {
         use crate::effects::{maxima, EffectId};
+        if !cfg!(feature = "effect-terms") {
+            return None;
+        }
         let s = effects.get(EffectId::SensorOffset);
         if s == 0.0 {
             return None;

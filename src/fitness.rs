@@ -317,6 +317,20 @@ impl<'a, const W: usize> EquivalentCurrentFit<'a, W> {
         Some(self)
     }
 
+    /// [`EquivalentCurrentFit::with_effects`] then
+    /// [`EquivalentCurrentFit::with_fast_regime_weight`], in place: `false` (the fitness left
+    /// as it was) for a weight those refuse. Not inlined: the healthy model's run that finds the
+    /// intervals has its frame to itself, not beside its caller's copies of the fitness.
+    #[inline(never)]
+    pub fn configure(&mut self, effects: ModelEffects, fast_regime_weight: f32) -> bool {
+        if !fast_regime_weight_is_valid(fast_regime_weight) {
+            return false;
+        }
+        (self.effects, self.fast_weight) = (effects, fast_regime_weight);
+        self.find_fast_intervals();
+        true
+    }
+
     /// Finds the fast-regime intervals of every recording (none at weight 1): one run of the
     /// healthy model per recording, at most [`MAX_FAST_INTERVALS`] per recording and
     /// [`MAX_POOLED_FAST_INTERVALS`] in all.

@@ -73,7 +73,7 @@ fn main() -> ! {
     if (commission || semihosting_host::word_given(semihosting_host::MAINTENANCE_WORD)) && !maintenance_reset(flash) {
         exit(false)
     }
-    let monitor = HealthMonitor::onboard(PARAMS, PROFILE, MODEL_EFFECTS).and_then(|m| match commission {
+    let monitor = HealthMonitor::onboard(PARAMS, &PROFILE, MODEL_EFFECTS).and_then(|m| match commission {
         true => m.with_commissioning(COMMISSIONING_FLIGHTS, Tolerances::TYPICAL),
         false => Ok(m),
     });

@@ -95,13 +95,13 @@ mod tests {
             Tolerances::TYPICAL.apply(&EmaParams::NOMINAL, &[1.0, -1.0, 1.0, 0.5, 0.0, -1.0, 1.0, 1.0, 0.0, 0.0, 0.5]);
         for (seed, t) in [(1, -40.0f32), (2, -5.0), (3, 35.0), (4, 70.0)] {
             let trace = trace_at(&unit, t, seed);
-            let fit = EquivalentCurrentFit::new(&trace, unit, Profile::STANDARD).unwrap();
+            let fit = EquivalentCurrentFit::new(&trace, unit, &Profile::STANDARD).unwrap();
             let found = estimate_temperature_c(&fit, &unit);
             assert!((found - t).abs() < 5.0, "{t} °C read as {found}");
         }
         let empty = EmaParams { temperature_min_c: 10.0, temperature_max_c: 10.0, ..unit };
         let trace = trace_at(&unit, 20.0, 5);
-        let fit = EquivalentCurrentFit::new(&trace, unit, Profile::STANDARD).unwrap();
+        let fit = EquivalentCurrentFit::new(&trace, unit, &Profile::STANDARD).unwrap();
         assert_eq!(estimate_temperature_c(&fit, &empty), 10.0);
     }
 }

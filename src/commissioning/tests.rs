@@ -12,7 +12,7 @@ fn noisy_trace(unit: &EmaParams, temperature_c: f32, seed: u64) -> ConditionedWi
 
 fn fit_of<'a>(trace: &'a ConditionedWindow<ONBOARD_WINDOW>) -> EquivalentCurrentFit<'a, ONBOARD_WINDOW> {
     let config = IdentifyConfig::onboard();
-    EquivalentCurrentFit::new(trace, EmaParams::NOMINAL, Profile::STANDARD)
+    EquivalentCurrentFit::new(trace, EmaParams::NOMINAL, &Profile::STANDARD)
         .unwrap()
         .with_fast_regime_weight(config.fast_regime_weight)
         .unwrap()
@@ -60,7 +60,7 @@ fn a_unit_off_nominal_is_commissioned_to_a_baseline_that_diagnoses_it_healthy() 
         // diagnosed against its baseline, the fourth flight is healthy
         let config = IdentifyConfig::onboard();
         let mut id: Identification<'_, ONBOARD_WINDOW, 16> =
-            Identification::new(&fourth, baseline.params, Profile::STANDARD, &config).unwrap();
+            Identification::new(&fourth, baseline.params, &Profile::STANDARD, &config).unwrap();
         id.run(u32::MAX);
         let report = id.report();
         assert_eq!(report.status, Status::Healthy, "{:?}", report.faults.0);

@@ -137,16 +137,21 @@ impl IdentifyConfig {
 /// The fitness of `trace` under `command` as `config` sets it (its effect terms and fast-regime
 /// weight): what the identification minimises, and what its uncertainty and the evidence over
 /// flights evaluate again after it.
+#[inline(always)]
 pub fn configured_fit<'a, const W: usize>(
     trace: &'a ConditionedWindow<W>,
     params: EmaParams,
     command: impl Into<Command<'a>>,
     config: &IdentifyConfig,
 ) -> Result<EquivalentCurrentFit<'a, W>, MonitorError> {
-    EquivalentCurrentFit::new(trace, params, command)?
-        .with_effects(config.effects)
-        .with_fast_regime_weight(config.fast_regime_weight)
-        .ok_or(MonitorError::FastRegimeWeight)
+    if !cfg!(feature = "effect-terms") && !config.effects.is_none() {
+        return Err(MonitorError::EffectsNotBuilt);
+    }
+    let mut fit = EquivalentCurrentFit::new(trace, params, command)?;
+    if !fit.configure(config.effects, config.fast_regime_weight) {
+        return Err(MonitorError::FastRegimeWeight);
+    }
+    Ok(fit)
 }
 
 /// Evaluations of [`IdentifyConfig::selection_polish_max_evaluations`] left after `used` (a free

@@ -373,7 +373,7 @@ pub(super) mod tests {
         let trace = self_trace(&truth);
         let config = IdentifyConfig::onboard();
         let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
-            Identification::new(&trace, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap();
+            Identification::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD, &config).unwrap();
         id.run(u32::MAX);
         let r = id.report();
         let err = r.faults.paper_error_percent(&truth);
@@ -401,7 +401,7 @@ pub(super) mod tests {
                 ..IdentifyConfig::onboard()
             };
             let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
-                Identification::new(&trace, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap();
+                Identification::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD, &config).unwrap();
             id.run(u32::MAX);
             let r = id.report();
             later[j] = r.evaluations - global;
@@ -428,7 +428,7 @@ pub(super) mod tests {
         let t = noisy_self_trace(&truth, 7);
         let config = IdentifyConfig::onboard();
         let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
-            Identification::new(&t, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap();
+            Identification::new(&t, EmaParams::NOMINAL, &Profile::STANDARD, &config).unwrap();
         id.run(u32::MAX);
         let (kept, k) = (id.kept_groups(), id.report().faults.0);
         assert!(kept[0] && kept[6], "friction and gain are real: {kept:?}");
@@ -454,7 +454,7 @@ pub(super) mod tests {
             let trace = noisy_self_trace(&FaultVector::HEALTHY, seed);
             let config = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
             let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
-                Identification::new(&trace, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap();
+                Identification::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD, &config).unwrap();
             id.run(u32::MAX);
             let r = id.report();
             assert_eq!(r.faults, FaultVector::HEALTHY, "seed {seed}: noise read as a fault");
@@ -484,7 +484,7 @@ pub(super) mod tests {
             t.finish().unwrap();
             let config = IdentifyConfig::onboard();
             let id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
-                Identification::new(&t, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap();
+                Identification::new(&t, EmaParams::NOMINAL, &Profile::STANDARD, &config).unwrap();
             let fitness = id.fitness().error(&truth);
             let report = HealthReport::new(truth, &EmaParams::NOMINAL, fitness, 1, 1, None);
             id.state.judge(report, &truth)
@@ -508,7 +508,7 @@ pub(super) mod tests {
         let trace = self_trace(&truth);
         let config = IdentifyConfig { algorithm: Algorithm::De, ..IdentifyConfig::paper() };
         let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
-            Identification::new(&trace, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap();
+            Identification::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD, &config).unwrap();
         id.run(u32::MAX);
         let r = id.report();
         let err = r.faults.paper_error_percent(&truth);
@@ -522,7 +522,7 @@ pub(super) mod tests {
         let trace = self_trace(&FaultVector::HEALTHY);
         let config = IdentifyConfig { max_iterations: 2, ..IdentifyConfig::onboard() };
         let mut id =
-            Identification::<ONBOARD_WINDOW, 8>::new(&trace, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap();
+            Identification::<ONBOARD_WINDOW, 8>::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD, &config).unwrap();
         // a report before the first evaluation: nothing evaluated, no termination reason
         let early = id.report();
         assert_eq!((early.evaluations, early.termination), (0, None));
@@ -539,22 +539,23 @@ pub(super) mod tests {
         let trace = self_trace(&FaultVector::HEALTHY);
         let mut bad = EmaParams::NOMINAL;
         bad.control_period_s = f32::NAN;
-        let r = Identification::<ONBOARD_WINDOW, 8>::new(&trace, bad, Profile::STANDARD, &IdentifyConfig::default());
+        let r = Identification::<ONBOARD_WINDOW, 8>::new(&trace, bad, &Profile::STANDARD, &IdentifyConfig::default());
         assert!(matches!(r, Err(MonitorError::Params)));
         let short = Profile::new(&[crate::profile::Segment::Hold { start_s: 0.0, value_rad: 0.0 }], 0.1, 0.6).unwrap();
-        let r = Identification::<ONBOARD_WINDOW, 8>::new(&trace, EmaParams::NOMINAL, short, &IdentifyConfig::default());
+        let r =
+            Identification::<ONBOARD_WINDOW, 8>::new(&trace, EmaParams::NOMINAL, &short, &IdentifyConfig::default());
         assert!(matches!(r, Err(MonitorError::TraceLongerThanProfile)));
         let unfinished = ConditionedWindow::<ONBOARD_WINDOW>::new();
         let r = Identification::<ONBOARD_WINDOW, 8>::new(
             &unfinished,
             EmaParams::NOMINAL,
-            Profile::STANDARD,
+            &Profile::STANDARD,
             &IdentifyConfig::default(),
         );
         assert!(matches!(r, Err(MonitorError::Conditioning(ConditioningError::Finished))));
         for weight in [0.0, 2.0, f32::NAN] {
             let config = IdentifyConfig { fast_regime_weight: weight, ..IdentifyConfig::default() };
-            let r = Identification::<ONBOARD_WINDOW, 8>::new(&trace, EmaParams::NOMINAL, Profile::STANDARD, &config);
+            let r = Identification::<ONBOARD_WINDOW, 8>::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD, &config);
             assert!(matches!(r, Err(MonitorError::FastRegimeWeight)), "{weight}");
         }
     }

@@ -96,6 +96,9 @@ pub enum MonitorError {
     /// `commissioning` feature): the unit is diagnosed once a build with commissioning has
     /// finished it, or after a maintenance reset.
     CommissioningNotBuilt,
+    /// The identification asks for model effect terms ([`crate::ModelEffects`] other than
+    /// `NONE`), and this build has none (the `effect-terms` feature).
+    EffectsNotBuilt,
 }
 
 impl core::fmt::Display for MonitorError {
@@ -116,6 +119,9 @@ impl core::fmt::Display for MonitorError {
             MonitorError::CommissioningNotBuilt => f.write_str(
                 "the health record is collecting a commissioning, and this build has none (feature `commissioning`)",
             ),
+            MonitorError::EffectsNotBuilt => {
+                f.write_str("the model's effect terms are asked for, and this build has none (feature `effect-terms`)")
+            }
             MonitorError::ForeignRecord => {
                 f.write_str("the health record is another unit's or was made under other parameters")
             }

@@ -523,7 +523,7 @@ mod tests {
     }
 
     fn fit_of(t: &ConditionedWindow<ONBOARD_WINDOW>) -> EquivalentCurrentFit<'_, ONBOARD_WINDOW> {
-        EquivalentCurrentFit::new(t, EmaParams::NOMINAL, Profile::STANDARD)
+        EquivalentCurrentFit::new(t, EmaParams::NOMINAL, &Profile::STANDARD)
             .unwrap()
             .with_fast_regime_weight(0.1)
             .unwrap()
@@ -607,10 +607,10 @@ mod tests {
         let t = trace_of(&truth, 0.29, 3);
         let config = IdentifyConfig::onboard();
         let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
-            Identification::new(&t, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap();
+            Identification::new(&t, EmaParams::NOMINAL, &Profile::STANDARD, &config).unwrap();
         id.run(u32::MAX);
         let r = id.with_uncertainty(id.report());
-        let again = with_uncertainty(&t, EmaParams::NOMINAL, Profile::STANDARD, &config, id.report());
+        let again = with_uncertainty(&t, EmaParams::NOMINAL, &Profile::STANDARD, &config, id.report());
         assert_eq!(again, r, "the firmware's call gives the identification's uncertainty");
         let u = r.uncertainty.unwrap();
         for i in [0usize, 3, 7] {

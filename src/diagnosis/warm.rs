@@ -225,14 +225,14 @@ mod tests {
     type Id<'a> = Identification<'a, ONBOARD_WINDOW, ONBOARD_POPULATION>;
 
     fn cold(trace: &ConditionedWindow<ONBOARD_WINDOW>) -> HealthReport {
-        let mut id = Id::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &IdentifyConfig::onboard()).unwrap();
+        let mut id = Id::new(trace, EmaParams::NOMINAL, &Profile::STANDARD, &IdentifyConfig::onboard()).unwrap();
         id.run(u32::MAX);
         id.report()
     }
 
     fn warm(trace: &ConditionedWindow<ONBOARD_WINDOW>, prior: &FaultVector) -> (HealthReport, WarmReport) {
         let config = IdentifyConfig::onboard();
-        let mut id = Id::warm(trace, EmaParams::NOMINAL, Profile::STANDARD, &config, &prior.0).unwrap();
+        let mut id = Id::warm(trace, EmaParams::NOMINAL, &Profile::STANDARD, &config, &prior.0).unwrap();
         id.run(u32::MAX);
         let r = id.report();
         assert_eq!(r.fitness, id.fitness().error(&r.faults), "the reported fitness is the reported vector's");
@@ -250,7 +250,7 @@ mod tests {
         assert_eq!(plan_start(Some(&k), COLD_EVERY_FLIGHTS - 1, false, &config), Start::Warm);
         let t = noisy_self_trace(&FaultVector::HEALTHY, 1);
         let bad = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 1.5];
-        let r = Id::warm(&t, EmaParams::NOMINAL, Profile::STANDARD, &config, &bad);
+        let r = Id::warm(&t, EmaParams::NOMINAL, &Profile::STANDARD, &config, &bad);
         assert!(matches!(r, Err(MonitorError::Prior)));
     }
 

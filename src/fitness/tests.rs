@@ -22,7 +22,7 @@ fn self_trace(k: &FaultVector) -> ConditionedWindow<2200> {
 fn an_unfinished_trace_is_refused_not_indexed() {
     let mut trace = ConditionedWindow::<2200>::new();
     assert_eq!(
-        EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).err(),
+        EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD).err(),
         Some(ConditioningError::Finished)
     );
     for k in 0..(MIN_SAMPLES + 5) * DECIMATION {
@@ -32,11 +32,11 @@ fn an_unfinished_trace_is_refused_not_indexed() {
     // samples in, weights not yet computed: still refused
     assert!(!trace.is_empty());
     assert_eq!(
-        EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).err(),
+        EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD).err(),
         Some(ConditioningError::Finished)
     );
     trace.finish().unwrap();
-    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
+    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD).unwrap();
     assert!(fit.error(&FaultVector::HEALTHY).is_finite());
 }
 
@@ -44,7 +44,7 @@ fn an_unfinished_trace_is_refused_not_indexed() {
 fn the_true_vector_has_only_the_windows_rounding_as_error_and_others_do_not() {
     let truth = FaultVector([0.3, 0.1, 0.0, 0.2, 0.0, 0.0, 0.5, 0.4]);
     let trace = self_trace(&truth);
-    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
+    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD).unwrap();
     // each stored sample is within half a step of the model's; the weights are at most 1
     let rounding_a = 0.5 * trace.step_a();
     assert!(fit.error(&truth) <= rounding_a * rounding_a, "{} at step {}", fit.error(&truth), trace.step_a());
@@ -59,7 +59,7 @@ fn the_true_vector_has_only_the_windows_rounding_as_error_and_others_do_not() {
 fn effective_samples_fall_with_a_correlated_residual() {
     let truth = FaultVector::HEALTHY;
     let trace = self_trace(&truth);
-    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
+    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD).unwrap();
     let n = trace.len() as f32;
     // A wrong gain leaves a smooth (strongly correlated) residual: far fewer than n samples.
     let wrong = FaultVector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.3]);
@@ -74,7 +74,7 @@ fn effective_samples_fall_with_a_correlated_residual() {
 fn fast_regime_is_the_step_and_the_reversal_and_weighs_only_there() {
     let truth = FaultVector([0.2, 0.0, 0.0, 0.1, 0.0, 0.0, 0.5, 0.5]);
     let trace = self_trace(&FaultVector::HEALTHY);
-    let paper = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
+    let paper = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD).unwrap();
     let ours = paper.clone().with_fast_regime_weight(0.1).unwrap();
     let (intervals, weight) = ours.fast_regime();
     assert_eq!(weight, 0.1);
@@ -106,7 +106,7 @@ fn fast_regime_is_the_step_and_the_reversal_and_weighs_only_there() {
 #[test]
 fn window_errors_split_the_error() {
     let trace = self_trace(&FaultVector::HEALTHY);
-    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD)
+    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD)
         .unwrap()
         .with_fast_regime_weight(0.1)
         .unwrap();
@@ -125,7 +125,7 @@ fn pooled_recordings_weigh_by_samples_and_one_recording_is_unchanged() {
     let (a, b) =
         (self_trace(&FaultVector::HEALTHY), self_trace(&FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5])));
     let k = FaultVector([0.1, 0.0, 0.0, 0.1, 0.0, 0.0, 0.5, 0.45]);
-    let single = EquivalentCurrentFit::new(&a, EmaParams::NOMINAL, Profile::STANDARD)
+    let single = EquivalentCurrentFit::new(&a, EmaParams::NOMINAL, &Profile::STANDARD)
         .unwrap()
         .with_fast_regime_weight(0.1)
         .unwrap();
@@ -135,11 +135,11 @@ fn pooled_recordings_weigh_by_samples_and_one_recording_is_unchanged() {
     assert_eq!(same.window_errors(&k), single.window_errors(&k));
     assert_eq!(same.effective_samples(&k).to_bits(), single.effective_samples(&k).to_bits());
     // two recordings: E is the sample-weighted mean of the two, n_eff their sum
-    let fit_b = EquivalentCurrentFit::new(&b, EmaParams::NOMINAL, Profile::STANDARD)
+    let fit_b = EquivalentCurrentFit::new(&b, EmaParams::NOMINAL, &Profile::STANDARD)
         .unwrap()
         .with_fast_regime_weight(0.1)
         .unwrap();
-    let more = [PooledTrace { trace: &b, command: Command::Profile(Profile::STANDARD) }];
+    let more = [PooledTrace { trace: &b, command: Command::Profile(&Profile::STANDARD) }];
     let both = single.clone().pooled_with(&more).unwrap();
     assert_eq!(both.recording_count(), 2);
     assert_eq!(both.samples(), a.len() + b.len());
@@ -159,7 +159,7 @@ fn pooled_recordings_weigh_by_samples_and_one_recording_is_unchanged() {
     assert_eq!(both.error_abandoning(&k, exact * 2.0), exact);
     // an unfinished recording or too many are refused
     let unfinished = ConditionedWindow::<2200>::new();
-    let bad = [PooledTrace { trace: &unfinished, command: Command::Profile(Profile::STANDARD) }];
+    let bad = [PooledTrace { trace: &unfinished, command: Command::Profile(&Profile::STANDARD) }];
     assert_eq!(single.clone().pooled_with(&bad).err(), Some(PoolError::Unfinished { index: 0 }));
     let many = [more[0]; MAX_POOLED_RECORDINGS];
     assert_eq!(single.clone().pooled_with(&many).err(), Some(PoolError::TooMany));
@@ -168,7 +168,7 @@ fn pooled_recordings_weigh_by_samples_and_one_recording_is_unchanged() {
 #[test]
 fn abandoning_returns_above_the_bound_or_the_exact_value() {
     let trace = self_trace(&FaultVector::HEALTHY);
-    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD).unwrap();
+    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD).unwrap();
     let k = FaultVector([0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.8]);
     let exact = fit.error(&k);
     assert!(exact > 0.0);

@@ -219,7 +219,8 @@ impl<'c> HealthMonitor<'c> {
 impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     /// The monitor of an actuator whose healthy parameters are `params`, driven by `command`,
     /// identified with `config` (its `prior` is ignored: the health record decides warm or cold).
-    /// Refuses parameters outside their range ([`EmaParams::check`]).
+    /// Refuses parameters outside their range ([`EmaParams::check`]), and effect terms in a build
+    /// without them ([`MonitorError::EffectsNotBuilt`]).
     pub fn new(
         params: EmaParams,
         command: impl Into<Command<'c>>,
@@ -227,6 +228,9 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     ) -> Result<Self, MonitorError> {
         if params.check().is_err() {
             return Err(MonitorError::Params);
+        }
+        if !cfg!(feature = "effect-terms") && !config.effects.is_none() {
+            return Err(MonitorError::EffectsNotBuilt);
         }
         Ok(Self {
             params,
@@ -403,10 +407,9 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         self.fly(trace, acquired, record, hooks, &base)
     }
 
-    /// The flight policy on parameters `base` (at 20 °C): plan, identify, report with the
-    /// uncertainty, record with the pooled evidence. Inlined into each caller: a frame of its
-    /// own beside the caller's would hold a second copy of the flight's report on the
-    /// identification's stack.
+    /// The flight policy on parameters `base` (at 20 °C): plan, identify, then
+    /// [`HealthMonitor::conclude`]. Inlined into each caller: a frame of its own beside the
+    /// caller's would hold a second copy of the flight's report on the identification's stack.
     #[inline(always)]
     fn fly(
         &self,
@@ -427,30 +430,46 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         let identified = self.identify(trace, &params, prior, hooks);
         hooks.identification_end();
         let (report, warm) = identified?;
-        hooks.before_call(FlightCall::Uncertainty);
-        let report = self.with_uncertainty(trace, &params, report);
-        hooks.after_call(FlightCall::Uncertainty);
-        let report = report.with_acquisition(&acquired.summary);
-        let report = if acquired.rate_ok(&self.params) {
-            report
-        } else {
-            report.abstaining(Status::Inconclusive(Abstain::RateMismatch))
-        };
-        let cold = prior.is_none() || warm.is_some_and(|w| w.cold_fallback);
-        hooks.before_call(FlightCall::Record);
-        let pooled = self.record(record, trace, &params, &report, cold);
-        hooks.after_call(FlightCall::Record);
-        Ok(Flight {
+        let flight = Flight {
             number,
             temperature_c: acquired.temperature_c,
             sensors: acquired.summary.sensors,
             start,
-            cold,
+            cold: prior.is_none() || warm.is_some_and(|w| w.cold_fallback),
             report,
             warm,
-            pooled,
+            pooled: None,
             commissioning: None,
-        })
+        };
+        Ok(self.conclude(trace, acquired, record, hooks, &params, flight))
+    }
+
+    /// The identified `flight`, concluded: its report with the uncertainty and the acquisition's
+    /// verdicts, then recorded with the pooled evidence. Not inlined: the reports and evidence
+    /// built here stay out of the frame the identification runs above.
+    #[inline(never)]
+    fn conclude(
+        &self,
+        trace: &ConditionedWindow<W>,
+        acquired: &Acquired,
+        record: &mut HealthRecord,
+        hooks: &mut impl FlightHooks,
+        params: &EmaParams,
+        mut flight: Flight,
+    ) -> Flight {
+        hooks.before_call(FlightCall::Uncertainty);
+        let report = self.with_uncertainty(trace, params, flight.report);
+        hooks.after_call(FlightCall::Uncertainty);
+        let report = report.with_acquisition(&acquired.summary);
+        flight.report = if acquired.rate_ok(&self.params) {
+            report
+        } else {
+            report.abstaining(Status::Inconclusive(Abstain::RateMismatch))
+        };
+        hooks.before_call(FlightCall::Record);
+        flight.pooled = self.record(record, trace, params, &flight.report, flight.cold);
+        hooks.after_call(FlightCall::Record);
+        flight
     }
 
     /// The identification, cold without a prior and warm from it, one evaluation per step with

@@ -57,7 +57,7 @@ fn flights_start_cold_then_warm_and_pool_their_evidence_on_units_off_nominal() {
     let truth = FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
     for (u, unit) in units().iter().enumerate() {
         // the unit's own parameters: what commissioning gives the monitor
-        let monitor = HealthMonitor::onboard(*unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+        let monitor = HealthMonitor::onboard(*unit, &Profile::STANDARD, ModelEffects::NONE).unwrap();
         let mut record = HealthRecord::new();
         for flight in 1..=3u32 {
             let mut trace = ConditionedWindow::new();
@@ -83,14 +83,14 @@ fn flights_start_cold_then_warm_and_pool_their_evidence_on_units_off_nominal() {
 fn the_flight_api_reports_what_the_identification_reports() {
     let unit = units()[0];
     let truth = FaultVector([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
-    let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+    let monitor = HealthMonitor::onboard(unit, &Profile::STANDARD, ModelEffects::NONE).unwrap();
     let mut trace = ConditionedWindow::new();
     let acquired = monitor.acquire(&mut Frames::of(&unit, &truth, 7), &mut trace, 10_000.0).unwrap();
     let mut record = HealthRecord::new();
     let flight = monitor.diagnose(&trace, &acquired, &mut record, &mut NoHooks).unwrap();
     let config = IdentifyConfig::onboard();
     let mut id: Identification<'_, ONBOARD_WINDOW, ONBOARD_POPULATION> =
-        Identification::new(&trace, unit, Profile::STANDARD, &config).unwrap();
+        Identification::new(&trace, unit, &Profile::STANDARD, &config).unwrap();
     id.run(u32::MAX);
     let direct = id.with_uncertainty(id.report());
     assert_eq!(flight.report.faults.0.map(f32::to_bits), direct.faults.0.map(f32::to_bits));
@@ -102,7 +102,7 @@ fn the_flight_api_reports_what_the_identification_reports() {
 #[test]
 fn a_refused_flight_leaves_the_record_as_it_was_and_a_bad_rate_abstains() {
     let unit = units()[1];
-    let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+    let monitor = HealthMonitor::onboard(unit, &Profile::STANDARD, ModelEffects::NONE).unwrap();
     let mut trace = ConditionedWindow::new();
     let healthy = FaultVector::HEALTHY;
     let acquired = monitor.acquire(&mut Frames::of(&unit, &healthy, 3), &mut trace, 8_000.0).unwrap();
@@ -118,13 +118,13 @@ fn a_refused_flight_leaves_the_record_as_it_was_and_a_bad_rate_abstains() {
     assert!(matches!(e, MonitorError::Conditioning(_)), "{e:?}");
     assert!(record.same_bits(&before));
     let bad = EmaParams { phase_resistance_ohm: -1.0, ..unit };
-    assert_eq!(HealthMonitor::onboard(bad, Profile::STANDARD, ModelEffects::NONE).unwrap_err(), MonitorError::Params);
+    assert_eq!(HealthMonitor::onboard(bad, &Profile::STANDARD, ModelEffects::NONE).unwrap_err(), MonitorError::Params);
 }
 
 #[test]
 fn a_record_of_other_parameters_or_another_unit_is_archived_and_a_new_history_starts() {
     let [a, b] = units();
-    let monitor = HealthMonitor::onboard(a, Profile::STANDARD, ModelEffects::NONE).unwrap();
+    let monitor = HealthMonitor::onboard(a, &Profile::STANDARD, ModelEffects::NONE).unwrap();
     let report = crate::health::HealthReport::new(FaultVector::HEALTHY, &a, 0.01, 100, 10, None);
     // a new record takes the monitor's identity, and stays
     let mut record = HealthRecord::new();
@@ -137,7 +137,7 @@ fn a_record_of_other_parameters_or_another_unit_is_archived_and_a_new_history_st
     assert!(record.same_bits(&own));
     // other parameters, another unit's serial, a record that does not say: archived
     let others =
-        [HealthMonitor::onboard(b, Profile::STANDARD, ModelEffects::NONE).unwrap(), monitor.with_unit_serial(7)];
+        [HealthMonitor::onboard(b, &Profile::STANDARD, ModelEffects::NONE).unwrap(), monitor.with_unit_serial(7)];
     for other in others {
         assert_ne!(other.identity(), monitor.identity());
         let mut loaded = own;
@@ -166,7 +166,7 @@ fn a_record_of_other_parameters_or_another_unit_is_archived_and_a_new_history_st
 fn a_flight_with_a_temperature_is_diagnosed_at_that_temperature() {
     let truth = FaultVector([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
     for (u, unit) in units().iter().enumerate() {
-        let monitor = HealthMonitor::onboard(*unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+        let monitor = HealthMonitor::onboard(*unit, &Profile::STANDARD, ModelEffects::NONE).unwrap();
         for temperature_c in [-35.0f32, 65.0] {
             let hot_or_cold = unit.at_temperature(temperature_c);
             let mut trace = ConditionedWindow::new();
@@ -250,6 +250,26 @@ fn fly_at(
     flight
 }
 
+/// The board's flight image builds no effect terms (feature `effect-terms`): a monitor asked
+/// for one is refused, on the drawing's unit and a drawn one, and the model without them is
+/// the paper's model.
+#[cfg(not(feature = "effect-terms"))]
+#[test]
+fn without_effect_terms_built_a_monitor_with_effects_is_refused() {
+    use crate::effects::EffectId;
+    let cogging = ModelEffects::NONE.with(EffectId::Cogging, 0.5).unwrap();
+    for unit in [EmaParams::NOMINAL, units()[0]] {
+        let refused = HealthMonitor::onboard(unit, &Profile::STANDARD, cogging).err();
+        assert_eq!(refused, Some(MonitorError::EffectsNotBuilt));
+        let config =
+            crate::diagnosis::IdentifyConfig { effects: cogging, ..crate::diagnosis::IdentifyConfig::onboard() };
+        let trace = crate::test_traces::noisy_trace(&unit, &FaultVector::HEALTHY, 3);
+        let fit = crate::diagnosis::configured_fit(&trace, unit, &Profile::STANDARD, &config).err();
+        assert_eq!(fit, Some(MonitorError::EffectsNotBuilt));
+        assert!(HealthMonitor::onboard(unit, &Profile::STANDARD, ModelEffects::NONE).is_ok());
+    }
+}
+
 /// A build without commissioning (the board's flight image) meets a record that a build with it
 /// left collecting: the flight is refused and the record stays as it was, windows and all; a
 /// record not commissioning is diagnosed as usual, and a new one does not start commissioning.
@@ -258,7 +278,7 @@ fn fly_at(
 fn without_commissioning_built_a_collecting_record_is_refused_and_kept() {
     use crate::persist::Commissioning;
     let unit = units()[0];
-    let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+    let monitor = HealthMonitor::onboard(unit, &Profile::STANDARD, ModelEffects::NONE).unwrap();
     let mut trace = ConditionedWindow::new();
     let truth = FaultVector([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
     let acquired = monitor.acquire(&mut Frames::of(&unit, &truth, 11), &mut trace, 10_000.0).unwrap();
@@ -287,7 +307,7 @@ fn a_unit_commissioned_over_its_first_flights_is_diagnosed_against_its_own_basel
     ];
     let healthy = FaultVector::HEALTHY;
     for (u, unit) in units.iter().enumerate() {
-        let monitor = HealthMonitor::onboard(EmaParams::NOMINAL, Profile::STANDARD, ModelEffects::NONE)
+        let monitor = HealthMonitor::onboard(EmaParams::NOMINAL, &Profile::STANDARD, ModelEffects::NONE)
             .unwrap()
             .with_commissioning(3, t)
             .unwrap();
@@ -331,7 +351,7 @@ fn a_fault_present_at_commissioning_is_not_baked_into_the_baseline() {
     use crate::persist::{Commissioning, CommissioningRefusal};
     let unit = units()[0];
     let friction = FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
-    let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE)
+    let monitor = HealthMonitor::onboard(unit, &Profile::STANDARD, ModelEffects::NONE)
         .unwrap()
         .with_commissioning(2, crate::unit::Tolerances::TYPICAL)
         .unwrap();
@@ -356,7 +376,7 @@ fn commissioning_without_flash_or_on_an_unusable_flight_keeps_nothing() {
     use crate::persist::{Commissioning, CommissioningRefusal};
     let unit = units()[1];
     let t = crate::unit::Tolerances::TYPICAL;
-    let base = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+    let base = HealthMonitor::onboard(unit, &Profile::STANDARD, ModelEffects::NONE).unwrap();
     assert_eq!(base.with_commissioning(0, t).unwrap_err(), MonitorError::Commissioning);
     assert_eq!(base.with_commissioning(4, t).unwrap_err(), MonitorError::Commissioning);
     let mut wild = t;
@@ -435,7 +455,7 @@ fn a_bench_s_sensors_are_calibrated_before_the_trigger_and_diagnose_as_ideal_one
     let cases = [(FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]), 0usize), (FaultVector::HEALTHY, 1)];
     for (truth, u) in cases {
         let unit = units()[u];
-        let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+        let monitor = HealthMonitor::onboard(unit, &Profile::STANDARD, ModelEffects::NONE).unwrap();
         let seed = 900 + u as u64;
         let flight = |sensors: &BenchSensors, config| {
             let (trace, acquired) =
@@ -481,7 +501,7 @@ fn a_board_s_flights_accumulate_evidence_across_a_sensor_fault() {
     let broken = BenchSensors { zero_counts: [700.0, 16.2, 4.4], ..bench };
     let friction = FaultVector([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
     let unit = units()[1];
-    let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE).unwrap();
+    let monitor = HealthMonitor::onboard(unit, &Profile::STANDARD, ModelEffects::NONE).unwrap();
     let (mut record, mut hooks) = (HealthRecord::new(), FlashHooks::new());
     let rest = 400;
     let plan = [(&FaultVector::HEALTHY, &bench), (&friction, &bench), (&friction, &broken), (&friction, &bench)];
@@ -562,7 +582,7 @@ fn a_failed_load_flies_cold_saves_nothing_and_the_next_load_keeps_the_history() 
     use crate::faults::FaultMode;
     use crate::persist::{FlashFault, KeptRecord, RecordOrigin, StoreError};
     let unit = units()[0];
-    let monitor = HealthMonitor::onboard(unit, Profile::STANDARD, ModelEffects::NONE)
+    let monitor = HealthMonitor::onboard(unit, &Profile::STANDARD, ModelEffects::NONE)
         .unwrap()
         .with_commissioning(2, crate::unit::Tolerances::TYPICAL)
         .unwrap();

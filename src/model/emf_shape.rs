@@ -1,6 +1,8 @@
 //! Back-EMF shape (`emf_harmonics`) and Hall offset (`hall_misalignment`): effect terms of the
 //! monitor model that act within a Hall sector. Constants are precomputed once per model; the
-//! term is `None` (and costs nothing per step) when both severities are 0.
+//! term is `None` (and costs nothing per step) when both severities are 0. Without the
+//! `effect-terms` feature the model holds none, and this module is not used.
+#![cfg_attr(not(feature = "effect-terms"), allow(dead_code, unused_imports))]
 
 use crate::effects::{maxima, EffectId, ModelEffects};
 use crate::six_step::{phase_emf_shape, PAIRS};

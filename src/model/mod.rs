@@ -181,8 +181,10 @@ pub struct MonitorModel {
     /// The optional effect terms switched on ([`crate::effects`]).
     effects: ModelEffects,
     /// Back-EMF shape and Hall offset (`emf_harmonics`, `hall_misalignment`), `None` when off.
+    #[cfg(feature = "effect-terms")]
     emf_shape: Option<EmfShape>,
     /// Current loop on measured currents (`sensor_offset`), `None` when off.
+    #[cfg(feature = "effect-terms")]
     sensor_loop: Option<SensorLoop>,
     /// Cogging, Stribeck, saturation and dead-time terms (all zero when off).
     step_terms: StepTerms,
@@ -282,7 +284,9 @@ impl MonitorModel {
             eccentricity: f.eccentricity,
             ecc_phase,
             effects: *effects,
+            #[cfg(feature = "effect-terms")]
             emf_shape: EmfShape::of(effects),
+            #[cfg(feature = "effect-terms")]
             sensor_loop: SensorLoop::of(effects, p, &phase_l, p.controller_jitter_a()),
             step_terms,
         }
@@ -293,6 +297,24 @@ impl MonitorModel {
         &self.effects
     }
 
+    /// The back-EMF shape terms; always `None` without the `effect-terms` feature.
+    #[inline(always)]
+    fn emf_shape(&self) -> Option<&EmfShape> {
+        #[cfg(feature = "effect-terms")]
+        return self.emf_shape.as_ref();
+        #[cfg(not(feature = "effect-terms"))]
+        None
+    }
+
+    /// The current loop on measured currents; always `None` without the `effect-terms` feature.
+    #[inline(always)]
+    fn sensor_loop(&self) -> Option<&SensorLoop> {
+        #[cfg(feature = "effect-terms")]
+        return self.sensor_loop.as_ref();
+        #[cfg(not(feature = "effect-terms"))]
+        None
+    }
+
     /// Model step (control period `T`).
     pub fn dt_s(&self) -> f32 {
         self.dt_s
@@ -301,7 +323,7 @@ impl MonitorModel {
     /// Commutation (Hall) sector `0..6` of the state's rotor angle: the Hall angle advanced by
     /// `δ_H` when `hall_misalignment` is on.
     pub fn commutation_sector(&self, s: &ModelState) -> usize {
-        match &self.emf_shape {
+        match self.emf_shape() {
             Some(shape) if shape.hall_offset_rad != 0.0 => sector_of(wrap(s.hall_angle_rad + shape.hall_offset_rad)),
             _ => sector_of(s.hall_angle_rad),
         }
@@ -331,7 +353,7 @@ impl MonitorModel {
     /// `K_eq` of `sector`'s pair: `k_p + k_q` on flat tops, `k_p·f_p(θ_e) − k_q·f_q(θ_e)` with the
     /// back-EMF shape terms ([`EmfShape`]).
     fn pair_k(&self, k: &[f32; 3], sector: usize, s: &ModelState) -> f32 {
-        match &self.emf_shape {
+        match self.emf_shape() {
             Some(shape) => shape.pair_k(k, sector, s.hall_angle_rad),
             None => {
                 let (p, q) = PAIRS[sector];
@@ -362,7 +384,8 @@ impl MonitorModel {
     /// dead time, back-EMF shape, Hall offset, sensor errors): a loop of steps should then run
     /// `step_with::<true>`, otherwise `::<false>`.
     pub fn has_step_terms(&self) -> bool {
-        self.step_terms.on || self.emf_shape.is_some() || self.sensor_loop.is_some()
+        cfg!(feature = "effect-terms")
+            && (self.step_terms.on || self.emf_shape().is_some() || self.sensor_loop().is_some())
     }
 
     /// [`MonitorModel::step`], compiled once without the effect terms (`EFFECTS = false`: the
@@ -408,7 +431,7 @@ impl MonitorModel {
         if EFFECTS && self.step_terms.dead_time_pair_v != 0.0 {
             back += self.step_terms.dead_time_pair_v * sign(i);
         }
-        let hold = match &self.sensor_loop {
+        let hold = match self.sensor_loop() {
             Some(sensors) if EFFECTS => Some(self.sensor_hold(sensors, s, &k_phase, sector, i_ref, back)),
             _ => None,
         };

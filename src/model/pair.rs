@@ -114,7 +114,7 @@ impl MonitorModel {
     pub(super) fn commutation<const EFFECTS: bool>(&self, k: &[f32; 3], sector: usize, w: f32) -> Commutation {
         let k_flat = k;
         let shaped;
-        let k = match &self.emf_shape {
+        let k = match self.emf_shape() {
             Some(shape) if EFFECTS => {
                 shaped = shape.commutation_k(k, sector, w > 0.0);
                 &shaped
@@ -136,7 +136,7 @@ impl MonitorModel {
             (sector_time_s, 0.0) // never reached with physical values: the whole sector commutates
         };
         let (p, q) = PAIRS[sector];
-        let pair_k = match &self.emf_shape {
+        let pair_k = match self.emf_shape() {
             Some(shape) if EFFECTS => shape.mean_pair_k(k_flat, sector),
             _ => k[p] + k[q],
         };
@@ -179,7 +179,7 @@ impl MonitorModel {
         // the cheaper one on board (the advance 0, the lower clamp unused).
         let torque_loss = if EFFECTS {
             // `a = δ_H·sign ω`: how far (electrical rad) the commutation runs ahead of the EMFs
-            let advance_rad = self.emf_shape.as_ref().map_or(0.0, |shape| shape.hall_offset_rad) * sign(w);
+            let advance_rad = self.emf_shape().map_or(0.0, |shape| shape.hall_offset_rad) * sign(w);
             let ramp_loss = 1.5 * angle * (angle - 3.0 * advance_rad) * i_abs * (1.0 / (PI * PI));
             clamp(ramp_loss, -0.5 * i_abs, 0.5 * i_abs)
         } else {

@@ -80,7 +80,7 @@ impl MonitorModel {
     fn phase_resolved_step<const EFFECTS: bool>(&self, s: &mut ModelState, k: &[f32; 3], target_a: f32, w: f32) -> f32 {
         let h = self.dt_s * (1.0 / PHASE_SUBSTEPS as f32);
         let d_hall = self.pole_pairs * w * h;
-        let offset = match &self.emf_shape {
+        let offset = match self.emf_shape() {
             Some(shape) if EFFECTS => shape.hall_offset_rad,
             _ => 0.0,
         };
@@ -139,7 +139,7 @@ impl MonitorModel {
         let sector = sector % 6; // a Hall sector is below 6: no value changes, no bounds check remains
         let roles = sector_roles(sector);
         let (a, b, r) = (roles.0.index(), roles.1.index(), roles.2.index());
-        let f = match &self.emf_shape {
+        let f = match self.emf_shape() {
             Some(shape) if EFFECTS => {
                 let (theta_e, inv_ramp) = (hall_rad + FRAC_PI_6, shape.inv_ramp_per_rad);
                 [

@@ -1,6 +1,8 @@
 //! The current loop regulating the *measured* phase currents (`sensor_offset`): an effect term
 //! of the monitor model that acts within a Hall sector. Constants are precomputed once per
-//! model; the term is `None` (and costs nothing per step) when its severity is 0.
+//! model; the term is `None` (and costs nothing per step) when its severity is 0. Without the
+//! `effect-terms` feature the model holds none, and this module is not used.
+#![cfg_attr(not(feature = "effect-terms"), allow(dead_code, unused_imports))]
 
 use crate::effects::{maxima, EffectId, ModelEffects};
 use crate::params::EmaParams;

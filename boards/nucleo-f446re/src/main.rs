@@ -135,7 +135,7 @@ fn boot() -> Booted {
 
     // 4. The monitor, commissioning each new record in the commissioning image; a record of
     //    other parameters or another unit is archived.
-    let monitor = HealthMonitor::onboard(PARAMS, Profile::STANDARD, ModelEffects::NONE);
+    let monitor = HealthMonitor::onboard(PARAMS, &Profile::STANDARD, ModelEffects::NONE);
     #[cfg(feature = "commissioning")]
     let monitor = monitor.and_then(|m| m.with_commissioning(COMMISSIONING_FLIGHTS, Tolerances::TYPICAL));
     defmt::info!("image: {=str}", if cfg!(feature = "commissioning") { "commissioning" } else { "flight" });

@@ -24,7 +24,7 @@ fn bench(c: &mut Criterion) {
     let recording = Recording::from_reference(&rec, Vec::new());
     let trace = condition_recording(&recording, Path::new("standard.csv"), &EmaParams::NOMINAL, &Profile::STANDARD)
         .expect("conditions");
-    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD)
+    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD)
         .expect("a conditioned trace is finished")
         .with_fast_regime_weight(FAST_REGIME_WEIGHT)
         .expect("the on-board weight is valid");

@@ -129,7 +129,7 @@ fn ours(
 /// The objective every method solves: the on-board fitness, [`EquivalentCurrentFit`] with the fast regime
 /// weighted by [`FAST_REGIME_WEIGHT`] (`IdentifyConfig::default()`'s).
 fn objective(trace: &ConditionedWindow<HOST_WINDOW>) -> EquivalentCurrentFit<'_, HOST_WINDOW> {
-    EquivalentCurrentFit::new(trace, EmaParams::NOMINAL, Profile::STANDARD)
+    EquivalentCurrentFit::new(trace, EmaParams::NOMINAL, &Profile::STANDARD)
         .expect("a conditioned trace is finished")
         .with_fast_regime_weight(FAST_REGIME_WEIGHT)
         .expect("the on-board weight is valid")
@@ -182,7 +182,7 @@ impl CostFunction for ArgminFit<'_> {
 fn refine(trace: &ConditionedWindow<HOST_WINDOW>, k: FaultVector) -> Outcome {
     let start = Instant::now();
     let mut id: Box<Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>> = Box::new(
-        Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &IdentifyConfig::default())
+        Identification::new(trace, EmaParams::NOMINAL, &Profile::STANDARD, &IdentifyConfig::default())
             .expect("the default settings are valid"),
     );
     id.skip_global_search(&k);

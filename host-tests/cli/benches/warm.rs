@@ -27,7 +27,7 @@ fn identify(
     run: impl FnOnce(&mut Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>),
 ) -> HealthReport {
     let mut id: Box<Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>> =
-        Box::new(Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, config).expect("accepted"));
+        Box::new(Identification::new(trace, EmaParams::NOMINAL, &Profile::STANDARD, config).expect("accepted"));
     run(&mut id);
     id.report()
 }

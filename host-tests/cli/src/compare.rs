@@ -184,7 +184,7 @@ pub fn compare_case(
             pos_n += 1;
         }
     }
-    let fit = EquivalentCurrentFit::new(&*trace, params, profile).map_err(|e| CliError::Simulation(e.to_string()))?;
+    let fit = EquivalentCurrentFit::new(&*trace, params, &profile).map_err(|e| CliError::Simulation(e.to_string()))?;
     let rms = |s: f64, n: usize| if n == 0 { 0.0 } else { (s / n as f64).sqrt() };
     Ok(CaseResult {
         name: name.to_string(),

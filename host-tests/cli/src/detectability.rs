@@ -140,7 +140,7 @@ pub fn case(
     let label = PathBuf::from(format!("detectability case {name}"));
     let trace = condition_recording(&recording, &label, params, profile)?;
     let frames = IdentifyConfig::default().independent_frames_per_block;
-    let fit = EquivalentCurrentFit::new(&trace, *params, *profile)
+    let fit = EquivalentCurrentFit::new(&trace, *params, profile)
         .map_err(|e| CliError::Simulation(e.to_string()))?
         .with_fast_regime_weight(FAST_REGIME_WEIGHT)
         .ok_or_else(|| CliError::Simulation("fast-regime weight refused".into()))?;

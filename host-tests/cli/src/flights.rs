@@ -60,7 +60,7 @@ pub fn fly(
 ) -> Result<FlightRecord, CliError> {
     let config = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
     let mut id: Box<Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>> = Box::new(
-        Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &config)
+        Identification::new(trace, EmaParams::NOMINAL, &Profile::STANDARD, &config)
             .map_err(|e| CliError::Simulation(e.to_string()))?,
     );
     id.run(u32::MAX);
@@ -75,7 +75,7 @@ pub fn fly(
 /// The pooled diagnosis of `traces` (the on-board settings, optimizer seed `seed`).
 pub fn pooled(traces: &[&ConditionedWindow<HOST_WINDOW>], seed: u64) -> Result<HealthReport, CliError> {
     let config = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
-    let commands = vec![Command::Profile(Profile::STANDARD); traces.len()];
+    let commands = vec![Command::Profile(&Profile::STANDARD); traces.len()];
     crate::runtime::identification::identify_pooled(traces, &commands, &EmaParams::NOMINAL, &config)
         .map(|o| o.report)
         .map_err(|e| CliError::Simulation(e.to_string()))

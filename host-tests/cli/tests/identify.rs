@@ -326,7 +326,7 @@ fn parallel_global_search_is_the_sequential_one() {
                     Identification::<'_, HOST_WINDOW, ONBOARD_POPULATION>::new(
                         &trace,
                         EmaParams::NOMINAL,
-                        Profile::STANDARD,
+                        &Profile::STANDARD,
                         &config,
                     )
                     .expect("configures"),

@@ -148,7 +148,7 @@ fn both_flights_are_the_firmwares() {
     let params = ema_monitor::EmaParams::NOMINAL;
     let flights = firmware_trace_flights_for(&bytes, &params, &Profile::STANDARD, &onboard(None), FIRMWARE_FLIGHTS)
         .expect("flown");
-    let monitor = HealthMonitor::onboard(params, Profile::STANDARD, ema_monitor::ModelEffects::NONE).expect("valid");
+    let monitor = HealthMonitor::onboard(params, &Profile::STANDARD, ema_monitor::ModelEffects::NONE).expect("valid");
     let packed = ema_monitor::trace::PackedTrace::parse(&bytes).expect("parses");
     let mut reader = ema_monitor::acquisition::PhaseCurrentReader::new(
         ema_monitor::acquisition::ReplayAdc::new(packed),

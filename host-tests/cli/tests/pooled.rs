@@ -40,7 +40,7 @@ fn one_recording_is_the_single_recording_identification() {
     let trace = ema_cli::identify::condition_recording(&rec, &a, &EmaParams::NOMINAL, &Profile::STANDARD).unwrap();
     let traces: [&ConditionedWindow<{ ema_cli::identify::HOST_WINDOW }>; 1] = [&trace];
     let pooled =
-        identify_pooled(&traces, &[Command::Profile(Profile::STANDARD)], &EmaParams::NOMINAL, &config).unwrap();
+        identify_pooled(&traces, &[Command::Profile(&Profile::STANDARD)], &EmaParams::NOMINAL, &config).unwrap();
     assert_eq!(summary_line(&pooled.report), summary_line(&single.report));
     assert_eq!(pooled.report.faults, single.report.faults);
 }

@@ -33,7 +33,7 @@ fn flight(truth: &FaultVector, seed: u64) -> Box<ConditionedWindow<HOST_WINDOW>>
 fn cold(trace: &ConditionedWindow<HOST_WINDOW>, seed: u64) -> HealthReport {
     let config = IdentifyConfig { seed, ..IdentifyConfig::onboard() };
     let mut id: Box<Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>> =
-        Box::new(Identification::new(trace, EmaParams::NOMINAL, Profile::STANDARD, &config).unwrap());
+        Box::new(Identification::new(trace, EmaParams::NOMINAL, &Profile::STANDARD, &config).unwrap());
     id.run(u32::MAX);
     id.report()
 }
@@ -41,7 +41,7 @@ fn cold(trace: &ConditionedWindow<HOST_WINDOW>, seed: u64) -> HealthReport {
 fn warm(trace: &ConditionedWindow<HOST_WINDOW>, prior: &FaultVector) -> (HealthReport, WarmReport) {
     let config = IdentifyConfig::onboard();
     let mut id: Box<Identification<'_, HOST_WINDOW, ONBOARD_POPULATION>> =
-        Box::new(Identification::warm(trace, EmaParams::NOMINAL, Profile::STANDARD, &config, &prior.0).unwrap());
+        Box::new(Identification::warm(trace, EmaParams::NOMINAL, &Profile::STANDARD, &config, &prior.0).unwrap());
     id.run(u32::MAX);
     (id.report(), id.warm_report().unwrap())
 }

@@ -137,7 +137,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let label = format!("ecc {k6} {k7}");
             let trace = condition_recording(&recording, Path::new(&label), &params, &profile)?;
             let fit =
-                EquivalentCurrentFit::new(&trace, params, profile)?.with_fast_regime_weight(weight).ok_or("weight")?;
+                EquivalentCurrentFit::new(&trace, params, &profile)?.with_fast_regime_weight(weight).ok_or("weight")?;
             let e = |a: f32, b: f32| fit.error(&vector(a, b));
             let (best, ba, bb) = minimise(e);
             // The signature alone: the recording's departure from the healthy recording against

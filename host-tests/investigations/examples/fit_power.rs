@@ -96,7 +96,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let trace = condition_recording(&recording, Path::new(&label), &EmaParams::NOMINAL, &profile)?;
         let id = IdentifyConfig { algorithm: Algorithm::Pso, seed: 1, ..IdentifyConfig::default() };
         let outcome = identify_trace(&trace, &EmaParams::NOMINAL, &profile, &id, Path::new(&label))?;
-        let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, profile)?
+        let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, &profile)?
             .with_fast_regime_weight(id.fast_regime_weight)
             .ok_or("weight")?;
         let (intervals, weight) = fit.fast_regime();

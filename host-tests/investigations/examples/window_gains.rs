@@ -30,7 +30,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let recording = read_recording(file)?;
     let trace = condition_recording(&recording, Path::new(file), &EmaParams::NOMINAL, &Profile::STANDARD)?;
-    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, Profile::STANDARD)?
+    let fit = EquivalentCurrentFit::new(&trace, EmaParams::NOMINAL, &Profile::STANDARD)?
         .with_fast_regime_weight(FAST_REGIME_WEIGHT)
         .ok_or("fast-regime weight")?;
     let (k_a, k_b) = (parse_faults(a)?, parse_faults(b)?);

@@ -84,7 +84,7 @@ pub fn execute(
     let params = &monitor_params(params, noise);
     let (first, rest) = traces.split_first().ok_or_else(|| CliError::Simulation("no flight".into()))?;
     let more: Vec<PooledTrace<'_, HOST_WINDOW>> =
-        rest.iter().map(|t| PooledTrace { trace: &**t, command: Command::Profile(*profile) }).collect();
+        rest.iter().map(|t| PooledTrace { trace: &**t, command: Command::Profile(profile) }).collect();
     let (outcome, floor) = if more.is_empty() {
         let outcome = identify_trace(&**first, params, profile, &identify, &label)?;
         (outcome, detectability_floor(&**first, params, profile, &identify, &p.truth))
@@ -119,7 +119,7 @@ fn identify_pooled<'a, const W: usize>(
 ) -> Result<Outcome, MonitorError> {
     let start = std::time::Instant::now();
     let mut id: Box<Identification<'_, W, ONBOARD_POPULATION>> =
-        Box::new(Identification::new(first, *params, *profile, config)?.pooled_with(more)?);
+        Box::new(Identification::new(first, *params, profile, config)?.pooled_with(more)?);
     id.run(u32::MAX);
     let report = id.with_uncertainty(id.report());
     Ok(Outcome {

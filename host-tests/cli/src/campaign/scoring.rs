@@ -108,7 +108,7 @@ pub fn detectability_floor_pooled<'a, const W: usize>(
     config: &IdentifyConfig,
     truth: &FaultVector,
 ) -> FaultVector {
-    let Some(fit) = EquivalentCurrentFit::new(trace, *params, *profile)
+    let Some(fit) = EquivalentCurrentFit::new(trace, *params, profile)
         .ok()
         .map(|fit| fit.with_effects(config.effects))
         .and_then(|fit| fit.with_fast_regime_weight(config.fast_regime_weight))

@@ -47,7 +47,7 @@ impl ModelCommand {
     /// The core's command source.
     pub fn command(&self) -> Command<'_> {
         match self {
-            ModelCommand::Profile { profile, .. } => Command::Profile(*profile),
+            ModelCommand::Profile { profile, .. } => Command::Profile(profile),
             ModelCommand::Recorded(samples) => samples.as_command(),
         }
     }

@@ -116,7 +116,7 @@ pub fn firmware_trace_outcome_for(
     let rate_ok = diagnosis::rate_matches(packed.sample_rate_hz() as f32, params);
     let mut trace = Box::new(ConditionedWindow::<ONBOARD_WINDOW>::new());
     let acquired = diagnosis::acquire(&mut reader, &mut trace).map_err(|e| Refusal::new("acquisition", e))?;
-    let outcome = run_identification(&trace, params, Command::Profile(*profile), config)
+    let outcome = run_identification(&trace, params, Command::Profile(profile), config)
         .map_err(|e| Refusal::new("identification", e))?;
     let report = outcome.report.with_acquisition(&acquired);
     let report = if rate_ok { report } else { report.abstaining(Status::Inconclusive(Abstain::RateMismatch)) };
@@ -148,7 +148,7 @@ pub fn firmware_trace_flights_for(
     config: &IdentifyConfig,
     flights: usize,
 ) -> Result<FirmwareFlights, Refusal> {
-    let monitor = HealthMonitor::<ONBOARD_WINDOW, ONBOARD_POPULATION>::new(*params, *profile, *config)
+    let monitor = HealthMonitor::<ONBOARD_WINDOW, ONBOARD_POPULATION>::new(*params, profile, *config)
         .map_err(|e| Refusal::new("identification", e))?;
     let (packed, mut reader) = replay(bytes)?;
     let mut trace = Box::new(ConditionedWindow::<ONBOARD_WINDOW>::new());
