@@ -481,7 +481,7 @@ fn fitness_zero_at_the_true_vector() -> Result<(), &'static str> {
     let truth = FaultVector([0.3, 0.0, 0.2, 0.0, 0.0, 0.0, 0.5, 0.4]);
     let mut t = ConditionedWindow::new();
     self_trace(&truth, &mut t)?;
-    let fit = EquivalentCurrentFit::new(&t, EmaParams::NOMINAL, Profile::STANDARD).map_err(|_| "trace not finished")?;
+    let fit = EquivalentCurrentFit::new(&t, EmaParams::NOMINAL, &Profile::STANDARD).map_err(|_| "trace not finished")?;
     ensure(fit.error(&truth) == 0.0, "nonzero at the truth")?;
     let mut other = truth;
     other.0[7] = 0.6;
@@ -509,10 +509,10 @@ fn identification_refuses_impossible_config() -> Result<(), &'static str> {
     self_trace(&FaultVector::HEALTHY, &mut t)?;
     let mut params = EmaParams::NOMINAL;
     params.motor_inertia_kg_m2 = -1.0;
-    let r = Identification::<600, 8>::new(&t, params, Profile::STANDARD, &IdentifyConfig::default());
+    let r = Identification::<600, 8>::new(&t, params, &Profile::STANDARD, &IdentifyConfig::default());
     ensure(matches!(r, Err(MonitorError::Params)), "negative inertia accepted")?;
     let config = IdentifyConfig { max_iterations: 0, ..IdentifyConfig::default() };
-    let r = Identification::<600, 8>::new(&t, EmaParams::NOMINAL, Profile::STANDARD, &config);
+    let r = Identification::<600, 8>::new(&t, EmaParams::NOMINAL, &Profile::STANDARD, &config);
     ensure(matches!(r, Err(MonitorError::Optimizer(_))), "zero iterations accepted")
 }
 
@@ -530,7 +530,7 @@ fn identification_under_the_sampled_standard_profile() -> Result<(), &'static st
     acquire_built_in(&mut trace)?;
     let config =
         IdentifyConfig { max_iterations: 3, selection_polish_max_evaluations: 60, ..IdentifyConfig::onboard() };
-    let by_profile = short_identification(&trace, Command::Profile(Profile::STANDARD), &config)?;
+    let by_profile = short_identification(&trace, Command::Profile(&Profile::STANDARD), &config)?;
     let by_samples = short_identification(&trace, command.as_command(), &config)?;
     ensure(by_profile.evaluations >= 150, "budget not spent")?;
     ensure(by_samples == by_profile, "the sampled command gives another report")
@@ -694,7 +694,7 @@ fn warm_identification(
 ) -> Result<(HealthReport, diagnosis::WarmReport), &'static str> {
     let config = IdentifyConfig::onboard();
     let mut id =
-        Identification::<'_, ONBOARD_WINDOW, 50>::warm(trace, EmaParams::NOMINAL, Profile::STANDARD, &config, prior)
+        Identification::<'_, ONBOARD_WINDOW, 50>::warm(trace, EmaParams::NOMINAL, &Profile::STANDARD, &config, prior)
             .map_err(|_| "warm identification refused")?;
     id.run(u32::MAX);
     Ok((id.report(), id.warm_report().ok_or("no warm report")?))

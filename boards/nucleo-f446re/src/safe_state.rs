@@ -175,7 +175,7 @@ impl FlightHooks for WatchdogHooks<'_> {
 }
 
 /// Watchdog timeout during each of a flight's later calls ([`FlightCall`]), which run without a
-/// feed inside: the longest, the record's pooled evidence, is 8.4e7 instructions in the QEMU
+/// feed inside: the longest, the record's pooled evidence, is 8.5e7 instructions in the QEMU
 /// build (`scripts/check-budgets`, `longest_call_instructions`), 1.0e8 at this crate's
 /// `opt-level = "s"`, 1.4 s at 2.5 cycles per instruction and 180 MHz; 4 s leaves a margin near
 /// 3, and 2 at the LSI's fastest (docs/board.md, "Scheduling beside a control law").
