@@ -317,28 +317,23 @@ impl Fisher {
             return [[f32::INFINITY; 8]; 8];
         };
         let b = sub_matrix(&self.weighted_sq, set, d);
-        let mut t = [[0.0f32; 8]; 8];
-        for r in 0..d {
-            for c in 0..d {
-                let mut acc = 0.0f32;
-                for j in 0..d {
-                    acc += ai[r][j] * b[j][c];
-                }
-                t[r][c] = acc;
-            }
-        }
-        let mut out = [[0.0f32; 8]; 8];
-        for r in 0..d {
-            for c in 0..d {
-                let mut acc = 0.0f32;
-                for j in 0..d {
-                    acc += t[r][j] * ai[j][c];
-                }
-                out[r][c] = noise_a2 * acc;
-            }
-        }
-        out
+        product(&product(&ai, &b, d, 1.0), &ai, d, noise_a2)
     }
+}
+
+/// `scale·(x·y)` of the leading `d×d` blocks (`d ≤ 8`), each sum taken in the order of `j`.
+fn product(x: &[[f32; 8]; 8], y: &[[f32; 8]; 8], d: usize, scale: f32) -> [[f32; 8]; 8] {
+    let mut out = [[0.0f32; 8]; 8];
+    for (out_row, x_row) in out.iter_mut().zip(x).take(d) {
+        for (c, o) in out_row.iter_mut().enumerate().take(d) {
+            let mut acc = 0.0f32;
+            for (x_rj, y_row) in x_row.iter().zip(y).take(d) {
+                acc += x_rj * y_row[c];
+            }
+            *o = scale * acc;
+        }
+    }
+    out
 }
 
 /// The noise `s²` of the covariance (module doc): the fit test's window-sample noise for
