@@ -323,7 +323,9 @@ impl core::error::Error for ConditioningError {}
 /// setting. The rounding adds a uniform error of `Δ/√12` (0.14 mA nominal) to each sample, far
 /// below the sensors' noise (20 mA a frame, 10 mA a window sample). `c_i·Δ` is exact in `f32`, so
 /// every read gives the same bits on every target, and a window rebuilt from its samples
-/// ([`ConditionedWindow::from_samples`]) has the same codes and step.
+/// ([`ConditionedWindow::from_samples`]) has the same codes and step. (A `fixed` type would put
+/// the binary point at compile time, for one range of currents; the step here follows the
+/// recording.)
 ///
 /// The weights are not stored: [`ConditionedWindow::sample`] computes `w_i` from the two neighbours
 /// of sample `i` and `C²` each time it is read, for two divisions a sample in each model run.
