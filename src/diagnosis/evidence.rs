@@ -196,7 +196,7 @@ impl Evidence {
         if !report.status.is_diagnosis() {
             return None;
         }
-        let flight = flight_evidence(identification.fitness(), &report.faults, report.fitness);
+        let flight = flight_evidence(identification.fitness(), &report.faults, report.fitness, &mut || {});
         self.update(&flight);
         Some(flight)
     }
@@ -246,15 +246,19 @@ fn quadratic_min(e0: f32, (a, ea): (f32, f32), (b, eb): (f32, f32), lo: f32, hi:
 }
 
 /// One flight's evidence per mode (module doc) from the fitness `fit` the diagnosis `k` of cost
-/// `cost` was fitted on: at most [`MAX_FLIGHT_EVALUATIONS`] evaluations.
+/// `cost` was fitted on: at most [`MAX_FLIGHT_EVALUATIONS`] evaluations, `between_runs` called
+/// before each (a firmware feeds its watchdog there).
 pub fn flight_evidence<const W: usize>(
     fit: &EquivalentCurrentFit<'_, W>,
     k: &FaultVector,
     cost: f32,
+    between_runs: &mut impl FnMut(),
 ) -> FlightEvidence {
+    between_runs();
     let n = fit.effective_samples(k);
     let mut evaluations = 1u32;
     let mut eval = |x: &[f32; FAULT_COUNT]| {
+        between_runs();
         evaluations += 1;
         fit.error(&FaultVector(*x))
     };
@@ -389,19 +393,22 @@ impl PooledFlight {
 /// modes ([`HealthReport::new`] of the new vector, the flight's fit check, acquisition counts and
 /// uncertainty kept) becomes the record's flight ([`HealthRecord::new_flight`]). A report that is
 /// no diagnosis, or no fitness, adds the flight as it is and no evidence: `None`.
+/// `between_runs` is called before each model run (a firmware feeds its watchdog there: the
+/// evidence and refits of one flight are up to 60 runs).
 pub fn record_flight<const W: usize>(
     record: &mut HealthRecord,
     fit: Option<&EquivalentCurrentFit<'_, W>>,
     params: &EmaParams,
     report: &HealthReport,
     cold: bool,
+    between_runs: &mut impl FnMut(),
 ) -> Option<PooledFlight> {
     let Some(fit) = fit.filter(|_| report.status.is_diagnosis()) else {
         record.new_flight(report, cold);
         return None;
     };
     let mut evidence = Evidence { llr: *record.evidence(), flights: record.pooled_flights() };
-    let flight = flight_evidence(fit, &report.faults, report.fitness);
+    let flight = flight_evidence(fit, &report.faults, report.fitness, between_runs);
     evidence.update(&flight);
     record.set_evidence(evidence.llr, evidence.flights);
     let decisions = evidence.decisions(flight.effective_samples);
@@ -410,7 +417,7 @@ pub fn record_flight<const W: usize>(
     for (m, (d, decision)) in FaultMode::ALL.into_iter().zip(declared.iter_mut().zip(decisions)) {
         if decision == Decision::Present && !mode_present(&report.faults, m) {
             *d = true;
-            let (refit, e, n) = refit_mode(fit, &k, cost, m);
+            let (refit, e, n) = refit_mode(fit, &k, cost, m, between_runs);
             refit_evaluations += n;
             if e < cost {
                 (k, cost) = (refit, e);
@@ -438,6 +445,7 @@ pub fn record_flight<const W: usize>(
 /// `trace` under `command` with `config`'s effects and fast-regime weight is built again, as
 /// [`super::with_uncertainty`] builds it. A fitness the configuration refuses adds the flight
 /// without evidence.
+#[allow(clippy::too_many_arguments, reason = "record_flight's, with the fitness's three parts")]
 pub fn record_flight_on<'a, const W: usize>(
     record: &mut HealthRecord,
     trace: &'a ConditionedWindow<W>,
@@ -446,9 +454,11 @@ pub fn record_flight_on<'a, const W: usize>(
     config: &IdentifyConfig,
     report: &HealthReport,
     cold: bool,
+    between_runs: &mut impl FnMut(),
 ) -> Option<PooledFlight> {
+    between_runs();
     let fit = configured_fit(trace, params, command, config).ok();
-    record_flight(record, fit.as_ref(), &params, report, cold)
+    record_flight(record, fit.as_ref(), &params, report, cold, between_runs)
 }
 
 /// `k` with parameter `i` set to `value` (`k` unchanged when `i` is out of range).
@@ -491,15 +501,17 @@ fn golden(f: &mut impl FnMut(f32) -> f32, lo: f32, hi: f32, evaluations: u32) ->
 /// eccentricity along the direction of least cost of the five-probe quadratic in
 /// `ζ·(cos φ, sin φ)` ([`flight_evidence`]'s), then its magnitude and phase in turn. The vector,
 /// its cost and the evaluations spent (at most [`MAX_REFIT_EVALUATIONS`]); `k` and `cost` when
-/// nothing lowers the cost.
+/// nothing lowers the cost. `between_runs` is called before each evaluation.
 pub fn refit_mode<const W: usize>(
     fit: &EquivalentCurrentFit<'_, W>,
     k: &FaultVector,
     cost: f32,
     mode: FaultMode,
+    between_runs: &mut impl FnMut(),
 ) -> (FaultVector, f32, u32) {
     let mut evaluations = 0u32;
     let mut eval = |x: &[f32; FAULT_COUNT]| {
+        between_runs();
         evaluations += 1;
         fit.error(&FaultVector(*x))
     };

@@ -84,6 +84,12 @@ pub trait FlightHooks {
     fn before_call(&mut self, call: FlightCall) {
         let _ = call;
     }
+    /// Between two model runs inside the record's call ([`FlightCall::Record`]: the flight's
+    /// evidence and the refits of declared modes, up to 60 runs on one recording): a firmware
+    /// feeds its watchdog here, so that the longest stretch without a feed is one model run.
+    fn between_runs(&mut self, call: FlightCall) {
+        let _ = call;
+    }
     /// After each of a flight's calls after the identification.
     fn after_call(&mut self, call: FlightCall) {
         let _ = call;
@@ -112,7 +118,8 @@ pub trait FlightHooks {
     }
 }
 
-/// A flight's calls after the identification, each run without a hook inside it.
+/// A flight's calls after the identification: the uncertainty runs without a hook inside it,
+/// the record reaches [`FlightHooks::between_runs`] between its model runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FlightCall {
@@ -467,7 +474,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
             report.abstaining(Status::Inconclusive(Abstain::RateMismatch))
         };
         hooks.before_call(FlightCall::Record);
-        flight.pooled = self.record(record, trace, params, &flight.report, flight.cold);
+        flight.pooled = self.record(record, trace, params, &flight.report, flight.cold, hooks);
         hooks.after_call(FlightCall::Record);
         flight
     }
@@ -506,6 +513,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     /// Adds the flight's `report` to `record` through the pooled evidence
     /// ([`evidence::record_flight_on`]). Not inlined, as [`HealthMonitor::identify`].
     #[inline(never)]
+    #[allow(clippy::too_many_arguments, reason = "the record's, with the flight's hooks")]
     fn record(
         &self,
         record: &mut HealthRecord,
@@ -513,8 +521,10 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         params: &EmaParams,
         report: &HealthReport,
         cold: bool,
+        hooks: &mut impl FlightHooks,
     ) -> Option<PooledFlight> {
-        evidence::record_flight_on(record, trace, *params, self.command, &self.config, report, cold)
+        let between_runs = &mut || hooks.between_runs(FlightCall::Record);
+        evidence::record_flight_on(record, trace, *params, self.command, &self.config, report, cold, between_runs)
     }
 }
 

@@ -79,6 +79,45 @@ fn flights_start_cold_then_warm_and_pool_their_evidence_on_units_off_nominal() {
     }
 }
 
+/// The record's call reaches the hooks between its model runs, so that a firmware feeds its
+/// watchdog there: before the fitness's own run (its fast-regime intervals) and before each
+/// evaluation of the flight's evidence and of the refits, on the drawing's unit and a drawn one.
+#[test]
+fn the_record_call_reaches_the_hooks_between_its_model_runs() {
+    #[derive(Default)]
+    struct Counting {
+        in_record: bool,
+        runs: u32,
+        elsewhere: u32,
+    }
+    impl FlightHooks for Counting {
+        fn before_call(&mut self, call: FlightCall) {
+            self.in_record = call == FlightCall::Record;
+        }
+        fn between_runs(&mut self, call: FlightCall) {
+            if self.in_record && call == FlightCall::Record {
+                self.runs += 1;
+            } else {
+                self.elsewhere += 1;
+            }
+        }
+        fn after_call(&mut self, _call: FlightCall) {
+            self.in_record = false;
+        }
+    }
+    let truth = FaultVector([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]);
+    for (u, unit) in [EmaParams::NOMINAL, units()[0]].iter().enumerate() {
+        let monitor = HealthMonitor::onboard(*unit, &Profile::STANDARD, ModelEffects::NONE).unwrap();
+        let mut trace = ConditionedWindow::new();
+        let acquired = monitor.acquire(&mut Frames::of(unit, &truth, 21 + u as u64), &mut trace, 10_000.0).unwrap();
+        let mut hooks = Counting::default();
+        let f = monitor.diagnose(&trace, &acquired, &mut HealthRecord::new(), &mut hooks).unwrap();
+        let pooled = f.pooled.expect("a diagnosis adds its evidence");
+        assert_eq!(hooks.elsewhere, 0, "unit {u}");
+        assert_eq!(hooks.runs, 1 + pooled.flight.evaluations + pooled.refit_evaluations, "unit {u}");
+    }
+}
+
 #[test]
 fn the_flight_api_reports_what_the_identification_reports() {
     let unit = units()[0];

@@ -78,9 +78,10 @@ unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
 }
 
 /// The board's flight hooks: the watchdog fed before each objective evaluation, and raised to
-/// [`CALL_WATCHDOG_MS`] for each of the flight's later calls (the uncertainty, the record), which
-/// run without a hook inside; each evaluation and call timed by the DWT cycle counter (32-bit,
-/// read per step: a step or a call lasts far less than the 23.8 s wrap at 180 MHz).
+/// [`CALL_WATCHDOG_MS`] for each of the flight's later calls (the uncertainty, the record), fed
+/// again between the record's model runs; each evaluation and call timed by the DWT cycle
+/// counter (32-bit, read per step: a step or a call lasts far less than the 23.8 s wrap at
+/// 180 MHz).
 pub struct WatchdogHooks<'a> {
     /// The watchdog, fed before each evaluation.
     watchdog: &'a Watchdog,
@@ -139,6 +140,10 @@ impl FlightHooks for WatchdogHooks<'_> {
         self.step_start = DWT::cycle_count();
     }
 
+    fn between_runs(&mut self, _call: FlightCall) {
+        self.watchdog.feed();
+    }
+
     fn after_call(&mut self, call: FlightCall) {
         let cycles = DWT::cycle_count().wrapping_sub(self.step_start);
         defmt::info!("{}: {=u32} cycles", call, cycles);
@@ -174,11 +179,13 @@ impl FlightHooks for WatchdogHooks<'_> {
     }
 }
 
-/// Watchdog timeout during each of a flight's later calls ([`FlightCall`]), which run without a
-/// feed inside: the longest, the record's pooled evidence, is 8.5e7 instructions in the QEMU
-/// build (`scripts/check-budgets`, `longest_call_instructions`), 1.0e8 at this crate's
-/// `opt-level = "s"`, 1.4 s at 2.5 cycles per instruction and 180 MHz; 4 s leaves a margin near
-/// 3, and 2 at the LSI's fastest (docs/board.md, "Scheduling beside a control law").
+/// Watchdog timeout during each of a flight's later calls ([`FlightCall`]). The uncertainty runs
+/// without a feed inside: one lockstep pass of 9 models, 4.7e7 instructions in the QEMU build,
+/// 5.6e7 at this crate's `opt-level = "s"`, 0.8 s at 2.5 cycles per instruction and 180 MHz. The
+/// record is fed between its model runs (`between_runs`; a run is at most 1.2e7 instructions at
+/// `"s"`, 0.17 s), however many its evidence and refits take (up to 2.6e8 instructions in all
+/// on a recording of `scripts/results-step-lengths`). 4 s leaves a margin near 5 over the
+/// uncertainty, and above 3 at the LSI's fastest (docs/board.md, "Watchdog timeout").
 const CALL_WATCHDOG_MS: u32 = 4_000;
 
 /// Watchdog timeout during the commissioning's baseline fit: the longest stretch between two
