@@ -394,7 +394,8 @@ impl PooledFlight {
 /// uncertainty kept) becomes the record's flight ([`HealthRecord::new_flight`]). A report that is
 /// no diagnosis, or no fitness, adds the flight as it is and no evidence: `None`.
 /// `between_runs` is called before each model run (a firmware feeds its watchdog there: the
-/// evidence and refits of one flight are up to 60 runs).
+/// flight's evidence takes up to [`MAX_FLIGHT_EVALUATIONS`] runs, each declared mode's refit up
+/// to [`MAX_REFIT_EVALUATIONS`]).
 pub fn record_flight<const W: usize>(
     record: &mut HealthRecord,
     fit: Option<&EquivalentCurrentFit<'_, W>>,

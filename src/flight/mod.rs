@@ -85,7 +85,7 @@ pub trait FlightHooks {
         let _ = call;
     }
     /// Between two model runs inside the record's call ([`FlightCall::Record`]: the flight's
-    /// evidence and the refits of declared modes, up to 60 runs on one recording): a firmware
+    /// evidence, up to 18 runs, and up to 32 for each mode it declares and refits): a firmware
     /// feeds its watchdog here, so that the longest stretch without a feed is one model run.
     fn between_runs(&mut self, call: FlightCall) {
         let _ = call;
