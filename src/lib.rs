@@ -43,6 +43,7 @@ pub mod command;
 pub mod commissioning;
 pub mod conditioning;
 pub mod diagnosis;
+pub mod envelope;
 pub mod faults;
 pub mod fitness;
 pub mod flight;
