@@ -133,7 +133,13 @@ impl<const W: usize> ConditionedWindow<W> {
     /// Window sample `i` in amperes.
     #[inline(always)]
     fn current_at(&self, i: usize) -> Option<f32> {
-        self.codes.get(i).map(|&c| c as f32 * self.step_a)
+        self.codes.get(i).map(|&c| self.amperes(c))
+    }
+
+    /// The sample a code stands for (A), exact in `f32`.
+    #[inline(always)]
+    fn amperes(&self, code: u16) -> f32 {
+        code as f32 * self.step_a
     }
 
     /// Stores the window sample `y_a` (A) as a code of the window's step, the step doubled (and
@@ -264,8 +270,7 @@ impl<const W: usize> ConditionedWindow<W> {
 
     /// Block-averaged equivalent current (A), one value per complete window sample, in order.
     pub fn current_a(&self) -> impl ExactSizeIterator<Item = f32> + Clone + '_ {
-        let step_a = self.step_a;
-        self.codes.iter().map(move |&c| c as f32 * step_a)
+        self.codes.iter().map(move |&c| self.amperes(c))
     }
 
     /// The step of the stored samples (A), a power of two: each is within half of it of the

@@ -309,17 +309,14 @@ impl<'a, const W: usize> EquivalentCurrentFit<'a, W> {
     /// intervals come from one run of the healthy model (one evaluation's cost). A weight outside
     /// `(0, 1]` (or NaN) is refused: `None`.
     pub fn with_fast_regime_weight(mut self, weight: f32) -> Option<Self> {
-        if !fast_regime_weight_is_valid(weight) {
-            return None;
-        }
-        self.fast_weight = weight;
-        self.find_fast_intervals();
-        Some(self)
+        let effects = self.effects;
+        self.configure(effects, weight).then_some(self)
     }
 
-    /// [`EquivalentCurrentFit::with_effects`] then
-    /// [`EquivalentCurrentFit::with_fast_regime_weight`], in place: `false` (the fitness left
-    /// as it was) for a weight those refuse. Not inlined: the healthy model's run that finds the
+    /// The effect terms `effects` and the fast-regime weight `fast_regime_weight` set in place, the
+    /// intervals found again ([`EquivalentCurrentFit::with_effects`] then
+    /// [`EquivalentCurrentFit::with_fast_regime_weight`]): `false` (the fitness left as it was)
+    /// for a weight outside `(0, 1]`. Not inlined: the healthy model's run that finds the
     /// intervals has its frame to itself, not beside its caller's copies of the fitness.
     #[inline(never)]
     pub fn configure(&mut self, effects: ModelEffects, fast_regime_weight: f32) -> bool {

@@ -109,6 +109,16 @@ impl Default for IdentifyConfig {
 }
 
 impl IdentifyConfig {
+    /// Refuses effect terms ([`IdentifyConfig::effects`] other than `NONE`) in a build without
+    /// them (the `effect-terms` feature): [`MonitorError::EffectsNotBuilt`].
+    pub fn check_effects_built(&self) -> Result<(), MonitorError> {
+        if cfg!(feature = "effect-terms") || self.effects.is_none() {
+            Ok(())
+        } else {
+            Err(MonitorError::EffectsNotBuilt)
+        }
+    }
+
     /// The paper alone: PSO, 200 iterations, tolerance 1e-9, no selection, no polish.
     pub fn paper() -> Self {
         Self {
@@ -137,16 +147,13 @@ impl IdentifyConfig {
 /// The fitness of `trace` under `command` as `config` sets it (its effect terms and fast-regime
 /// weight): what the identification minimises, and what its uncertainty and the evidence over
 /// flights evaluate again after it.
-#[inline(always)]
 pub fn configured_fit<'a, const W: usize>(
     trace: &'a ConditionedWindow<W>,
     params: EmaParams,
     command: impl Into<Command<'a>>,
     config: &IdentifyConfig,
 ) -> Result<EquivalentCurrentFit<'a, W>, MonitorError> {
-    if !cfg!(feature = "effect-terms") && !config.effects.is_none() {
-        return Err(MonitorError::EffectsNotBuilt);
-    }
+    config.check_effects_built()?;
     let mut fit = EquivalentCurrentFit::new(trace, params, command)?;
     if !fit.configure(config.effects, config.fast_regime_weight) {
         return Err(MonitorError::FastRegimeWeight);

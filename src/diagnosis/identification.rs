@@ -87,7 +87,8 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     /// sampled command, [`Command`]) on an actuator whose healthy parameters are `params`. A trace
     /// longer than the command (by more than one control period) is refused. With
     /// [`IdentifyConfig::prior`] set, the identification is a warm start from it
-    /// ([`Identification::warm`]).
+    /// ([`Identification::warm`]). Not inlined: the fitness and state it builds are temporaries
+    /// of its own frame, not of the frame that holds the identification.
     #[inline(never)]
     pub fn new(
         trace: &'a ConditionedWindow<W>,
@@ -159,7 +160,8 @@ impl<'a, const W: usize, const P: usize> Identification<'a, W, P> {
     }
 
     /// One objective evaluation (one monitor-model run over the trace, possibly abandoned early):
-    /// one step of the stage under way, then the stage it hands over to.
+    /// one step of the stage under way, then the stage it hands over to. Not inlined, as
+    /// [`Identification::new`]: a stage's temporaries stay out of the identification's frame.
     #[inline(never)]
     pub fn step(&mut self) -> SearchStatus {
         let state = &mut self.state;

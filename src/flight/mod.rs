@@ -236,9 +236,7 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
         if params.check().is_err() {
             return Err(MonitorError::Params);
         }
-        if !cfg!(feature = "effect-terms") && !config.effects.is_none() {
-            return Err(MonitorError::EffectsNotBuilt);
-        }
+        config.check_effects_built()?;
         Ok(Self {
             params,
             command: command.into(),
@@ -513,7 +511,6 @@ impl<'c, const W: usize, const P: usize> HealthMonitor<'c, W, P> {
     /// Adds the flight's `report` to `record` through the pooled evidence
     /// ([`evidence::record_flight_on`]). Not inlined, as [`HealthMonitor::identify`].
     #[inline(never)]
-    #[allow(clippy::too_many_arguments, reason = "the record's, with the flight's hooks")]
     fn record(
         &self,
         record: &mut HealthRecord,
